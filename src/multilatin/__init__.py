@@ -1,0 +1,34 @@
+"""multilatin: parametric studies of elastic assemblies with frictional contact, by the
+micro-macro LATIN domain decomposition method (Boucard, Buytet & Guidault, 2007)."""
+
+from __future__ import annotations
+
+import logging
+
+from .errors import ModelError, NotConvergedError
+from .latin import LatinOperators, LatinOptions, solve_latin
+from .model import Model, bundled_models, load_model
+from .monolithic import solve_monolithic
+from .parameters import Mu, Parameter, Parameters
+from .result import SolveResult
+from .spec import ModelSpec
+
+__version__ = "0.1.0"
+__all__ = [
+    "LatinOperators",
+    "LatinOptions",
+    "Model",
+    "ModelError",
+    "ModelSpec",
+    "Mu",
+    "NotConvergedError",
+    "Parameter",
+    "Parameters",
+    "SolveResult",
+    "bundled_models",
+    "load_model",
+    "solve_latin",
+    "solve_monolithic",
+]
+
+logging.getLogger(__name__).addHandler(logging.NullHandler())

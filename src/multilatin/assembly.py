@@ -1,0 +1,124 @@
+"""A concrete assembly: substructures, interfaces, boundary conditions, load history and
+quantities of interest, with every parameter already evaluated (paper §2.1, figure 1).
+
+An ``Assembly`` is what the solvers consume; ``spec.ModelSpec.build`` makes one from a model
+file and a parameter set ``Mu``.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass, field
+
+import numpy as np
+
+from .fem.elasticity import FloatArray, hooke_matrix
+from .fem.mesh import RectMesh
+from .parameters import Mu
+
+DISPLACEMENT = "displacement"
+FORCE = "force"
+COMPONENTS = ("x", "y")
+
+
+@dataclass(frozen=True)
+class Material:
+    young: float
+    poisson: float
+    hypothesis: str
+    thickness: float
+
+    @property
+    def hooke(self) -> FloatArray:
+        return hooke_matrix(self.young, self.poisson, self.hypothesis)
+
+
+@dataclass(frozen=True)
+class Substructure:
+    name: str
+    body: str
+    mesh: RectMesh
+    material: Material
+
+
+@dataclass(frozen=True)
+class SideRef:
+    """One side (``bottom``/``right``/``top``/``left``) of one substructure."""
+
+    substructure: int
+    side: str
+
+
+@dataclass(frozen=True)
+class BoundaryCondition:
+    """Prescribed data on the outer boundary, component by component (x, y).
+
+    ``kinds[c]`` is ``"displacement"`` or ``"force"``; ``value[c]`` is the prescribed
+    displacement or traction density, multiplied at each step by the load factor ``factor``
+    (1 at every step when ``factor`` is None).
+    """
+
+    name: str
+    kinds: tuple[str, str]
+    value: tuple[float, float]
+    factor: str | None = None
+
+
+@dataclass(frozen=True)
+class Interface:
+    """An interface Γ_EE' between two substructure sides (``perfect``), or between one side
+    and the outside (``boundary``, with its ``condition``)."""
+
+    name: str
+    kind: str
+    sides: tuple[SideRef, ...]
+    condition: BoundaryCondition | None = None
+
+
+@dataclass(frozen=True)
+class History:
+    """Quasi-static load history: named load factors, one value per step."""
+
+    factors: dict[str, FloatArray] = field(default_factory=dict)
+    n_steps: int = 1
+
+    def factor(self, name: str | None) -> FloatArray:
+        if name is None:
+            return np.ones(self.n_steps)
+        return self.factors[name]
+
+
+@dataclass(frozen=True)
+class QuantityOfInterest:
+    """``displacement`` at ``point`` (component), or ``reaction``: the resultant force that a
+    boundary exerts on the structure (component)."""
+
+    name: str
+    kind: str
+    component: int
+    point: tuple[float, float] | None = None
+    boundary: str | None = None
+    scale: float = 1.0
+
+
+@dataclass(frozen=True)
+class Assembly:
+    name: str
+    substructures: tuple[Substructure, ...]
+    interfaces: tuple[Interface, ...]
+    history: History
+    qois: tuple[QuantityOfInterest, ...]
+    mu: Mu
+
+    @property
+    def n_steps(self) -> int:
+        return self.history.n_steps
+
+    @property
+    def n_dofs(self) -> int:
+        return sum(2 * s.mesh.n_nodes for s in self.substructures)
+
+    def substructure_index(self, name: str) -> int:
+        for i, sub in enumerate(self.substructures):
+            if sub.name == name:
+                return i
+        raise KeyError(name)

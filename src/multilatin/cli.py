@@ -1,0 +1,157 @@
+"""The ``multilatin`` command line.
+
+Exit status: 0 success, 2 bad input (message names the field and value), 3 the LATIN
+iteration did not converge within its cap (the unconverged state is reported, never as an
+answer).
+"""
+
+from __future__ import annotations
+
+import argparse
+import json
+import logging
+import sys
+from pathlib import Path
+
+from .errors import ModelError, NotConvergedError
+from .latin import LatinOptions
+from .model import Model, bundled_models, load_model
+from .output import write_result
+from .parameters import parse_assignments
+from .result import SolveResult
+
+EXIT_BAD_INPUT = 2
+EXIT_NOT_CONVERGED = 3
+
+log = logging.getLogger("multilatin")
+
+
+def _parse_split(items: list[str]) -> dict[str, tuple[int, int]]:
+    out = {}
+    for item in items:
+        body, sep, text = item.partition("=")
+        nx, x, ny = text.partition("x")
+        if not sep or not x or not nx.isdigit() or not ny.isdigit() or int(nx) < 1 or int(ny) < 1:
+            raise ModelError(f"--split {item!r}: expected body=NXxNY, e.g. beam=20x1")
+        out[body] = (int(nx), int(ny))
+    return out
+
+
+def _add_model_arguments(parser: argparse.ArgumentParser) -> None:
+    parser.add_argument("model", help="bundled model name (see `multilatin models`) or a .toml path")
+    parser.add_argument("--set", dest="assignments", action="append", default=[],
+                        metavar="NAME=VALUE", help="set a model parameter (repeatable)")
+    parser.add_argument("--refine", type=int, default=1,
+                        help="multiply every element count by this factor")
+    parser.add_argument("--split", action="append", default=[], metavar="BODY=NXxNY",
+                        help="override the number of substructures of a body")
+    parser.add_argument("--json", action="store_true",
+                        help="print one JSON object on standard output")
+    parser.add_argument("--out", type=Path, help="write VTK fields, tables and plots here")
+
+
+def _add_latin_arguments(parser: argparse.ArgumentParser) -> None:
+    d = LatinOptions()
+    parser.add_argument("--kappa", type=float, default=d.kappa, help="search direction k = κE/L")
+    parser.add_argument("--tol", type=float, default=d.tol, help="tolerance on the indicator η")
+    parser.add_argument("--max-iter", type=int, default=d.max_iter, help="iteration cap")
+    parser.add_argument("--relaxation", type=float, default=d.relaxation,
+                        help="relaxation ω of the linear stage, in (0, 1]")
+    parser.add_argument("--no-macro", action="store_true", help="skip the macro problem")
+    parser.add_argument("--interface-elements", default=d.interface_elements,
+                        choices=["nodal", "edges", "edge-pairs"])
+
+
+def build_parser() -> argparse.ArgumentParser:
+    parser = argparse.ArgumentParser(
+        prog="multilatin",
+        description="Parametric studies of elastic assemblies with contact by the "
+        "micro-macro LATIN method.",
+    )
+    parser.add_argument("-v", "--verbose", action="count", default=0)
+    sub = parser.add_subparsers(dest="command", required=True)
+    solve = sub.add_parser("solve", help="solve a model with the LATIN micro-macro solver")
+    _add_model_arguments(solve)
+    _add_latin_arguments(solve)
+    ref = sub.add_parser("reference", help="solve a model monolithically (reference)")
+    _add_model_arguments(ref)
+    sub.add_parser("models", help="list the bundled models")
+    show = sub.add_parser("show", help="describe a model: parameters, substructures, QoIs")
+    show.add_argument("model")
+    return parser
+
+
+def _report(result: SolveResult, args: argparse.Namespace) -> None:
+    if args.out is not None:
+        for path in write_result(result, args.out):
+            log.info("wrote %s", path)
+    if args.json:
+        print(json.dumps(result.to_json_dict()))
+        return
+    status = "converged" if result.converged else "NOT CONVERGED"
+    print(f"{result.assembly.name} ({result.method}): {status}, {result.iterations} iterations, "
+          f"indicator {result.indicator:.2e}, {result.wall_s:.3f} s")
+    print("parameters: " + ", ".join(f"{k} = {v:g}" for k, v in result.assembly.mu.items()))
+    for name, value in result.qoi.items():
+        if isinstance(value, list):
+            shown = ", ".join(f"{v:.6g}" for v in value)
+            print(f"  {name} = [{shown}]")
+        else:
+            print(f"  {name} = {value:.9g}")
+    if args.out is not None:
+        print(f"results written to {args.out}")
+
+
+def _show(model: Model) -> None:
+    print(f"{model.name}: {model.title}")
+    print("parameters:")
+    for p in model.parameters.values():
+        print(f"  {p.name} = {p.default:g} {p.unit}  range [{p.minimum:g}, {p.maximum:g}]"
+              f"  {p.description}")
+    assembly = model.assemble()
+    print(f"substructures: {len(assembly.substructures)}, dofs: {assembly.n_dofs}, "
+          f"load steps: {assembly.n_steps}")
+    kinds: dict[str, int] = {}
+    for itf in assembly.interfaces:
+        kinds[itf.kind] = kinds.get(itf.kind, 0) + 1
+    print("interfaces: " + ", ".join(f"{n} {k}" for k, n in sorted(kinds.items())))
+    print("quantities of interest: " + ", ".join(q.name for q in assembly.qois))
+
+
+def main(argv: list[str] | None = None) -> int:
+    args = build_parser().parse_args(argv)
+    level = logging.WARNING - 10 * args.verbose
+    logging.basicConfig(level=level, format="%(levelname)s %(name)s: %(message)s",
+                        stream=sys.stderr)
+    try:
+        if args.command == "models":
+            for name in bundled_models():
+                print(f"{name}: {load_model(name).title}")
+            return 0
+        model = load_model(args.model)
+        if args.command == "show":
+            _show(model)
+            return 0
+        mu = model.parameters.parse(parse_assignments(args.assignments))
+        split = _parse_split(args.split)
+        if args.command == "reference":
+            _report(model.reference(mu, refine=args.refine, split=split), args)
+            return 0
+        options = LatinOptions(kappa=args.kappa, tol=args.tol, max_iter=args.max_iter,
+                               relaxation=args.relaxation, macro=not args.no_macro,
+                               interface_elements=args.interface_elements)
+        try:
+            result = model.solve(mu, options=options, refine=args.refine, split=split)
+        except NotConvergedError as exc:
+            _report(exc.result, args)
+            print(f"error: {exc}", file=sys.stderr)
+            return EXIT_NOT_CONVERGED
+        _report(result, args)
+        return 0
+    except ModelError as exc:
+        print(f"error: {exc}", file=sys.stderr)
+        return EXIT_BAD_INPUT
+
+
+if __name__ == "__main__":  # pragma: no cover
+    sys.exit(main())

@@ -1,0 +1,109 @@
+"""Structured Q4 meshes of rectangles.
+
+Nodes are numbered row by row (x fastest); cells are counter-clockwise quadrangles.
+The four sides are listed by name; each side's nodes are ordered by increasing
+coordinate along the side, so that two matching sides pair node by node.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass, field
+
+import numpy as np
+import numpy.typing as npt
+
+FloatArray = npt.NDArray[np.float64]
+IntArray = npt.NDArray[np.int64]
+
+SIDES = ("bottom", "right", "top", "left")
+"""Side names of a rectangle, in counter-clockwise order."""
+
+
+@dataclass(frozen=True)
+class RectMesh:
+    """A structured ``nx`` × ``ny`` Q4 mesh of ``[x0, x1] × [y0, y1]``."""
+
+    x0: float
+    x1: float
+    y0: float
+    y1: float
+    nx: int
+    ny: int
+    nodes: FloatArray = field(init=False, repr=False)
+    cells: IntArray = field(init=False, repr=False)
+
+    def __post_init__(self) -> None:
+        xs = np.linspace(self.x0, self.x1, self.nx + 1)
+        ys = np.linspace(self.y0, self.y1, self.ny + 1)
+        gx, gy = np.meshgrid(xs, ys)  # shape (ny+1, nx+1)
+        object.__setattr__(self, "nodes", np.column_stack([gx.ravel(), gy.ravel()]))
+        i, j = np.meshgrid(np.arange(self.nx), np.arange(self.ny))
+        n0 = (j * (self.nx + 1) + i).ravel()
+        cells = np.column_stack([n0, n0 + 1, n0 + self.nx + 2, n0 + self.nx + 1])
+        object.__setattr__(self, "cells", cells.astype(np.int64))
+
+    @property
+    def n_nodes(self) -> int:
+        return (self.nx + 1) * (self.ny + 1)
+
+    @property
+    def n_cells(self) -> int:
+        return self.nx * self.ny
+
+    @property
+    def hx(self) -> float:
+        return (self.x1 - self.x0) / self.nx
+
+    @property
+    def hy(self) -> float:
+        return (self.y1 - self.y0) / self.ny
+
+    def side_nodes(self, side: str) -> IntArray:
+        """Node indices of ``side``, ordered by increasing coordinate along it."""
+        row = self.nx + 1
+        if side == "bottom":
+            return np.arange(row, dtype=np.int64)
+        if side == "top":
+            return np.arange(self.ny * row, (self.ny + 1) * row, dtype=np.int64)
+        if side == "left":
+            return np.arange(0, self.n_nodes, row, dtype=np.int64)
+        if side == "right":
+            return np.arange(self.nx, self.n_nodes, row, dtype=np.int64)
+        raise ValueError(f"unknown side {side!r}; expected one of {SIDES}")
+
+    def side_line(self, side: str) -> tuple[int, float, float, float]:
+        """``(axis, level, start, end)``: the side lies on coordinate ``axis`` = ``level``
+        and spans ``[start, end]`` along the other axis."""
+        if side == "bottom":
+            return 1, self.y0, self.x0, self.x1
+        if side == "top":
+            return 1, self.y1, self.x0, self.x1
+        if side == "left":
+            return 0, self.x0, self.y0, self.y1
+        if side == "right":
+            return 0, self.x1, self.y0, self.y1
+        raise ValueError(f"unknown side {side!r}; expected one of {SIDES}")
+
+    def outward_normal(self, side: str) -> FloatArray:
+        return {
+            "bottom": np.array([0.0, -1.0]),
+            "right": np.array([1.0, 0.0]),
+            "top": np.array([0.0, 1.0]),
+            "left": np.array([-1.0, 0.0]),
+        }[side]
+
+    def contains(self, point: npt.ArrayLike, tol: float = 1e-9) -> bool:
+        x, y = np.asarray(point, dtype=float)
+        scale = tol * max(self.x1 - self.x0, self.y1 - self.y0)
+        return bool(
+            self.x0 - scale <= x <= self.x1 + scale and self.y0 - scale <= y <= self.y1 + scale
+        )
+
+    def locate(self, point: npt.ArrayLike) -> tuple[int, FloatArray]:
+        """The cell containing ``point`` and the point's reference coordinates in it."""
+        x, y = np.asarray(point, dtype=float)
+        i = min(max(int(np.floor((x - self.x0) / self.hx)), 0), self.nx - 1)
+        j = min(max(int(np.floor((y - self.y0) / self.hy)), 0), self.ny - 1)
+        xi = 2.0 * (x - (self.x0 + i * self.hx)) / self.hx - 1.0
+        eta = 2.0 * (y - (self.y0 + j * self.hy)) / self.hy - 1.0
+        return j * self.nx + i, np.array([xi, eta])

@@ -1,0 +1,212 @@
+"""Discretisation of the interface fields W, F (paper §2.1–2.2).
+
+Every interface side carries piecewise-constant fields on *interface elements*. All
+interface points of the whole assembly are numbered globally, grouped by substructure, so
+that each linear-stage operator is block-diagonal and the local stage works on flat arrays.
+
+Choice of interface elements (``interface_elements``), decided by test
+(``tests/test_interface_discretisation.py``):
+
+``"nodal"`` (default)
+    P0 on the dual cells of the trace nodes: each element is the half-edges around a node
+    and its value is the trace at that node (T selects nodal values; the M0 weights are the
+    dual-cell lengths). T has no kernel, so continuity of W is exactly the conforming
+    finite-element continuity: a converged perfect interface reproduces the monolithic
+    solution on the same mesh to round-off, there is no checkerboard in F, and contact acts
+    node to node.
+``"edges"``
+    the paper's P0 on every mesh edge, W = mean of the trace on the edge. T has a zig-zag
+    kernel: the converged forces checkerboard and continuity holds in the mean only.
+``"edge-pairs"``
+    P0 on groups of two mesh edges (method.md's prototype): no checkerboard, but continuity
+    in the mean only, so the answer differs from the monolithic one at discretisation level.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import numpy as np
+import numpy.typing as npt
+import scipy.sparse as sp
+
+from .assembly import DISPLACEMENT, Assembly
+from .fem.elasticity import FloatArray, IntArray
+
+INTERFACE_ELEMENTS = ("nodal", "edges", "edge-pairs")
+
+
+@dataclass(frozen=True)
+class SideDiscretisation:
+    """Interface elements on one substructure side: trace rows and weights."""
+
+    nodes: IntArray  # side nodes of the substructure mesh, in order
+    trace: sp.csr_matrix  # (n_points, n_side_nodes): value at point = trace @ nodal values
+    weights: FloatArray  # element lengths × thickness (the diagonal of M0)
+    coords: FloatArray  # (n_points, 2) element centres (nodes for "nodal")
+
+
+def discretise_side(node_coords: FloatArray, nodes: IntArray, kind: str,
+                    thickness: float) -> SideDiscretisation:
+    """Interface elements of kind ``kind`` on a side whose ordered nodes are ``nodes``."""
+    xy = node_coords[nodes]
+    edge_len = np.linalg.norm(np.diff(xy, axis=0), axis=1)
+    n_edges = edge_len.size
+    if kind == "nodal":
+        dual = np.zeros(n_edges + 1)
+        dual[:-1] += 0.5 * edge_len
+        dual[1:] += 0.5 * edge_len
+        return SideDiscretisation(nodes, sp.identity(n_edges + 1, format="csr"),
+                                  np.asarray(dual * thickness, dtype=np.float64), xy.copy())
+    if kind == "edges":
+        group = 1
+    elif kind == "edge-pairs":
+        group = 2
+    else:
+        raise ValueError(f"interface_elements must be one of {INTERFACE_ELEMENTS}, got {kind!r}")
+    n_groups = max(n_edges // group, 1)
+    owner = np.minimum(np.arange(n_edges) // group, n_groups - 1)  # remainder joins the last
+    length = np.bincount(owner, weights=edge_len, minlength=n_groups)
+    # mean over the group of the linear trace: each edge contributes len/2 to both its nodes
+    share = 0.5 * edge_len / length[owner]
+    rows = np.concatenate([owner, owner])
+    cols = np.concatenate([np.arange(n_edges), np.arange(n_edges) + 1])
+    trace = sp.csr_matrix((np.concatenate([share, share]), (rows, cols)),
+                          shape=(n_groups, n_edges + 1))
+    centres = trace @ xy
+    return SideDiscretisation(nodes, trace, np.asarray(length * thickness, dtype=np.float64),
+                              np.asarray(centres, dtype=np.float64))
+
+
+@dataclass(frozen=True)
+class InterfacePoints:
+    """All interface points of an assembly, numbered globally and grouped by substructure.
+
+    Field arrays are shaped ``(n_steps, n_points, 2)`` (x, y components).
+    """
+
+    substructure: IntArray  # (P,) owning substructure
+    interface: IntArray  # (P,) interface index in ``assembly.interfaces``
+    coords: FloatArray  # (P, 2)
+    weights: FloatArray  # (P,) diagonal of M0
+    offsets: IntArray  # (n_sub + 1,) points of substructure s: offsets[s]:offsets[s+1]
+    traces: tuple[sp.csr_matrix, ...]  # per substructure: (2 P_s, 2 n_nodes) dof trace T_E
+    pairs: tuple[IntArray, IntArray]  # perfect interfaces: point a of E faces point b of E'
+    boundary: IntArray  # (P_b,) points on the outer boundary
+    boundary_is_displacement: npt.NDArray[np.bool_]  # (P_b, 2) prescribed displacement (else force)
+    side_points: dict[tuple[int, int], IntArray]  # (interface, side index) -> points
+
+    @property
+    def n_points(self) -> int:
+        return int(self.weights.size)
+
+
+
+def build_points(assembly: Assembly, kind: str = "nodal") -> InterfacePoints:
+    """Discretise every interface side of ``assembly`` with interface elements ``kind``."""
+    per_sub: list[list[tuple[int, int, SideDiscretisation]]] = [
+        [] for _ in assembly.substructures
+    ]
+    for i, itf in enumerate(assembly.interfaces):
+        for side_index, ref in enumerate(itf.sides):
+            sub = assembly.substructures[ref.substructure]
+            disc = discretise_side(sub.mesh.nodes, sub.mesh.side_nodes(ref.side), kind,
+                                   sub.material.thickness)
+            per_sub[ref.substructure].append((i, side_index, disc))
+
+    substructure, interface, coords, weights, traces = [], [], [], [], []
+    side_points: dict[tuple[int, int], IntArray] = {}
+    offsets = [0]
+    count = 0
+    for s, sides in enumerate(per_sub):
+        n_nodes = assembly.substructures[s].mesh.n_nodes
+        blocks = []
+        for i, side_index, disc in sides:
+            n = disc.weights.size
+            side_points[(i, side_index)] = np.arange(count, count + n)
+            count += n
+            substructure.append(np.full(n, s))
+            interface.append(np.full(n, i))
+            coords.append(disc.coords)
+            weights.append(disc.weights)
+            scatter = sp.csr_matrix(
+                (np.ones(disc.nodes.size), (np.arange(disc.nodes.size), disc.nodes)),
+                shape=(disc.nodes.size, n_nodes),
+            )
+            blocks.append(disc.trace @ scatter)
+        node_trace = sp.vstack(blocks, format="csr") if blocks else sp.csr_matrix((0, n_nodes))
+        traces.append(sp.kron(node_trace, sp.identity(2), format="csr"))
+        offsets.append(count)
+
+    pairs_a, pairs_b, bnd, bnd_disp = [], [], [], []
+    for i, itf in enumerate(assembly.interfaces):
+        if itf.kind == "perfect":
+            pa, pb = side_points[(i, 0)], side_points[(i, 1)]
+            pairs_a.append(pa)
+            pairs_b.append(pb)
+        else:
+            assert itf.condition is not None
+            pts = side_points[(i, 0)]
+            bnd.append(pts)
+            mask = np.array([k == DISPLACEMENT for k in itf.condition.kinds])
+            bnd_disp.append(np.broadcast_to(mask, (pts.size, 2)))
+
+    def cat(parts: list[np.ndarray], dtype: type = np.int64) -> np.ndarray:
+        return np.concatenate(parts).astype(dtype) if parts else np.zeros(0, dtype=dtype)
+
+    return InterfacePoints(
+        substructure=cat(substructure),
+        interface=cat(interface),
+        coords=np.concatenate(coords) if coords else np.zeros((0, 2)),
+        weights=cat(weights, np.float64),
+        offsets=np.array(offsets, dtype=np.int64),
+        traces=tuple(traces),
+        pairs=(cat(pairs_a), cat(pairs_b)),
+        boundary=cat(bnd),
+        boundary_is_displacement=(np.concatenate(bnd_disp) if bnd_disp
+                                  else np.zeros((0, 2), dtype=bool)),
+        side_points=side_points,
+    )
+
+
+def macro_basis(assembly: Assembly, points: InterfacePoints) -> sp.csr_matrix:
+    """The macro basis Ẽ (2P × n_macro) of the *free* macro unknowns (paper §2.2, fig. 3).
+
+    Per interface and per component (x, y): a constant and a linear-in-s function, i.e.
+    resultant, extension and moment, n_M = 4 for a straight interface; orthonormal in the
+    discrete M0 inner product, so Π(F) = Σ (F, e_i) e_i is an exact projector (eq. [5]–[6]).
+    A column takes the same values on both sides of a perfect interface (W̃ᴹ continuous,
+    eq. [10]); components with a prescribed displacement get no column (W̃ᴹ = 0 on ∂₁Ω);
+    prescribed-force components keep theirs (free W̃ᴹ, eq. [11]).
+    """
+    rows: list[np.ndarray] = []
+    cols: list[np.ndarray] = []
+    vals: list[np.ndarray] = []
+    n_cols = 0
+    for i, itf in enumerate(assembly.interfaces):
+        pts = points.side_points[(i, 0)]
+        xy = points.coords[pts]
+        w = points.weights[pts]
+        tangent = xy[-1] - xy[0]
+        s = (xy - xy[0]) @ (tangent / np.linalg.norm(tangent))
+        const = np.ones_like(s)
+        const /= np.sqrt(w @ const**2)
+        linear = s - (w @ s) / w.sum()
+        norm = np.sqrt(w @ linear**2)
+        functions = [const] + ([linear / norm] if norm > 1e-12 * np.abs(s).max() else [])
+        sides = [pts] + ([points.side_points[(i, 1)]] if itf.kind == "perfect" else [])
+        for comp in range(2):
+            if itf.condition is not None and itf.condition.kinds[comp] == DISPLACEMENT:
+                continue
+            for f in functions:
+                for side_pts in sides:
+                    rows.append(2 * side_pts + comp)
+                    cols.append(np.full(side_pts.size, n_cols))
+                    vals.append(f)
+                n_cols += 1
+    if not rows:
+        return sp.csr_matrix((2 * points.n_points, 0))
+    return sp.csr_matrix(
+        (np.concatenate(vals), (np.concatenate(rows), np.concatenate(cols))),
+        shape=(2 * points.n_points, n_cols),
+    )

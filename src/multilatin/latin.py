@@ -1,0 +1,334 @@
+"""The LATIN micro-macro solver (paper §2.3, §4; method.md §4).
+
+Every load step is one column of the same right-hand side: the linear stage solves all
+steps at once. The linear stage works on interface quantities only, through the condensed
+operator ``C_E = T_E (K_E + T_Eᵀ M0 k T_E)⁻¹ T_Eᵀ M0`` of each substructure (computed once
+per geometry from its factorisation), so that W = C (F̂ + k Ŵ + k W̃ᴹ) (eq. [13]).
+Interior displacements are recovered once, at the end.
+"""
+
+from __future__ import annotations
+
+import logging
+import time
+from dataclasses import asdict, dataclass
+
+import numpy as np
+import scipy.linalg as sla
+import scipy.sparse as sp
+import scipy.sparse.linalg as spla
+
+from .assembly import DISPLACEMENT, Assembly
+from .errors import ModelError, NotConvergedError
+from .fem.elasticity import FloatArray, stiffness_matrix
+from .interfaces import INTERFACE_ELEMENTS, InterfacePoints, build_points, macro_basis
+from .qoi import evaluate_qois
+from .result import InterfaceFields, SolveResult
+
+log = logging.getLogger(__name__)
+
+
+@dataclass(frozen=True)
+class LatinOptions:
+    """Discretisation and solver choices (arguments, not model parameters).
+
+    kappa: search direction k = κ E / L per interface (E: mean Young's modulus of the two
+        sides, L: interface length); the converged answer does not depend on it.
+    tol: stop when the indicator η (paper §4.3) drops below ``tol``.
+    max_iter: iteration cap; reaching it without η < tol is a failure, not an answer.
+    relaxation: ω in s ← ω s_new + (1 − ω) s_old after each linear stage (method.md §4:
+        without it, statically determined clusters give an eigenvalue −1).
+    macro: solve the macro problem (eq. [14]–[15]); False gives the one-scale LATIN.
+    interface_elements: see ``multilatin.interfaces``.
+    dirichlet_stiffening: factor on k for prescribed-displacement components.
+    """
+
+    kappa: float = 0.5
+    tol: float = 1e-6
+    max_iter: int = 1000
+    relaxation: float = 0.8
+    macro: bool = True
+    interface_elements: str = "nodal"
+    dirichlet_stiffening: float = 10.0
+
+    def __post_init__(self) -> None:
+        if not self.kappa > 0:
+            raise ModelError(f"kappa: the search direction must be > 0, got {self.kappa!r}")
+        if not self.tol > 0:
+            raise ModelError(f"tol: must be > 0, got {self.tol!r}")
+        if self.max_iter < 1:
+            raise ModelError(f"max_iter: must be >= 1, got {self.max_iter!r}")
+        if not 0 < self.relaxation <= 1:
+            raise ModelError(f"relaxation: must lie in (0, 1], got {self.relaxation!r}")
+        if self.interface_elements not in INTERFACE_ELEMENTS:
+            raise ModelError(
+                f"interface_elements: expected one of {INTERFACE_ELEMENTS}, "
+                f"got {self.interface_elements!r}"
+            )
+        if not self.dirichlet_stiffening >= 1:
+            raise ModelError(
+                f"dirichlet_stiffening: must be >= 1, got {self.dirichlet_stiffening!r}"
+            )
+
+
+class LatinOperators:
+    """Everything of the linear stage that depends on the geometry only: factorised
+    substructure operators, the condensed block-diagonal operator C, the macro basis and the
+    factorised homogenised macro operator (eq. [15])."""
+
+    def __init__(self, assembly: Assembly, options: LatinOptions) -> None:
+        self.assembly = assembly
+        self.options = options
+        self.points: InterfacePoints = build_points(assembly, options.interface_elements)
+        pts = self.points
+        self.search_direction = self._search_direction()
+        k_flat = self.search_direction.reshape(-1)
+        self.m0 = np.repeat(pts.weights, 2)  # diagonal of M0 on flat (2P) vectors
+
+        self.factors: list[spla.SuperLU] = []
+        blocks = []
+        for s, sub in enumerate(assembly.substructures):
+            stiffness = stiffness_matrix(sub.mesh.nodes, sub.mesh.cells, sub.material.hooke,
+                                         sub.material.thickness)
+            trace = pts.traces[s]
+            lo, hi = 2 * pts.offsets[s], 2 * pts.offsets[s + 1]
+            mk = self.m0[lo:hi] * k_flat[lo:hi]
+            operator = (stiffness + trace.T @ sp.diags(mk) @ trace).tocsc()
+            factor = spla.splu(operator)
+            self.factors.append(factor)
+            rhs = (trace.T @ sp.diags(self.m0[lo:hi])).toarray()
+            blocks.append(trace @ factor.solve(rhs))  # C_E = T S⁻¹ Tᵀ M0, dense
+        self.condensed = sp.block_diag(blocks, format="csr")
+
+        self.macro_basis = macro_basis(assembly, pts) if options.macro else None
+        if self.macro_basis is not None and self.macro_basis.shape[1]:
+            basis = self.macro_basis
+            # Q = C k Ẽ: interface displacement caused by a unit macro W̃ᴹ
+            self.macro_response = np.asarray(self.condensed @ (sp.diags(k_flat) @ basis).toarray())
+            mk_basis = sp.diags(self.m0 * k_flat) @ basis
+            # L = Ẽᵀ M0 k (I − C k) Ẽ, the assembled homogenised operator (eq. [14]–[15])
+            homogenised = (basis.T @ mk_basis).toarray() - mk_basis.T @ self.macro_response
+            homogenised = 0.5 * (homogenised + homogenised.T)
+            self.macro_factor = self._factorise_macro(homogenised)
+            self.project = (basis.T @ sp.diags(self.m0)).tocsr()
+        else:
+            self.macro_basis = None
+
+    def _search_direction(self) -> FloatArray:
+        """k per interface point and component: κ E / L (stiffer on prescribed displacements)."""
+        opts = self.options
+        pts = self.points
+        k = np.zeros((pts.n_points, 2))
+        for i, itf in enumerate(self.assembly.interfaces):
+            subs = [self.assembly.substructures[r.substructure] for r in itf.sides]
+            young = float(np.mean([s.material.young for s in subs]))
+            mesh = subs[0].mesh
+            _, _, lo, hi = mesh.side_line(itf.sides[0].side)
+            value = opts.kappa * young / (hi - lo)
+            for side_index in range(len(itf.sides)):
+                k[pts.side_points[(i, side_index)]] = value
+            if itf.condition is not None:
+                for comp, kind in enumerate(itf.condition.kinds):
+                    if kind == DISPLACEMENT:
+                        k[pts.side_points[(i, 0)], comp] *= opts.dirichlet_stiffening
+        return k
+
+    @staticmethod
+    def _factorise_macro(homogenised: FloatArray) -> tuple[FloatArray, bool]:
+        try:
+            factor = sla.cho_factor(homogenised)
+        except np.linalg.LinAlgError:
+            raise ModelError(
+                "macro problem is singular: the assembly is not held against rigid-body motion"
+            ) from None
+        pivots = np.abs(np.diag(factor[0]))
+        if pivots.min() < 1e-7 * pivots.max():
+            raise ModelError(
+                "macro problem is singular: the assembly is not held against rigid-body motion"
+            )
+        return factor  # type: ignore[no-any-return]
+
+    def linear_stage(
+        self, displacement_hat: FloatArray, force_hat: FloatArray, macro_force_data: FloatArray
+    ) -> tuple[FloatArray, FloatArray]:
+        """s = (W, F) in A_d from ŝ, for all steps at once (eq. [12]–[15])."""
+        n_steps = displacement_hat.shape[0]
+        k = self.search_direction
+        rhs = (force_hat + k * displacement_hat).reshape(n_steps, -1).T
+        displacement = np.asarray(self.condensed @ rhs).T.reshape(displacement_hat.shape)
+        force = force_hat + k * (displacement_hat - displacement)
+        if self.macro_basis is not None:
+            residual = macro_force_data - self.project @ force.reshape(n_steps, -1).T
+            macro = sla.cho_solve(self.macro_factor, residual)  # W̃ᴹ, eq. [15]
+            macro_field = np.asarray(self.macro_basis @ macro).T.reshape(force.shape)
+            response = (self.macro_response @ macro).T.reshape(force.shape)
+            displacement = displacement + response
+            force = force + k * (macro_field - response)
+        return displacement, force
+
+    def recover(self, displacement: FloatArray, force: FloatArray) -> dict[str, FloatArray]:
+        """Interior displacements u_E = S_E⁻¹ T_Eᵀ M0 (F + k W) of every substructure."""
+        n_steps = displacement.shape[0]
+        k = self.search_direction
+        g = (force + k * displacement).reshape(n_steps, -1).T * self.m0[:, None]
+        out = {}
+        for s, sub in enumerate(self.assembly.substructures):
+            lo, hi = 2 * self.points.offsets[s], 2 * self.points.offsets[s + 1]
+            u = self.factors[s].solve(np.ascontiguousarray(self.points.traces[s].T @ g[lo:hi]))
+            out[sub.name] = u.T.reshape(n_steps, -1, 2)
+        return out
+
+
+class LocalStage:
+    """Closed-form interface behaviours, vectorised over every point and step (paper §3, §4.2)."""
+
+    def __init__(self, assembly: Assembly, points: InterfacePoints, k: FloatArray) -> None:
+        self.pairs = points.pairs
+        self.k_pair = k[points.pairs[0]]
+        self.boundary = points.boundary
+        self.k_boundary = k[points.boundary]
+        self.is_displacement = points.boundary_is_displacement
+        n_steps = assembly.n_steps
+        prescribed = np.zeros((n_steps, points.boundary.size, 2))
+        offset = 0
+        for i, itf in enumerate(assembly.interfaces):
+            if itf.kind != "boundary":
+                continue
+            assert itf.condition is not None
+            n = points.side_points[(i, 0)].size
+            factor = assembly.history.factor(itf.condition.factor)
+            prescribed[:, offset:offset + n] = (factor[:, None] *
+                                                np.asarray(itf.condition.value))[:, None, :]
+            offset += n
+        self.prescribed = prescribed  # W_d on displacement components, F_d on force ones
+
+    def prescribed_force_field(self, n_points: int) -> FloatArray:
+        """F_d at every interface point (zero where no force is prescribed)."""
+        field = np.zeros((self.prescribed.shape[0], n_points, 2))
+        field[:, self.boundary] = np.where(self.is_displacement, 0.0, self.prescribed)
+        return field
+
+    def __call__(self, displacement: FloatArray, force: FloatArray) -> tuple[FloatArray,
+                                                                               FloatArray]:
+        w_hat = np.empty_like(displacement)
+        f_hat = np.empty_like(force)
+        a, b = self.pairs
+        k = self.k_pair
+        wa, wb, fa, fb = displacement[:, a], displacement[:, b], force[:, a], force[:, b]
+        # perfect interface: Ŵ_E = Ŵ_E', F̂_E + F̂_E' = 0 on the search direction E+ (eq. [8])
+        w_hat[:, a] = w_hat[:, b] = 0.5 * (wa + wb) - (fa + fb) / (2.0 * k)
+        f_hat[:, a] = 0.5 * (fa - fb) - 0.5 * k * (wa - wb)
+        f_hat[:, b] = -f_hat[:, a]
+        # prescribed displacement / force, component-wise
+        bd, k = self.boundary, self.k_boundary
+        w, f, data = displacement[:, bd], force[:, bd], self.prescribed
+        w_hat[:, bd] = np.where(self.is_displacement, data, w + (data - f) / k)
+        f_hat[:, bd] = np.where(self.is_displacement, f + k * (data - w), data)
+        return w_hat, f_hat
+
+
+def _norm(weights: FloatArray, k: FloatArray, displacement: FloatArray, force: FloatArray) -> float:
+    """‖s‖² = Σ_t Σ_points ∫ (k⁻¹ F·F + k W·W) dΓ (paper §4.3)."""
+    return float(np.sqrt(np.sum(weights[:, None] * (force**2 / k + k * displacement**2))))
+
+
+def solve_latin(assembly: Assembly, options: LatinOptions | None = None,
+                operators: LatinOperators | None = None, check: bool = True) -> SolveResult:
+    """Solve ``assembly`` with the micro-macro LATIN method.
+
+    Raises ``NotConvergedError`` (with the unconverged result attached) when η ≥ tol after
+    ``max_iter`` iterations, unless ``check`` is False.
+    """
+    options = options or LatinOptions()
+    t0 = time.perf_counter()
+    ops = operators or LatinOperators(assembly, options)
+    t_setup = time.perf_counter() - t0
+    pts = ops.points
+    k = ops.search_direction
+    local = LocalStage(assembly, pts, k)
+    n_steps = assembly.n_steps
+    macro_data = (ops.project @ local.prescribed_force_field(pts.n_points)
+                  .reshape(n_steps, -1).T) if ops.macro_basis is not None else None
+
+    w_hat = np.zeros((n_steps, pts.n_points, 2))
+    f_hat = np.zeros_like(w_hat)
+    w = f = None
+    history: list[float] = []
+    t_linear = t_local = 0.0
+    t1 = time.perf_counter()
+    for iteration in range(1, options.max_iter + 1):
+        ta = time.perf_counter()
+        w_new, f_new = ops.linear_stage(w_hat, f_hat, macro_data)  # type: ignore[arg-type]
+        if w is None or f is None or options.relaxation == 1.0:
+            w, f = w_new, f_new
+        else:
+            omega = options.relaxation
+            w = omega * w_new + (1.0 - omega) * w
+            f = omega * f_new + (1.0 - omega) * f
+        tb = time.perf_counter()
+        w_hat, f_hat = local(w, f)
+        t_local += time.perf_counter() - tb
+        t_linear += tb - ta
+        gap = _norm(pts.weights, k, w - w_hat, f - f_hat)
+        size = 0.5 * (_norm(pts.weights, k, w, f) + _norm(pts.weights, k, w_hat, f_hat))
+        eta = gap / size if size > 0 else 0.0
+        history.append(eta)
+        if iteration % 50 == 0:
+            log.debug("iteration %d: eta = %.3e", iteration, eta)
+        if eta < options.tol:
+            break
+    assert w is not None and f is not None
+    t_iter = time.perf_counter() - t1
+    converged = history[-1] < options.tol
+
+    t2 = time.perf_counter()
+    displacements = ops.recover(w, f)
+    reactions = _reactions(assembly, pts, f_hat)
+    qoi = evaluate_qois(assembly, displacements, reactions)
+    t_post = time.perf_counter() - t2
+    timings = {
+        "setup": t_setup,
+        "iterations": t_iter,
+        "linear_stage": t_linear,
+        "local_stage": t_local,
+        "per_iteration": t_iter / len(history),
+        "postprocess": t_post,
+        "total": time.perf_counter() - t0,
+    }
+    result = SolveResult(
+        method="latin",
+        assembly=assembly,
+        converged=converged,
+        iterations=len(history),
+        indicator=history[-1],
+        history=np.array(history),
+        timings=timings,
+        displacements=displacements,
+        reactions=reactions,
+        qoi=qoi,
+        interface=InterfaceFields(pts.coords, pts.weights, pts.interface, pts.substructure,
+                                  w, f, w_hat, f_hat),
+        options=asdict(options),
+    )
+    log.info("%s: %s after %d iterations, eta = %.2e, %.3f s", assembly.name,
+             "converged" if converged else "NOT converged", len(history), history[-1],
+             timings["total"])
+    if check and not converged:
+        raise NotConvergedError(
+            f"LATIN did not converge: eta = {history[-1]:.3e} >= tol = {options.tol:g} after "
+            f"{len(history)} iterations (max_iter)", result)
+    return result
+
+
+def _reactions(assembly: Assembly, pts: InterfacePoints, force_hat: FloatArray
+               ) -> dict[str, FloatArray]:
+    """Resultant force of each named boundary on the structure, per step."""
+    out: dict[str, FloatArray] = {}
+    for i, itf in enumerate(assembly.interfaces):
+        if itf.condition is None:
+            continue
+        p = pts.side_points[(i, 0)]
+        total = np.einsum("p,tpc->tc", pts.weights[p], force_hat[:, p])
+        name = itf.condition.name
+        out[name] = out.get(name, 0.0) + total
+    return out

@@ -1,0 +1,78 @@
+"""The public model object: a validated model file with ``solve(mu)`` and ``reference(mu)``."""
+
+from __future__ import annotations
+
+from collections.abc import Mapping
+from importlib import resources
+from pathlib import Path
+
+from .assembly import Assembly
+from .errors import ModelError
+from .latin import LatinOptions, solve_latin
+from .monolithic import solve_monolithic
+from .parameters import Mu, Parameters
+from .result import SolveResult
+from .spec import ModelSpec
+
+Split = Mapping[str, tuple[int, int]]
+
+
+class Model:
+    """An assembly model with named parameters.
+
+    >>> model = load_model("b0")
+    >>> result = model.solve({"P": 100.0})          # LATIN micro-macro
+    >>> reference = model.reference({"P": 100.0})   # monolithic finite elements
+    """
+
+    def __init__(self, spec: ModelSpec) -> None:
+        self.spec = spec
+
+    @property
+    def name(self) -> str:
+        return self.spec.name
+
+    @property
+    def title(self) -> str:
+        return self.spec.title
+
+    @property
+    def parameters(self) -> Parameters:
+        return self.spec.parameters
+
+    def assemble(self, mu: Mu | Mapping[str, float] | None = None, *, refine: int = 1,
+                 split: Split | None = None) -> Assembly:
+        return self.spec.build(mu, refine=refine, split=split)
+
+    def solve(self, mu: Mu | Mapping[str, float] | None = None, *,
+              options: LatinOptions | None = None, refine: int = 1,
+              split: Split | None = None, check: bool = True) -> SolveResult:
+        """LATIN micro-macro solution for parameters ``mu`` (defaults for the others)."""
+        return solve_latin(self.assemble(mu, refine=refine, split=split), options, check=check)
+
+    def reference(self, mu: Mu | Mapping[str, float] | None = None, *, refine: int = 1,
+                  split: Split | None = None) -> SolveResult:
+        """Monolithic finite-element solution on the same meshes."""
+        return solve_monolithic(self.assemble(mu, refine=refine, split=split))
+
+
+def bundled_models() -> list[str]:
+    """Names of the models shipped with multilatin."""
+    folder = resources.files("multilatin") / "models"
+    return sorted(p.name[:-5] for p in folder.iterdir() if p.name.endswith(".toml"))
+
+
+def load_model(name_or_path: str | Path) -> Model:
+    """A bundled model by name (``"b0"``) or a model file by path."""
+    text = str(name_or_path)
+    if text in bundled_models():
+        resource = resources.files("multilatin") / "models" / f"{text}.toml"
+        return Model(ModelSpec.from_string(resource.read_text(encoding="utf-8"), name=text,
+                                           source=f"bundled:{text}"))
+    path = Path(text)
+    if not path.exists():
+        raise ModelError(
+            f"model {text!r}: no such file and no bundled model of that name "
+            f"(bundled: {', '.join(bundled_models())})"
+        )
+    return Model(ModelSpec.from_toml(path))

@@ -1,0 +1,70 @@
+"""Structured solver results: fields, iteration history, timings, quantities of interest."""
+
+from __future__ import annotations
+
+from dataclasses import dataclass, field
+from typing import Any
+
+import numpy as np
+
+from .assembly import Assembly
+from .fem.elasticity import FloatArray
+
+
+@dataclass(frozen=True)
+class InterfaceFields:
+    """Interface fields at every point and step, shapes ``(n_steps, n_points, 2)``.
+
+    ``displacement``/``force`` are the admissible pair s (linear stage, A_d);
+    ``displacement_hat``/``force_hat`` the pair ŝ that satisfies the interface behaviour (Γ).
+    """
+
+    coords: FloatArray
+    weights: FloatArray
+    interface: np.ndarray
+    substructure: np.ndarray
+    displacement: FloatArray
+    force: FloatArray
+    displacement_hat: FloatArray
+    force_hat: FloatArray
+
+
+@dataclass(frozen=True)
+class SolveResult:
+    """The answer of one computation (LATIN or monolithic reference)."""
+
+    method: str
+    assembly: Assembly
+    converged: bool
+    iterations: int
+    indicator: float
+    history: FloatArray  # error indicator η after each iteration
+    timings: dict[str, float]
+    displacements: dict[str, FloatArray]  # substructure name -> (n_steps, n_nodes, 2)
+    reactions: dict[str, FloatArray]  # boundary name -> (n_steps, 2) force on the structure
+    qoi: dict[str, float | list[float]]
+    interface: InterfaceFields | None = None
+    options: dict[str, Any] = field(default_factory=dict)
+
+    @property
+    def wall_s(self) -> float:
+        return self.timings.get("total", float("nan"))
+
+    def to_json_dict(self) -> dict[str, Any]:
+        """The command-line JSON contract: converged, iterations, indicator, wall_s, qoi, …"""
+        return {
+            "model": self.assembly.name,
+            "method": self.method,
+            "params": dict(self.assembly.mu),
+            "converged": self.converged,
+            "iterations": self.iterations,
+            "indicator": self.indicator,
+            "wall_s": self.wall_s,
+            "qoi": self.qoi,
+            "n_steps": self.assembly.n_steps,
+            "n_substructures": len(self.assembly.substructures),
+            "n_dofs": self.assembly.n_dofs,
+            "timings": self.timings,
+            "history": [float(v) for v in self.history],
+            "options": self.options,
+        }

@@ -1,0 +1,478 @@
+"""Model files: a TOML description of an assembly, validated with errors that name the
+offending field and value. See ``docs/model-format.md`` for the format.
+
+``ModelSpec.build(mu)`` evaluates every expression with the parameter values ``mu`` and
+returns a concrete ``Assembly``.
+"""
+
+from __future__ import annotations
+
+import itertools
+import math
+import sys
+from collections.abc import Mapping
+from dataclasses import dataclass
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+
+from .assembly import (
+    DISPLACEMENT,
+    FORCE,
+    Assembly,
+    BoundaryCondition,
+    History,
+    Interface,
+    Material,
+    QuantityOfInterest,
+    SideRef,
+    Substructure,
+)
+from .errors import ModelError
+from .expressions import evaluate
+from .fem.elasticity import PLANE_STRAIN, PLANE_STRESS
+from .fem.mesh import SIDES, RectMesh
+from .parameters import Mu, Parameter, Parameters
+
+if sys.version_info >= (3, 11):
+    import tomllib
+else:  # pragma: no cover
+    import tomli as tomllib
+
+_TOP_LEVEL = {"title", "description", "analysis", "parameters", "materials", "bodies",
+              "substructures", "interfaces", "boundary", "history", "qoi"}
+_OPPOSITE = {"left": "right", "right": "left", "bottom": "top", "top": "bottom"}
+
+
+def _require(table: Mapping[str, Any], key: str, where: str) -> Any:
+    if key not in table:
+        raise ModelError(f"{where}: missing field {key!r}")
+    return table[key]
+
+
+def _check_keys(table: Mapping[str, Any], allowed: set[str], where: str) -> None:
+    unknown = set(table) - allowed
+    if unknown:
+        raise ModelError(
+            f"{where}: unknown field {sorted(unknown)[0]!r} (allowed: {', '.join(sorted(allowed))})"
+        )
+
+
+def _pair(value: Any, where: str) -> tuple[Any, Any]:
+    if not isinstance(value, list) or len(value) != 2:
+        raise ModelError(f"{where}: expected a list of two values, got {value!r}")
+    return value[0], value[1]
+
+
+def _positive_int(value: Any, where: str) -> int:
+    if isinstance(value, bool) or not isinstance(value, int) or value < 1:
+        raise ModelError(f"{where}: expected a positive integer, got {value!r}")
+    return value
+
+
+@dataclass(frozen=True)
+class ModelSpec:
+    """A parsed, validated model file (parameters still symbolic)."""
+
+    name: str
+    data: Mapping[str, Any]
+    parameters: Parameters
+    source: str = ""
+
+    # ------------------------------------------------------------------ loading
+    @staticmethod
+    def from_toml(path: str | Path) -> ModelSpec:
+        path = Path(path)
+        try:
+            text = path.read_text(encoding="utf-8")
+        except OSError as exc:
+            raise ModelError(f"model file {str(path)!r}: {exc.strerror}") from None
+        return ModelSpec.from_string(text, name=path.stem, source=str(path))
+
+    @staticmethod
+    def from_string(text: str, name: str = "model", source: str = "") -> ModelSpec:
+        try:
+            data = tomllib.loads(text)
+        except tomllib.TOMLDecodeError as exc:
+            raise ModelError(f"model file {source or name!r} is not valid TOML: {exc}") from None
+        return ModelSpec.from_dict(data, name=name, source=source)
+
+    @staticmethod
+    def from_dict(data: Mapping[str, Any], name: str = "model", source: str = "") -> ModelSpec:
+        _check_keys(data, _TOP_LEVEL, "model")
+        params: dict[str, Parameter] = {}
+        for pname, table in dict(data.get("parameters", {})).items():
+            where = f"parameters.{pname}"
+            if not pname.isidentifier():
+                raise ModelError(f"{where}: parameter names must be identifiers")
+            if not isinstance(table, Mapping):
+                table = {"default": table}
+            _check_keys(table, {"default", "min", "max", "description", "unit"}, where)
+            param = Parameter(
+                name=pname,
+                default=evaluate(_require(table, "default", where), {}, f"{where}.default"),
+                minimum=evaluate(table.get("min", -math.inf), {}, f"{where}.min"),
+                maximum=evaluate(table.get("max", math.inf), {}, f"{where}.max"),
+                description=str(table.get("description", "")),
+                unit=str(table.get("unit", "")),
+            )
+            param.check(param.default)
+            params[pname] = param
+        spec = ModelSpec(name, data, Parameters(params), source)
+        spec.build()  # validate everything once, with the defaults
+        return spec
+
+    @property
+    def title(self) -> str:
+        return str(self.data.get("title", self.name))
+
+    # ------------------------------------------------------------------ building
+    def build(
+        self,
+        mu: Mu | Mapping[str, float] | None = None,
+        refine: int = 1,
+        split: Mapping[str, tuple[int, int]] | None = None,
+    ) -> Assembly:
+        """The concrete assembly for parameter values ``mu``.
+
+        ``refine`` multiplies every element count; ``split`` overrides the number of
+        substructures of named bodies (both are discretisation choices, not parameters).
+        """
+        mu = mu if isinstance(mu, Mu) else self.parameters.parse(mu)
+        refine = _positive_int(refine, "refine")
+        builder = _Builder(self.data, mu, refine, dict(split or {}))
+        return builder.assembly(self.name)
+
+
+class _Builder:
+    """Evaluates a model table with one parameter set into an ``Assembly``."""
+
+    def __init__(
+        self, data: Mapping[str, Any], mu: Mu, refine: int, split: dict[str, tuple[int, int]]
+    ) -> None:
+        self.data = data
+        self.mu = mu
+        self.refine = refine
+        self.split = split
+
+    def num(self, value: Any, where: str) -> float:
+        return evaluate(value, self.mu, where)
+
+    # -------------------------------------------------------------- materials
+    def materials(self) -> dict[str, tuple[float, float]]:
+        out = {}
+        for mname, table in dict(self.data.get("materials", {})).items():
+            where = f"materials.{mname}"
+            if not isinstance(table, Mapping):
+                raise ModelError(f"{where}: expected a table with E and nu")
+            _check_keys(table, {"E", "nu"}, where)
+            young = self.num(_require(table, "E", where), f"{where}.E")
+            poisson = self.num(_require(table, "nu", where), f"{where}.nu")
+            if not young > 0.0:
+                raise ModelError(f"{where}.E: Young's modulus must be > 0, got {young:g}")
+            if not -1.0 < poisson < 0.5:
+                raise ModelError(f"{where}.nu: Poisson's ratio must lie in (-1, 0.5), got {poisson:g}")
+            out[mname] = (young, poisson)
+        return out
+
+    def material(self, table: Mapping[str, Any], where: str,
+                 materials: dict[str, tuple[float, float]]) -> Material:
+        mname = _require(table, "material", where)
+        if mname not in materials:
+            known = ", ".join(sorted(materials)) or "none"
+            raise ModelError(
+                f"{where}.material: {mname!r} is not defined in [materials] (defined: {known})"
+            )
+        analysis = dict(self.data.get("analysis", {}))
+        _check_keys(analysis, {"hypothesis", "thickness"}, "analysis")
+        hypothesis = table.get("hypothesis", analysis.get("hypothesis", PLANE_STRESS))
+        if hypothesis not in (PLANE_STRESS, PLANE_STRAIN):
+            raise ModelError(
+                f"{where}.hypothesis: expected {PLANE_STRESS!r} or {PLANE_STRAIN!r}, "
+                f"got {hypothesis!r}"
+            )
+        thickness = self.num(table.get("thickness", analysis.get("thickness", 1.0)),
+                             f"{where}.thickness")
+        if not thickness > 0.0:
+            raise ModelError(f"{where}.thickness: must be > 0, got {thickness:g}")
+        young, poisson = materials[mname]
+        return Material(young, poisson, hypothesis, thickness)
+
+    # -------------------------------------------------------------- substructures
+    def rectangle(self, table: Mapping[str, Any], where: str) -> tuple[float, float, float, float]:
+        x0, x1 = (self.num(v, f"{where}.x") for v in _pair(_require(table, "x", where), f"{where}.x"))
+        y0, y1 = (self.num(v, f"{where}.y") for v in _pair(_require(table, "y", where), f"{where}.y"))
+        if not x1 > x0:
+            raise ModelError(f"{where}.x: expected [xmin, xmax] with xmax > xmin, got {[x0, x1]}")
+        if not y1 > y0:
+            raise ModelError(f"{where}.y: expected [ymin, ymax] with ymax > ymin, got {[y0, y1]}")
+        return x0, x1, y0, y1
+
+    def substructures(self) -> tuple[list[Substructure], dict[str, tuple[float, ...]]]:
+        materials = self.materials()
+        subs: list[Substructure] = []
+        bodies: dict[str, tuple[float, ...]] = {}
+        common = {"name", "x", "y", "elements", "material", "hypothesis", "thickness"}
+        for b, table in enumerate(self.data.get("bodies", [])):
+            where = f"bodies[{b}]"
+            _check_keys(table, common | {"split"}, where)
+            name = str(_require(table, "name", where))
+            where = f"bodies[{b}] ({name!r})"
+            if name in bodies:
+                raise ModelError(f"{where}.name: body {name!r} is defined twice")
+            x0, x1, y0, y1 = self.rectangle(table, where)
+            bodies[name] = (x0, x1, y0, y1)
+            nx, ny = (_positive_int(v, f"{where}.elements")
+                      for v in _pair(_require(table, "elements", where), f"{where}.elements"))
+            sx, sy = self.split.get(name) or tuple(
+                _positive_int(v, f"{where}.split") for v in _pair(table.get("split", [1, 1]),
+                                                                   f"{where}.split"))
+            if nx % sx or ny % sy:
+                raise ModelError(
+                    f"{where}.split: {sx} x {sy} substructures do not divide the "
+                    f"{nx} x {ny} elements evenly"
+                )
+            mat = self.material(table, where, materials)
+            xs = np.linspace(x0, x1, sx + 1)
+            ys = np.linspace(y0, y1, sy + 1)
+            for j, i in itertools.product(range(sy), range(sx)):
+                sub_name = name if sx * sy == 1 else f"{name}[{i},{j}]"
+                mesh = RectMesh(float(xs[i]), float(xs[i + 1]), float(ys[j]), float(ys[j + 1]),
+                                nx // sx * self.refine, ny // sy * self.refine)
+                subs.append(Substructure(sub_name, name, mesh, mat))
+        for s, table in enumerate(self.data.get("substructures", [])):
+            where = f"substructures[{s}]"
+            _check_keys(table, common | {"body"}, where)
+            name = str(_require(table, "name", where))
+            where = f"substructures[{s}] ({name!r})"
+            x0, x1, y0, y1 = self.rectangle(table, where)
+            nx, ny = (_positive_int(v, f"{where}.elements")
+                      for v in _pair(_require(table, "elements", where), f"{where}.elements"))
+            body = str(table.get("body", name))
+            mesh = RectMesh(x0, x1, y0, y1, nx * self.refine, ny * self.refine)
+            subs.append(Substructure(name, body, mesh, self.material(table, where, materials)))
+            lo = bodies.get(body, (x0, x1, y0, y1))
+            bodies[body] = (min(lo[0], x0), max(lo[1], x1), min(lo[2], y0), max(lo[3], y1))
+        if not subs:
+            raise ModelError("model: no [[bodies]] or [[substructures]] defined")
+        names = [s.name for s in subs]
+        for name in names:
+            if names.count(name) > 1:
+                raise ModelError(f"substructures: the name {name!r} is used twice")
+        self._check_overlaps(subs)
+        return subs, bodies
+
+    @staticmethod
+    def _check_overlaps(subs: list[Substructure]) -> None:
+        box = np.array([[s.mesh.x0, s.mesh.x1, s.mesh.y0, s.mesh.y1] for s in subs])
+        scale = 1e-9 * float(np.max(box[:, [1, 3]] - box[:, [0, 2]]))
+        ox = np.minimum(box[:, None, 1], box[None, :, 1]) - np.maximum(box[:, None, 0], box[None, :, 0])
+        oy = np.minimum(box[:, None, 3], box[None, :, 3]) - np.maximum(box[:, None, 2], box[None, :, 2])
+        overlap = (ox > scale) & (oy > scale)
+        np.fill_diagonal(overlap, False)
+        if overlap.any():
+            i, j = np.argwhere(overlap)[0]
+            a, b = subs[i], subs[j]
+            raise ModelError(
+                f"substructures {a.name!r} and {b.name!r} overlap: "
+                f"x {[a.mesh.x0, a.mesh.x1]} y {[a.mesh.y0, a.mesh.y1]} and "
+                f"x {[b.mesh.x0, b.mesh.x1]} y {[b.mesh.y0, b.mesh.y1]}"
+            )
+
+    # -------------------------------------------------------------- interfaces
+    def interfaces(self, subs: list[Substructure]) -> list[Interface]:
+        declared: dict[frozenset[str], str] = {}
+        for d, table in enumerate(self.data.get("interfaces", [])):
+            where = f"interfaces[{d}]"
+            _check_keys(table, {"between", "type"}, where)
+            a, b = _pair(_require(table, "between", where), f"{where}.between")
+            kind = table.get("type", "perfect")
+            if kind != "perfect":
+                raise ModelError(f"{where}.type: unknown interface type {kind!r} (known: perfect)")
+            known = {s.name for s in subs} | {s.body for s in subs}
+            for end in (a, b):
+                if end not in known:
+                    raise ModelError(f"{where}.between: no body or substructure named {end!r}")
+            declared[frozenset((a, b))] = kind
+        scale = 1e-9 * max(max(s.mesh.x1 - s.mesh.x0, s.mesh.y1 - s.mesh.y0) for s in subs)
+        found: list[Interface] = []
+        for i, j in itertools.combinations(range(len(subs)), 2):
+            for side in SIDES:
+                other = _OPPOSITE[side]
+                axis, level, lo, hi = subs[i].mesh.side_line(side)
+                axis_b, level_b, lo_b, hi_b = subs[j].mesh.side_line(other)
+                if abs(level - level_b) > scale:
+                    continue
+                if min(hi, hi_b) - max(lo, lo_b) <= scale:
+                    continue  # touching at a corner at most
+                a, b = subs[i], subs[j]
+                where = f"interface between {a.name!r} ({side} side) and {b.name!r} ({other} side)"
+                if abs(lo - lo_b) > scale or abs(hi - hi_b) > scale:
+                    raise ModelError(
+                        f"{where}: sides do not match: {a.name!r} spans [{lo:g}, {hi:g}] and "
+                        f"{b.name!r} spans [{lo_b:g}, {hi_b:g}] along {'yx'[axis]}; "
+                        "an interface must be a whole side of both substructures"
+                    )
+                na, nb = a.mesh.side_nodes(side), b.mesh.side_nodes(other)
+                if na.size != nb.size or not np.allclose(
+                    a.mesh.nodes[na], b.mesh.nodes[nb], atol=scale
+                ):
+                    raise ModelError(
+                        f"{where}: meshes do not match: {na.size - 1} and {nb.size - 1} "
+                        "elements along the interface (a perfect interface needs matching nodes)"
+                    )
+                kind = "perfect"
+                for key in (frozenset((a.name, b.name)), frozenset((a.body, b.body))):
+                    kind = declared.get(key, kind)
+                found.append(Interface(f"{a.name}|{b.name}", kind,
+                                       (SideRef(i, side), SideRef(j, other))))
+        return found
+
+    # -------------------------------------------------------------- boundary conditions
+    def history(self) -> History:
+        table = dict(self.data.get("history", {}))
+        _check_keys(table, {"factors"}, "history")
+        factors_raw = dict(table.get("factors", {}))
+        if "history" in self.data and not factors_raw:
+            raise ModelError("history.factors: a load history with no steps (no load factors)")
+        factors: dict[str, np.ndarray] = {}
+        n_steps = None
+        for fname, values in factors_raw.items():
+            where = f"history.factors.{fname}"
+            if not isinstance(values, list) or not values:
+                raise ModelError(f"{where}: a load history with no steps (got {values!r})")
+            arr = np.array([self.num(v, f"{where}[{t}]") for t, v in enumerate(values)])
+            if n_steps is not None and arr.size != n_steps:
+                raise ModelError(
+                    f"{where}: {arr.size} steps, but other load factors have {n_steps}"
+                )
+            n_steps = arr.size
+            factors[fname] = arr
+        return History(factors, n_steps or 1)
+
+    def boundaries(
+        self,
+        subs: list[Substructure],
+        bodies: dict[str, tuple[float, ...]],
+        history: History,
+        used: set[tuple[int, str]],
+    ) -> list[Interface]:
+        out: list[Interface] = []
+        names: set[str] = set()
+        for b, table in enumerate(self.data.get("boundary", [])):
+            where = f"boundary[{b}]"
+            _check_keys(table, {"name", "face", "substructure", "side", "type", "value",
+                                "components", "factor"}, where)
+            name = str(table.get("name", f"boundary{b}"))
+            where = f"boundary[{b}] ({name!r})"
+            if name in names:
+                raise ModelError(f"{where}.name: boundary {name!r} is defined twice")
+            names.add(name)
+            kind = _require(table, "type", where)
+            if kind in (DISPLACEMENT, FORCE):
+                kinds = (kind, kind)
+            elif kind == "mixed":
+                kinds = tuple(_pair(_require(table, "components", where), f"{where}.components"))
+                for k in kinds:
+                    if k not in (DISPLACEMENT, FORCE):
+                        raise ModelError(
+                            f"{where}.components: each component is 'displacement' or 'force', "
+                            f"got {k!r}"
+                        )
+            else:
+                raise ModelError(
+                    f"{where}.type: unknown boundary type {kind!r} "
+                    "(known: displacement, force, mixed)"
+                )
+            vx, vy = (self.num(v, f"{where}.value")
+                      for v in _pair(_require(table, "value", where), f"{where}.value"))
+            factor = table.get("factor")
+            if factor is not None and factor not in history.factors:
+                known = ", ".join(sorted(history.factors)) or "none"
+                raise ModelError(
+                    f"{where}.factor: {factor!r} is not a load factor of [history.factors] "
+                    f"(defined: {known})"
+                )
+            condition = BoundaryCondition(name, (kinds[0], kinds[1]), (vx, vy), factor)
+            for ref in self._select_sides(table, where, subs, bodies):
+                key = (ref.substructure, ref.side)
+                if key in used:
+                    raise ModelError(
+                        f"{where}: side {ref.side!r} of {subs[ref.substructure].name!r} already "
+                        "belongs to an interface or another boundary condition"
+                    )
+                used.add(key)
+                out.append(Interface(f"{name}@{subs[ref.substructure].name}", "boundary",
+                                     (ref,), condition))
+        return out
+
+    @staticmethod
+    def _select_sides(
+        table: Mapping[str, Any], where: str, subs: list[Substructure],
+        bodies: dict[str, tuple[float, ...]],
+    ) -> list[SideRef]:
+        if "face" in table:
+            body, _, side = str(table["face"]).partition(".")
+            if body not in bodies:
+                raise ModelError(f"{where}.face: no body named {body!r} in {table['face']!r}")
+            if side not in SIDES:
+                raise ModelError(f"{where}.face: side must be one of {SIDES}, got {side!r}")
+            x0, x1, y0, y1 = bodies[body]
+            level = {"left": x0, "right": x1, "bottom": y0, "top": y1}[side]
+            return [
+                SideRef(i, side) for i, s in enumerate(subs)
+                if s.body == body and abs(s.mesh.side_line(side)[1] - level) <= 1e-9 * (
+                    1.0 + abs(level))
+            ]
+        sub_name = _require(table, "substructure", where)
+        side = _require(table, "side", where)
+        if side not in SIDES:
+            raise ModelError(f"{where}.side: must be one of {SIDES}, got {side!r}")
+        for i, s in enumerate(subs):
+            if s.name == sub_name:
+                return [SideRef(i, side)]
+        raise ModelError(f"{where}.substructure: no substructure named {sub_name!r}")
+
+    # -------------------------------------------------------------- quantities of interest
+    def qois(self, subs: list[Substructure], boundary_names: set[str]) -> list[QuantityOfInterest]:
+        out = []
+        for q, table in enumerate(self.data.get("qoi", [])):
+            where = f"qoi[{q}]"
+            _check_keys(table, {"name", "type", "point", "component", "boundary", "scale"}, where)
+            name = str(_require(table, "name", where))
+            where = f"qoi[{q}] ({name!r})"
+            comp = _require(table, "component", where)
+            if comp not in ("x", "y"):
+                raise ModelError(f"{where}.component: expected 'x' or 'y', got {comp!r}")
+            scale = self.num(table.get("scale", 1.0), f"{where}.scale")
+            kind = _require(table, "type", where)
+            if kind == "displacement":
+                px, py = (self.num(v, f"{where}.point")
+                          for v in _pair(_require(table, "point", where), f"{where}.point"))
+                if not any(s.mesh.contains((px, py)) for s in subs):
+                    raise ModelError(f"{where}.point: {[px, py]} lies in no substructure")
+                out.append(QuantityOfInterest(name, kind, "xy".index(comp), (px, py), None, scale))
+            elif kind == "reaction":
+                bname = _require(table, "boundary", where)
+                if bname not in boundary_names:
+                    raise ModelError(f"{where}.boundary: no boundary named {bname!r}")
+                out.append(QuantityOfInterest(name, kind, "xy".index(comp), None, bname, scale))
+            else:
+                raise ModelError(f"{where}.type: unknown kind {kind!r} (known: displacement, reaction)")
+        return out
+
+    def assembly(self, name: str) -> Assembly:
+        subs, bodies = self.substructures()
+        interfaces = self.interfaces(subs)
+        used = {(ref.substructure, ref.side) for itf in interfaces for ref in itf.sides}
+        history = self.history()
+        boundaries = self.boundaries(subs, bodies, history, used)
+        if not any(DISPLACEMENT in itf.condition.kinds for itf in boundaries if itf.condition):
+            raise ModelError(
+                "boundary: no displacement is prescribed anywhere; the assembly can move as a "
+                "rigid body"
+            )
+        qois = self.qois(subs, {itf.condition.name for itf in boundaries if itf.condition})
+        return Assembly(name, tuple(subs), tuple(interfaces + boundaries), history, tuple(qois),
+                        self.mu)

@@ -1,0 +1,106 @@
+"""Bad input gets a clear error naming the offending field and value."""
+
+import copy
+
+import pytest
+
+import multilatin as ml
+from multilatin.cli import main
+
+GOOD = {
+    "materials": {"steel": {"E": 2e5, "nu": 0.3}},
+    "substructures": [
+        {"name": "a", "x": [0, 10], "y": [0, 10], "elements": [4, 4], "material": "steel"},
+        {"name": "b", "x": [10, 20], "y": [0, 10], "elements": [4, 4], "material": "steel"},
+    ],
+    "boundary": [
+        {"name": "clamp", "substructure": "a", "side": "left", "type": "displacement",
+         "value": [0, 0]},
+        {"name": "pull", "substructure": "b", "side": "right", "type": "force",
+         "value": [1, 0]},
+    ],
+}
+
+
+def spec_with(change):
+    data = copy.deepcopy(GOOD)
+    change(data)
+    return lambda: ml.ModelSpec.from_dict(data)
+
+
+def test_good_model_is_accepted():
+    spec = spec_with(lambda d: None)()
+    assert len(spec.build().interfaces) == 3
+
+
+@pytest.mark.parametrize(
+    ("change", "expected"),
+    [
+        (lambda d: d["substructures"][1].pop("material"),
+         "substructures[1] ('b'): missing field 'material'"),
+        (lambda d: d["substructures"][1].update(material="brass"),
+         "substructures[1] ('b').material: 'brass' is not defined in [materials]"),
+        (lambda d: d["materials"]["steel"].update(E=-2e5),
+         "materials.steel.E: Young's modulus must be > 0, got -200000"),
+        (lambda d: d["materials"]["steel"].update(nu=0.5),
+         "materials.steel.nu: Poisson's ratio must lie in (-1, 0.5), got 0.5"),
+        (lambda d: d["substructures"][1].update(x=[5, 20]),
+         "substructures 'a' and 'b' overlap"),
+        (lambda d: d["substructures"][1].update(y=[0, 5]),
+         "interface between 'a' (right side) and 'b' (left side): sides do not match"),
+        (lambda d: d["substructures"][1].update(elements=[4, 5]),
+         "meshes do not match: 4 and 5 elements along the interface"),
+        (lambda d: d["substructures"][1].update(elements=[4, 0]),
+         "substructures[1] ('b').elements: expected a positive integer, got 0"),
+        (lambda d: d["boundary"][0].update(type="glue"),
+         "boundary[0] ('clamp').type: unknown boundary type 'glue'"),
+        (lambda d: d["boundary"][0].update(side="middle"),
+         "boundary[0] ('clamp').side: must be one of"),
+        (lambda d: d["boundary"][1].update(side="left"),
+         "boundary[1] ('pull'): side 'left' of 'b' already belongs to an interface"),
+        (lambda d: d["boundary"].pop(0),
+         "no displacement is prescribed anywhere"),
+        (lambda d: d["boundary"][1].update(value=[1, "2 * Q"]),
+         "boundary[1] ('pull').value: expression '2 * Q' uses unknown parameter 'Q'"),
+        (lambda d: d["boundary"][1].update(factor="push"),
+         "boundary[1] ('pull').factor: 'push' is not a load factor"),
+        (lambda d: d.update(history={"factors": {}}),
+         "history.factors: a load history with no steps"),
+        (lambda d: d.update(history={"factors": {"push": []}}),
+         "history.factors.push: a load history with no steps"),
+        (lambda d: d.update(qoi=[{"name": "u", "type": "displacement", "point": [50, 0],
+                                   "component": "x"}]),
+         "qoi[0] ('u').point: [50.0, 0.0] lies in no substructure"),
+        (lambda d: d.update(colour="red"), "model: unknown field 'colour'"),
+    ],
+)
+def test_model_errors_name_field_and_value(change, expected):
+    with pytest.raises(ml.ModelError) as info:
+        spec_with(change)()
+    assert expected in str(info.value)
+
+
+def test_unknown_parameter_in_set():
+    model = ml.load_model("b0")
+    with pytest.raises(ml.ModelError, match="unknown parameter 'Q' .*parameters: P"):
+        model.parameters.parse({"Q": 1.0})
+
+
+def test_parameter_outside_its_range():
+    with pytest.raises(ml.ModelError, match="parameter 'P': value -1.0 is outside"):
+        ml.load_model("b0").parameters.parse({"P": -1.0})
+
+
+def test_cli_reports_bad_input_with_exit_status_2(capsys, tmp_path):
+    assert main(["solve", "b0", "--set", "Q=1"]) == 2
+    assert "unknown parameter 'Q'" in capsys.readouterr().err
+    assert main(["solve", "b0", "--set", "P=abc"]) == 2
+    assert "--set 'P=abc': value 'abc' is not a number" in capsys.readouterr().err
+    assert main(["solve", str(tmp_path / "missing.toml")]) == 2
+    assert "no such file and no bundled model" in capsys.readouterr().err
+    bad = tmp_path / "bad.toml"
+    bad.write_text('[materials.steel]\nE = -1\nnu = 0.3\n')
+    assert main(["solve", str(bad)]) == 2
+    assert "materials.steel.E: Young's modulus must be > 0, got -1" in capsys.readouterr().err
+    assert main(["solve", "b0", "--kappa", "-1"]) == 2
+    assert "kappa: the search direction must be > 0, got -1.0" in capsys.readouterr().err
