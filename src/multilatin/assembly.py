@@ -17,6 +17,7 @@ from .parameters import Mu
 
 DISPLACEMENT = "displacement"
 FORCE = "force"
+STOP = "stop"
 COMPONENTS = ("x", "y")
 
 
@@ -64,14 +65,28 @@ class BoundaryCondition:
 
 
 @dataclass(frozen=True)
+class ContactLaw:
+    """Unilateral contact with an initial gap and Coulomb friction (paper §3, figure 6)."""
+
+    friction: float = 0.0
+    gap: float = 0.0
+
+
+@dataclass(frozen=True)
 class Interface:
-    """An interface Γ_EE' between two substructure sides (``perfect``), or between one side
-    and the outside (``boundary``, with its ``condition``)."""
+    """An interface Γ_EE' between two substructure sides (``perfect`` or ``contact``), or
+    between one side and the outside (``boundary``, with its ``condition``; a rigid stop is
+    a boundary with ``kinds = ("stop", "stop")`` and a ``contact`` law)."""
 
     name: str
     kind: str
     sides: tuple[SideRef, ...]
     condition: BoundaryCondition | None = None
+    contact: ContactLaw | None = None
+
+    @property
+    def is_stop(self) -> bool:
+        return self.condition is not None and self.condition.kinds[0] == STOP
 
 
 @dataclass(frozen=True)
@@ -89,8 +104,10 @@ class History:
 
 @dataclass(frozen=True)
 class QuantityOfInterest:
-    """``displacement`` at ``point`` (component), or ``reaction``: the resultant force that a
-    boundary exerts on the structure (component)."""
+    """``displacement`` at ``point`` (component), ``reaction``: the resultant force that a
+    boundary exerts on the structure (component), or ``contact_pressure``: the mean contact
+    pressure on the contact interfaces between two bodies over ``segment`` (a range of the
+    coordinate along the interface). ``step`` (1-based) keeps one load step only."""
 
     name: str
     kind: str
@@ -98,6 +115,9 @@ class QuantityOfInterest:
     point: tuple[float, float] | None = None
     boundary: str | None = None
     scale: float = 1.0
+    step: int | None = None
+    bodies: tuple[str, str] | None = None
+    segment: tuple[float, float] | None = None
 
 
 @dataclass(frozen=True)

@@ -30,7 +30,7 @@ import numpy as np
 import numpy.typing as npt
 import scipy.sparse as sp
 
-from .assembly import DISPLACEMENT, Assembly
+from .assembly import DISPLACEMENT, FORCE, Assembly, Interface
 from .fem.elasticity import FloatArray, IntArray
 
 INTERFACE_ELEMENTS = ("nodal", "edges", "edge-pairs")
@@ -44,6 +44,7 @@ class SideDiscretisation:
     trace: sp.csr_matrix  # (n_points, n_side_nodes): value at point = trace @ nodal values
     weights: FloatArray  # element lengths × thickness (the diagonal of M0)
     coords: FloatArray  # (n_points, 2) element centres (nodes for "nodal")
+    extents: FloatArray  # (n_points, 2) element start/end along the side's coordinate
 
 
 def discretise_side(node_coords: FloatArray, nodes: IntArray, kind: str,
@@ -52,12 +53,16 @@ def discretise_side(node_coords: FloatArray, nodes: IntArray, kind: str,
     xy = node_coords[nodes]
     edge_len = np.linalg.norm(np.diff(xy, axis=0), axis=1)
     n_edges = edge_len.size
+    along = xy[:, int(np.argmax(np.abs(xy[-1] - xy[0])))]  # the coordinate that varies
     if kind == "nodal":
         dual = np.zeros(n_edges + 1)
         dual[:-1] += 0.5 * edge_len
         dual[1:] += 0.5 * edge_len
+        mid = 0.5 * (along[1:] + along[:-1])
+        extents = np.column_stack([np.r_[along[0], mid], np.r_[mid, along[-1]]])
         return SideDiscretisation(nodes, sp.identity(n_edges + 1, format="csr"),
-                                  np.asarray(dual * thickness, dtype=np.float64), xy.copy())
+                                  np.asarray(dual * thickness, dtype=np.float64), xy.copy(),
+                                  extents)
     if kind == "edges":
         group = 1
     elif kind == "edge-pairs":
@@ -74,8 +79,11 @@ def discretise_side(node_coords: FloatArray, nodes: IntArray, kind: str,
     trace = sp.csr_matrix((np.concatenate([share, share]), (rows, cols)),
                           shape=(n_groups, n_edges + 1))
     centres = trace @ xy
+    first = np.r_[0, np.flatnonzero(np.diff(owner)) + 1]
+    last = np.r_[first[1:], n_edges]
+    extents = np.column_stack([along[first], along[last]])
     return SideDiscretisation(nodes, trace, np.asarray(length * thickness, dtype=np.float64),
-                              np.asarray(centres, dtype=np.float64))
+                              np.asarray(centres, dtype=np.float64), extents)
 
 
 @dataclass(frozen=True)
@@ -89,10 +97,18 @@ class InterfacePoints:
     interface: IntArray  # (P,) interface index in ``assembly.interfaces``
     coords: FloatArray  # (P, 2)
     weights: FloatArray  # (P,) diagonal of M0
+    normals: FloatArray  # (P, 2) outward normal of the point's substructure side
+    extents: FloatArray  # (P, 2) element start/end along its side's coordinate
     offsets: IntArray  # (n_sub + 1,) points of substructure s: offsets[s]:offsets[s+1]
     traces: tuple[sp.csr_matrix, ...]  # per substructure: (2 P_s, 2 n_nodes) dof trace T_E
     pairs: tuple[IntArray, IntArray]  # perfect interfaces: point a of E faces point b of E'
-    boundary: IntArray  # (P_b,) points on the outer boundary
+    contact_pairs: tuple[IntArray, IntArray]  # contact interfaces, a on side E (normal n_E)
+    contact_friction: FloatArray  # per contact pair
+    contact_gap: FloatArray
+    stops: IntArray  # points in contact with a rigid obstacle
+    stop_friction: FloatArray
+    stop_gap: FloatArray
+    boundary: IntArray  # (P_b,) points with prescribed displacement / force components
     boundary_is_displacement: npt.NDArray[np.bool_]  # (P_b, 2) prescribed displacement (else force)
     side_points: dict[tuple[int, int], IntArray]  # (interface, side index) -> points
 
@@ -115,6 +131,7 @@ def build_points(assembly: Assembly, kind: str = "nodal") -> InterfacePoints:
             per_sub[ref.substructure].append((i, side_index, disc))
 
     substructure, interface, coords, weights, traces = [], [], [], [], []
+    normals, extents = [], []
     side_points: dict[tuple[int, int], IntArray] = {}
     offsets = [0]
     count = 0
@@ -129,6 +146,10 @@ def build_points(assembly: Assembly, kind: str = "nodal") -> InterfacePoints:
             interface.append(np.full(n, i))
             coords.append(disc.coords)
             weights.append(disc.weights)
+            extents.append(disc.extents)
+            side = assembly.interfaces[i].sides[side_index].side
+            normals.append(np.broadcast_to(assembly.substructures[s].mesh.outward_normal(side),
+                                           (n, 2)))
             scatter = sp.csr_matrix(
                 (np.ones(disc.nodes.size), (np.arange(disc.nodes.size), disc.nodes)),
                 shape=(disc.nodes.size, n_nodes),
@@ -139,17 +160,31 @@ def build_points(assembly: Assembly, kind: str = "nodal") -> InterfacePoints:
         offsets.append(count)
 
     pairs_a, pairs_b, bnd, bnd_disp = [], [], [], []
+    contact_a, contact_b, contact_mu, contact_gap = [], [], [], []
+    stop, stop_mu, stop_gap = [], [], []
     for i, itf in enumerate(assembly.interfaces):
-        if itf.kind == "perfect":
-            pa, pb = side_points[(i, 0)], side_points[(i, 1)]
-            pairs_a.append(pa)
-            pairs_b.append(pb)
+        pa = side_points[(i, 0)]
+        if itf.kind in ("perfect", "contact"):
+            pb = side_points[(i, 1)]
+            if itf.kind == "perfect":
+                pairs_a.append(pa)
+                pairs_b.append(pb)
+            else:
+                assert itf.contact is not None
+                contact_a.append(pa)
+                contact_b.append(pb)
+                contact_mu.append(np.full(pa.size, itf.contact.friction))
+                contact_gap.append(np.full(pa.size, itf.contact.gap))
+        elif itf.is_stop:
+            assert itf.contact is not None
+            stop.append(pa)
+            stop_mu.append(np.full(pa.size, itf.contact.friction))
+            stop_gap.append(np.full(pa.size, itf.contact.gap))
         else:
             assert itf.condition is not None
-            pts = side_points[(i, 0)]
-            bnd.append(pts)
+            bnd.append(pa)
             mask = np.array([k == DISPLACEMENT for k in itf.condition.kinds])
-            bnd_disp.append(np.broadcast_to(mask, (pts.size, 2)))
+            bnd_disp.append(np.broadcast_to(mask, (pa.size, 2)))
 
     def cat(parts: list[np.ndarray], dtype: type = np.int64) -> np.ndarray:
         return np.concatenate(parts).astype(dtype) if parts else np.zeros(0, dtype=dtype)
@@ -159,9 +194,17 @@ def build_points(assembly: Assembly, kind: str = "nodal") -> InterfacePoints:
         interface=cat(interface),
         coords=np.concatenate(coords) if coords else np.zeros((0, 2)),
         weights=cat(weights, np.float64),
+        normals=np.concatenate(normals) if normals else np.zeros((0, 2)),
+        extents=np.concatenate(extents) if extents else np.zeros((0, 2)),
         offsets=np.array(offsets, dtype=np.int64),
         traces=tuple(traces),
         pairs=(cat(pairs_a), cat(pairs_b)),
+        contact_pairs=(cat(contact_a), cat(contact_b)),
+        contact_friction=cat(contact_mu, np.float64),
+        contact_gap=cat(contact_gap, np.float64),
+        stops=cat(stop),
+        stop_friction=cat(stop_mu, np.float64),
+        stop_gap=cat(stop_gap, np.float64),
         boundary=cat(bnd),
         boundary_is_displacement=(np.concatenate(bnd_disp) if bnd_disp
                                   else np.zeros((0, 2), dtype=bool)),
@@ -175,9 +218,9 @@ def macro_basis(assembly: Assembly, points: InterfacePoints) -> sp.csr_matrix:
     Per interface and per component (x, y): a constant and a linear-in-s function, i.e.
     resultant, extension and moment, n_M = 4 for a straight interface; orthonormal in the
     discrete M0 inner product, so Π(F) = Σ (F, e_i) e_i is an exact projector (eq. [5]–[6]).
-    A column takes the same values on both sides of a perfect interface (W̃ᴹ continuous,
-    eq. [10]); components with a prescribed displacement get no column (W̃ᴹ = 0 on ∂₁Ω);
-    prescribed-force components keep theirs (free W̃ᴹ, eq. [11]).
+    A column takes the same values on both sides of a perfect or contact interface (W̃ᴹ
+    continuous, eq. [10]: action–reaction holds across contact too); see
+    ``free_macro_components`` for the outer boundary.
     """
     rows: list[np.ndarray] = []
     cols: list[np.ndarray] = []
@@ -194,9 +237,10 @@ def macro_basis(assembly: Assembly, points: InterfacePoints) -> sp.csr_matrix:
         linear = s - (w @ s) / w.sum()
         norm = np.sqrt(w @ linear**2)
         functions = [const] + ([linear / norm] if norm > 1e-12 * np.abs(s).max() else [])
-        sides = [pts] + ([points.side_points[(i, 1)]] if itf.kind == "perfect" else [])
+        sides = [pts] + ([points.side_points[(i, 1)]] if len(itf.sides) == 2 else [])
+        free = free_macro_components(itf)
         for comp in range(2):
-            if itf.condition is not None and itf.condition.kinds[comp] == DISPLACEMENT:
+            if not free[comp]:
                 continue
             for f in functions:
                 for side_pts in sides:
@@ -210,3 +254,23 @@ def macro_basis(assembly: Assembly, points: InterfacePoints) -> sp.csr_matrix:
         (np.concatenate(vals), (np.concatenate(rows), np.concatenate(cols))),
         shape=(2 * points.n_points, n_cols),
     )
+
+
+def free_macro_components(itf: Interface) -> tuple[bool, bool]:
+    """Which components (x, y) of an interface carry free macro unknowns W̃ᴹ.
+
+    Between two substructures: both. On the outer boundary W̃ᴹ = 0 where the force is
+    unknown to the outside (prescribed displacement; the normal of a rigid stop; its tangent
+    too when it has friction) and free where the force is prescribed (including the zero
+    tangential force of a frictionless stop).
+    """
+    if len(itf.sides) == 2:
+        return True, True
+    assert itf.condition is not None
+    if itf.is_stop:
+        assert itf.contact is not None
+        normal_axis = 0 if itf.sides[0].side in ("left", "right") else 1
+        frictionless = itf.contact.friction == 0.0
+        return (frictionless and normal_axis == 1, frictionless and normal_axis == 0)
+    kinds = itf.condition.kinds
+    return kinds[0] == FORCE, kinds[1] == FORCE

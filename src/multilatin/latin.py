@@ -22,7 +22,7 @@ from .assembly import DISPLACEMENT, Assembly
 from .errors import ModelError, NotConvergedError
 from .fem.elasticity import FloatArray, stiffness_matrix
 from .interfaces import INTERFACE_ELEMENTS, InterfacePoints, build_points, macro_basis
-from .qoi import evaluate_qois
+from .qoi import ContactPressures, evaluate_qois
 from .result import InterfaceFields, SolveResult
 
 log = logging.getLogger(__name__)
@@ -180,7 +180,11 @@ class LatinOperators:
 
 
 class LocalStage:
-    """Closed-form interface behaviours, vectorised over every point and step (paper §3, §4.2)."""
+    """Closed-form interface behaviours, vectorised over every point (paper §3, §4.2).
+
+    Perfect and prescribed interfaces act on all steps at once; contact and stops go through
+    the steps in order, since Coulomb's law acts on increments (method.md §4).
+    """
 
     def __init__(self, assembly: Assembly, points: InterfacePoints, k: FloatArray) -> None:
         self.pairs = points.pairs
@@ -188,11 +192,22 @@ class LocalStage:
         self.boundary = points.boundary
         self.k_boundary = k[points.boundary]
         self.is_displacement = points.boundary_is_displacement
+        self.contact_pairs = points.contact_pairs
+        a = points.contact_pairs[0]
+        self.k_contact = k[a, 0]  # same k on both components
+        self.n_contact = points.normals[a]
+        self.mu_contact = points.contact_friction
+        self.gap_contact = points.contact_gap
+        self.stops = points.stops
+        self.k_stop = k[points.stops, 0]
+        self.n_stop = points.normals[points.stops]
+        self.mu_stop = points.stop_friction
+        self.gap_stop = points.stop_gap
         n_steps = assembly.n_steps
         prescribed = np.zeros((n_steps, points.boundary.size, 2))
         offset = 0
         for i, itf in enumerate(assembly.interfaces):
-            if itf.kind != "boundary":
+            if itf.kind != "boundary" or itf.is_stop:
                 continue
             assert itf.condition is not None
             n = points.side_points[(i, 0)].size
@@ -224,7 +239,58 @@ class LocalStage:
         w, f, data = displacement[:, bd], force[:, bd], self.prescribed
         w_hat[:, bd] = np.where(self.is_displacement, data, w + (data - f) / k)
         f_hat[:, bd] = np.where(self.is_displacement, f + k * (data - w), data)
+        if self.contact_pairs[0].size:
+            self._contact(displacement, force, w_hat, f_hat)
+        if self.stops.size:
+            self._stop(displacement, force, w_hat, f_hat)
         return w_hat, f_hat
+
+    @staticmethod
+    def _coulomb(trial: FloatArray, normal_force: FloatArray, normal: FloatArray,
+                 friction: FloatArray) -> FloatArray:
+        """F̂ on side E from the trial force: contact where N ≤ 0, then stick or slip."""
+        tangential = trial - np.sum(trial * normal, axis=1)[:, None] * normal
+        size = np.linalg.norm(tangential, axis=1)
+        limit = friction * np.abs(normal_force)
+        scale = np.where(size > limit, limit / np.maximum(size, 1e-300), 1.0)
+        contact_force = normal_force[:, None] * normal + scale[:, None] * tangential
+        return np.where((normal_force <= 0.0)[:, None], contact_force, 0.0)
+
+    def _contact(self, displacement: FloatArray, force: FloatArray, w_hat: FloatArray,
+                 f_hat: FloatArray) -> None:
+        """Unilateral contact with gap and Coulomb friction between two substructures
+        (paper §3, eq. [16]–[17]), n outward from E, [x] = x_E' − x_E."""
+        a, b = self.contact_pairs
+        k, n = self.k_contact[:, None], self.n_contact
+        prev_a = np.zeros((a.size, 2))
+        prev_b = np.zeros((a.size, 2))
+        for t in range(displacement.shape[0]):
+            dwa = displacement[t, a] - prev_a  # increments from the local-stage history
+            dwb = displacement[t, b] - prev_b
+            trial = 0.5 * (force[t, a] - force[t, b]) + 0.5 * k * (dwb - dwa)
+            closing = self.gap_contact + np.sum(n * (prev_b - prev_a), axis=1)
+            normal_force = np.sum(n * trial, axis=1) + 0.5 * k[:, 0] * closing
+            fa = self._coulomb(trial, normal_force, n, self.mu_contact)
+            prev_a = prev_a + dwa + (fa - force[t, a]) / k
+            prev_b = prev_b + dwb + (-fa - force[t, b]) / k
+            f_hat[t, a], f_hat[t, b] = fa, -fa
+            w_hat[t, a], w_hat[t, b] = prev_a, prev_b
+
+    def _stop(self, displacement: FloatArray, force: FloatArray, w_hat: FloatArray,
+              f_hat: FloatArray) -> None:
+        """Unilateral contact with a fixed rigid obstacle at distance ``gap`` along n."""
+        p = self.stops
+        k, n = self.k_stop[:, None], self.n_stop
+        prev = np.zeros((p.size, 2))
+        for t in range(displacement.shape[0]):
+            dw = displacement[t, p] - prev
+            trial = force[t, p] - k * dw
+            closing = self.gap_stop - np.sum(n * prev, axis=1)
+            normal_force = np.sum(n * trial, axis=1) + k[:, 0] * closing
+            fp = self._coulomb(trial, normal_force, n, self.mu_stop)
+            prev = prev + dw + (fp - force[t, p]) / k
+            f_hat[t, p] = fp
+            w_hat[t, p] = prev
 
 
 def _norm(weights: FloatArray, k: FloatArray, displacement: FloatArray, force: FloatArray) -> float:
@@ -284,7 +350,13 @@ def solve_latin(assembly: Assembly, options: LatinOptions | None = None,
     t2 = time.perf_counter()
     displacements = ops.recover(w, f)
     reactions = _reactions(assembly, pts, f_hat)
-    qoi = evaluate_qois(assembly, displacements, reactions)
+    a = pts.contact_pairs[0]
+    pressures = ContactPressures(
+        bodies=[_body_pair(assembly, pts, i) for i in pts.interface[a]],
+        extents=pts.extents[a],
+        pressure=-np.sum(f_hat[:, a] * pts.normals[a], axis=2),
+    )
+    qoi = evaluate_qois(assembly, displacements, reactions, pressures)
     t_post = time.perf_counter() - t2
     timings = {
         "setup": t_setup,
@@ -332,3 +404,8 @@ def _reactions(assembly: Assembly, pts: InterfacePoints, force_hat: FloatArray
         name = itf.condition.name
         out[name] = out.get(name, 0.0) + total
     return out
+
+
+def _body_pair(assembly: Assembly, pts: InterfacePoints, interface: int) -> frozenset[str]:
+    itf = assembly.interfaces[interface]
+    return frozenset(assembly.substructures[r.substructure].body for r in itf.sides)

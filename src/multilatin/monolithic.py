@@ -1,51 +1,147 @@
 """Monolithic finite-element reference: the whole assembly on the same meshes, without
-decomposition, by a direct sparse solve (all load steps as columns).
+decomposition.
 
-It shares only the Q4 element kernel with the LATIN solver: nodes of matching substructure
-meshes are merged, boundary conditions are applied by elimination and consistent nodal
-loads, and reactions come from K u − f.
+It shares only the Q4 element kernel with the LATIN solver. Nodes facing each other across
+perfect interfaces are merged (one mesh per body); prescribed displacements are eliminated;
+uniform tractions give consistent nodal loads. Without contact, one sparse solve treats all
+load steps as columns. With contact, the load history is followed step by step by a
+semi-smooth Newton method on the Alart–Curnier augmented Lagrangian, node to node
+(``multilatin.contact_newton``).
 """
 
 from __future__ import annotations
 
 import time
+from dataclasses import dataclass
 
 import numpy as np
 import scipy.sparse as sp
+import scipy.sparse.csgraph as csgraph
 import scipy.sparse.linalg as spla
 
 from .assembly import DISPLACEMENT, Assembly
 from .errors import ModelError
 from .fem.elasticity import FloatArray, IntArray, stiffness_matrix
-from .qoi import evaluate_qois
+from .qoi import ContactPressures, evaluate_qois
 from .result import SolveResult
 
 
-def merge_nodes(assembly: Assembly) -> tuple[FloatArray, list[IntArray]]:
-    """Global node coordinates and, per substructure, the global index of each local node."""
-    coords = np.concatenate([s.mesh.nodes for s in assembly.substructures])
-    size = float(np.ptp(coords, axis=0).max())
-    keys = np.round(coords / (1e-8 * size)).astype(np.int64)
-    _, first, inverse = np.unique(keys, axis=0, return_index=True, return_inverse=True)
-    inverse = inverse.ravel()
-    maps, start = [], 0
-    for s in assembly.substructures:
-        maps.append(inverse[start:start + s.mesh.n_nodes])
-        start += s.mesh.n_nodes
-    return coords[first], maps
+def merge_nodes(assembly: Assembly) -> tuple[int, list[IntArray]]:
+    """Number of global nodes and, per substructure, the global index of each local node;
+    nodes facing each other across perfect interfaces are the same global node."""
+    offsets = np.cumsum([0] + [s.mesh.n_nodes for s in assembly.substructures])
+    rows, cols = [], []
+    for itf in assembly.interfaces:
+        if itf.kind != "perfect":
+            continue
+        a, b = itf.sides
+        mesh_a = assembly.substructures[a.substructure].mesh
+        mesh_b = assembly.substructures[b.substructure].mesh
+        rows.append(offsets[a.substructure] + mesh_a.side_nodes(a.side))
+        cols.append(offsets[b.substructure] + mesh_b.side_nodes(b.side))
+    n = int(offsets[-1])
+    if rows:
+        r, c = np.concatenate(rows), np.concatenate(cols)
+        graph = sp.csr_matrix((np.ones(r.size), (r, c)), shape=(n, n))
+        _, labels = csgraph.connected_components(graph, directed=False)
+    else:
+        labels = np.arange(n)
+    labels = labels.astype(np.int64)
+    return int(labels.max()) + 1, [labels[offsets[s]:offsets[s + 1]]
+                                   for s in range(len(assembly.substructures))]
+
+
+def _dual_lengths(xy: FloatArray) -> FloatArray:
+    edge = np.linalg.norm(np.diff(xy, axis=0), axis=1)
+    dual = np.zeros(xy.shape[0])
+    dual[:-1] += 0.5 * edge
+    dual[1:] += 0.5 * edge
+    return dual
+
+
+@dataclass(frozen=True)
+class ContactSet:
+    """Node-to-node contact pairs of the merged mesh. For a rigid stop ``second`` is −1.
+
+    ``normal`` points out of the first body; ``weight`` is the dual-cell length × thickness;
+    ``extent`` the dual cell along the interface (for mean pressures); ``bodies`` and
+    ``boundary`` name what each pair belongs to.
+    """
+
+    first: IntArray
+    second: IntArray
+    normal: FloatArray
+    friction: FloatArray
+    gap: FloatArray
+    weight: FloatArray
+    extent: FloatArray
+    bodies: list[frozenset[str]]
+    boundary: list[str | None]
+
+    @property
+    def size(self) -> int:
+        return int(self.first.size)
+
+
+def contact_set(assembly: Assembly, maps: list[IntArray]) -> ContactSet:
+    """Contact pairs; a node pair met on two substructure sides (a cross point) is one pair
+    with the weights added."""
+    records: dict[tuple[int, int], list] = {}
+    for itf in assembly.interfaces:
+        if itf.contact is None:
+            continue
+        ref = itf.sides[0]
+        sub = assembly.substructures[ref.substructure]
+        nodes = sub.mesh.side_nodes(ref.side)
+        xy = sub.mesh.nodes[nodes]
+        weight = _dual_lengths(xy) * sub.material.thickness
+        axis = int(np.argmax(np.abs(xy[-1] - xy[0])))
+        mid = 0.5 * (xy[1:, axis] + xy[:-1, axis])
+        lo, hi = np.r_[xy[0, axis], mid], np.r_[mid, xy[-1, axis]]
+        first = maps[ref.substructure][nodes]
+        if len(itf.sides) == 2:
+            other = itf.sides[1]
+            second = maps[other.substructure][
+                assembly.substructures[other.substructure].mesh.side_nodes(other.side)]
+            bodies = frozenset((sub.body, assembly.substructures[other.substructure].body))
+            boundary = None
+        else:
+            second = np.full(nodes.size, -1)
+            bodies = frozenset((sub.body,))
+            assert itf.condition is not None
+            boundary = itf.condition.name
+        normal = sub.mesh.outward_normal(ref.side)
+        for p in range(nodes.size):
+            key = (int(first[p]), int(second[p]))
+            if key in records:
+                rec = records[key]
+                rec[4] += weight[p]
+                rec[5] = (min(rec[5][0], lo[p]), max(rec[5][1], hi[p]))
+            else:
+                records[key] = [normal, itf.contact.friction, itf.contact.gap, bodies,
+                                weight[p], (lo[p], hi[p]), boundary]
+    keys = list(records)
+    vals = list(records.values())
+    return ContactSet(
+        first=np.array([k[0] for k in keys], dtype=np.int64),
+        second=np.array([k[1] for k in keys], dtype=np.int64),
+        normal=np.array([v[0] for v in vals]).reshape(-1, 2),
+        friction=np.array([v[1] for v in vals], dtype=float),
+        gap=np.array([v[2] for v in vals], dtype=float),
+        weight=np.array([v[4] for v in vals], dtype=float),
+        extent=np.array([v[5] for v in vals], dtype=float).reshape(-1, 2),
+        bodies=[v[3] for v in vals],
+        boundary=[v[6] for v in vals],
+    )
 
 
 def solve_monolithic(assembly: Assembly) -> SolveResult:
-    """The reference solution of ``assembly`` (perfect interfaces only)."""
+    """The reference solution of ``assembly``."""
+    from .contact_newton import solve_contact_history
+
     t0 = time.perf_counter()
-    for itf in assembly.interfaces:
-        if itf.kind not in ("perfect", "boundary"):
-            raise ModelError(
-                f"interface {itf.name!r}: the monolithic reference handles perfect interfaces "
-                f"only, not {itf.kind!r}"
-            )
-    nodes, maps = merge_nodes(assembly)
-    n_dofs = 2 * nodes.shape[0]
+    n_nodes, maps = merge_nodes(assembly)
+    n_dofs = 2 * n_nodes
     n_steps = assembly.n_steps
     rows, cols, vals = [], [], []
     for sub, gmap in zip(assembly.substructures, maps, strict=True):
@@ -60,64 +156,84 @@ def solve_monolithic(assembly: Assembly) -> SolveResult:
 
     load = np.zeros((n_dofs, n_steps))
     fixed_value = np.full((n_dofs, n_steps), np.nan)
-    boundary_dofs: dict[str, set[int]] = {}
+    own_load: dict[str, FloatArray] = {}
+    fixed_of: dict[str, set[int]] = {}
     for itf in assembly.interfaces:
-        if itf.condition is None:
-            continue
         cond = itf.condition
+        if cond is None or itf.is_stop:
+            continue
         ref = itf.sides[0]
         sub = assembly.substructures[ref.substructure]
         side = sub.mesh.side_nodes(ref.side)
         gnodes = maps[ref.substructure][side]
         factor = assembly.history.factor(cond.factor)
         # consistent loads of a uniform traction: half of each edge to each of its nodes
-        edge_len = np.linalg.norm(np.diff(sub.mesh.nodes[side], axis=0), axis=1)
-        nodal_len = np.zeros(side.size)
-        nodal_len[:-1] += 0.5 * edge_len
-        nodal_len[1:] += 0.5 * edge_len
-        nodal_len *= sub.material.thickness
+        nodal_len = _dual_lengths(sub.mesh.nodes[side]) * sub.material.thickness
+        mine = own_load.setdefault(cond.name, np.zeros((n_dofs, n_steps)))
         for comp, kind in enumerate(cond.kinds):
             dofs = 2 * gnodes + comp
-            boundary_dofs.setdefault(cond.name, set()).update(dofs.tolist())
             if kind == DISPLACEMENT:
                 fixed_value[dofs] = cond.value[comp] * factor[None, :]
+                fixed_of.setdefault(cond.name, set()).update(dofs.tolist())
             else:
-                np.add.at(load, dofs, nodal_len[:, None] * cond.value[comp] * factor[None, :])
+                contribution = nodal_len[:, None] * cond.value[comp] * factor[None, :]
+                np.add.at(load, dofs, contribution)
+                np.add.at(mine, dofs, contribution)
 
     fixed = ~np.isnan(fixed_value[:, 0])
     free = ~fixed
     u = np.zeros((n_dofs, n_steps))
     u[fixed] = fixed_value[fixed]
-    k_ff = stiffness[free][:, free].tocsc()
-    rhs = load[free] - stiffness[free][:, fixed] @ u[fixed]
-    try:
+    contacts = contact_set(assembly, maps)
+    contact_force = np.zeros((n_dofs, n_steps))
+    iterations = 1
+    if contacts.size == 0:
+        k_ff = stiffness[free][:, free].tocsc()
         factor_ff = spla.splu(k_ff)
-    except RuntimeError:
-        raise ModelError("the assembly is not held against rigid-body motion "
-                         "(singular stiffness)") from None
-    u[free] = factor_ff.solve(rhs)
-    residual = stiffness @ u - load  # reactions: forces the supports exert are −(K u − f)…
-    # … the force a boundary exerts on the structure balances the internal forces: K u − f.
+        if not np.all(np.isfinite(factor_ff.U.diagonal())) or \
+                np.abs(factor_ff.U.diagonal()).min() < 1e-12 * np.abs(factor_ff.U.diagonal()).max():
+            raise ModelError("the assembly is not held against rigid-body motion "
+                             "(singular stiffness)")
+        u[free] = factor_ff.solve(load[free] - stiffness[free][:, fixed] @ u[fixed])
+        multipliers = np.zeros((n_steps, 0, 2))
+    else:
+        young = max(s.material.young * s.material.thickness for s in assembly.substructures)
+        u, contact_force, multipliers, iterations = solve_contact_history(
+            stiffness, load, u, free, contacts, young)
 
+    reaction_field = stiffness @ u - load - contact_force  # support reactions at fixed dofs
     reactions: dict[str, FloatArray] = {}
-    for name, dof_set in boundary_dofs.items():
-        idx = np.array(sorted(dof_set), dtype=np.int64)
-        total = np.zeros((n_steps, 2))
+    for name, mine in own_load.items():
+        total = mine.T.reshape(n_steps, -1, 2).sum(axis=1)
+        idx = np.array(sorted(fixed_of.get(name, set())), dtype=np.int64)
         for comp in range(2):
             sel = idx[idx % 2 == comp]
-            total[:, comp] = residual[sel].sum(axis=0) + load[sel].sum(axis=0)
+            total[:, comp] += reaction_field[sel].sum(axis=0)
         reactions[name] = total
+    for name in {b for b in contacts.boundary if b is not None}:
+        chosen = np.array([b == name for b in contacts.boundary])
+        normal, tangent = contacts.normal[chosen], _tangent(contacts.normal[chosen])
+        lam = multipliers[:, chosen]
+        on_body = -(lam[..., :1] * normal + lam[..., 1:] * tangent)
+        reactions[name] = on_body.sum(axis=1)
+    pair = contacts.second >= 0
+    pressures = ContactPressures(
+        bodies=[b for b, p in zip(contacts.bodies, pair, strict=True) if p],
+        extents=contacts.extent[pair],
+        pressure=multipliers[:, pair, 0] / contacts.weight[pair] if multipliers.size
+        else np.zeros((n_steps, 0)),
+    )
     displacements = {
         sub.name: np.stack([u[2 * gmap], u[2 * gmap + 1]], axis=-1).transpose(1, 0, 2)
         for sub, gmap in zip(assembly.substructures, maps, strict=True)
     }
-    qoi = evaluate_qois(assembly, displacements, reactions)
+    qoi = evaluate_qois(assembly, displacements, reactions, pressures)
     wall = time.perf_counter() - t0
     return SolveResult(
         method="monolithic",
         assembly=assembly,
         converged=True,
-        iterations=1,
+        iterations=iterations,
         indicator=0.0,
         history=np.zeros(1),
         timings={"total": wall},
@@ -125,3 +241,7 @@ def solve_monolithic(assembly: Assembly) -> SolveResult:
         reactions=reactions,
         qoi=qoi,
     )
+
+
+def _tangent(normal: FloatArray) -> FloatArray:
+    return np.column_stack([-normal[:, 1], normal[:, 0]])

@@ -20,8 +20,10 @@ import numpy as np
 from .assembly import (
     DISPLACEMENT,
     FORCE,
+    STOP,
     Assembly,
     BoundaryCondition,
+    ContactLaw,
     History,
     Interface,
     Material,
@@ -281,22 +283,40 @@ class _Builder:
             )
 
     # -------------------------------------------------------------- interfaces
+    def contact_law(self, table: Mapping[str, Any], where: str) -> ContactLaw:
+        friction = self.num(table.get("friction", 0.0), f"{where}.friction")
+        gap = self.num(table.get("gap", 0.0), f"{where}.gap")
+        if friction < 0.0:
+            raise ModelError(f"{where}.friction: the friction coefficient must be >= 0, "
+                             f"got {friction:g}")
+        if gap < 0.0:
+            raise ModelError(f"{where}.gap: the initial gap must be >= 0, got {gap:g}")
+        return ContactLaw(friction, gap)
+
     def interfaces(self, subs: list[Substructure]) -> list[Interface]:
-        declared: dict[frozenset[str], str] = {}
+        declared: dict[frozenset[str], tuple[str, ContactLaw | None, str]] = {}
         for d, table in enumerate(self.data.get("interfaces", [])):
             where = f"interfaces[{d}]"
-            _check_keys(table, {"between", "type"}, where)
+            _check_keys(table, {"between", "type", "friction", "gap"}, where)
             a, b = _pair(_require(table, "between", where), f"{where}.between")
             kind = table.get("type", "perfect")
-            if kind != "perfect":
-                raise ModelError(f"{where}.type: unknown interface type {kind!r} (known: perfect)")
+            if kind not in ("perfect", "contact"):
+                raise ModelError(
+                    f"{where}.type: unknown interface type {kind!r} (known: perfect, contact)")
+            if kind == "perfect" and ({"friction", "gap"} & set(table)):
+                raise ModelError(f"{where}: friction and gap apply to type = 'contact' only")
             known = {s.name for s in subs} | {s.body for s in subs}
             for end in (a, b):
                 if end not in known:
                     raise ModelError(f"{where}.between: no body or substructure named {end!r}")
-            declared[frozenset((a, b))] = kind
+            if a == b:
+                raise ModelError(f"{where}.between: an interface joins two different parts, "
+                                 f"got {a!r} twice")
+            law = self.contact_law(table, where) if kind == "contact" else None
+            declared[frozenset((a, b))] = (kind, law, where)
         scale = 1e-9 * max(max(s.mesh.x1 - s.mesh.x0, s.mesh.y1 - s.mesh.y0) for s in subs)
         found: list[Interface] = []
+        used_declarations: set[frozenset[str]] = set()
         for i, j in itertools.combinations(range(len(subs)), 2):
             for side in SIDES:
                 other = _OPPOSITE[side]
@@ -322,11 +342,19 @@ class _Builder:
                         f"{where}: meshes do not match: {na.size - 1} and {nb.size - 1} "
                         "elements along the interface (a perfect interface needs matching nodes)"
                     )
-                kind = "perfect"
-                for key in (frozenset((a.name, b.name)), frozenset((a.body, b.body))):
-                    kind = declared.get(key, kind)
+                kind, law = "perfect", None
+                for key in (frozenset((a.body, b.body)), frozenset((a.name, b.name))):
+                    if key in declared:
+                        kind, law, _ = declared[key]
+                        used_declarations.add(key)
                 found.append(Interface(f"{a.name}|{b.name}", kind,
-                                       (SideRef(i, side), SideRef(j, other))))
+                                       (SideRef(i, side), SideRef(j, other)), contact=law))
+        for key, (_, _, where) in declared.items():
+            if key not in used_declarations:
+                a, b = sorted(key)
+                raise ModelError(
+                    f"{where}.between: {a!r} and {b!r} do not face each other (they share no side)"
+                )
         return found
 
     # -------------------------------------------------------------- boundary conditions
@@ -363,15 +391,19 @@ class _Builder:
         for b, table in enumerate(self.data.get("boundary", [])):
             where = f"boundary[{b}]"
             _check_keys(table, {"name", "face", "substructure", "side", "type", "value",
-                                "components", "factor"}, where)
+                                "components", "factor", "friction", "gap"}, where)
             name = str(table.get("name", f"boundary{b}"))
             where = f"boundary[{b}] ({name!r})"
             if name in names:
                 raise ModelError(f"{where}.name: boundary {name!r} is defined twice")
             names.add(name)
             kind = _require(table, "type", where)
+            refs = self._select_sides(table, where, subs, bodies)
+            law = None
+            if {"friction", "gap"} & set(table) and kind != STOP:
+                raise ModelError(f"{where}: friction and gap apply to type = 'stop' only")
             if kind in (DISPLACEMENT, FORCE):
-                kinds = (kind, kind)
+                kinds: tuple[str, ...] = (kind, kind)
             elif kind == "mixed":
                 kinds = tuple(_pair(_require(table, "components", where), f"{where}.components"))
                 for k in kinds:
@@ -380,10 +412,19 @@ class _Builder:
                             f"{where}.components: each component is 'displacement' or 'force', "
                             f"got {k!r}"
                         )
+            elif kind == "wall":
+                # smooth wall: normal displacement prescribed, tangential force zero
+                normal_axis = 0 if refs and refs[0].side in ("left", "right") else 1
+                kinds = (DISPLACEMENT, FORCE) if normal_axis == 0 else (FORCE, DISPLACEMENT)
+                table = {**table, "value": table.get("value", [0.0, 0.0])}
+            elif kind == STOP:
+                kinds = (STOP, STOP)
+                law = self.contact_law(table, where)
+                table = {**table, "value": [0.0, 0.0]}
             else:
                 raise ModelError(
                     f"{where}.type: unknown boundary type {kind!r} "
-                    "(known: displacement, force, mixed)"
+                    "(known: displacement, force, mixed, wall, stop)"
                 )
             vx, vy = (self.num(v, f"{where}.value")
                       for v in _pair(_require(table, "value", where), f"{where}.value"))
@@ -395,7 +436,9 @@ class _Builder:
                     f"(defined: {known})"
                 )
             condition = BoundaryCondition(name, (kinds[0], kinds[1]), (vx, vy), factor)
-            for ref in self._select_sides(table, where, subs, bodies):
+            if not refs:
+                raise ModelError(f"{where}.face: no substructure side lies on {table['face']!r}")
+            for ref in refs:
                 key = (ref.substructure, ref.side)
                 if key in used:
                     raise ModelError(
@@ -404,7 +447,7 @@ class _Builder:
                     )
                 used.add(key)
                 out.append(Interface(f"{name}@{subs[ref.substructure].name}", "boundary",
-                                     (ref,), condition))
+                                     (ref,), condition, law))
         return out
 
     @staticmethod
@@ -435,31 +478,57 @@ class _Builder:
         raise ModelError(f"{where}.substructure: no substructure named {sub_name!r}")
 
     # -------------------------------------------------------------- quantities of interest
-    def qois(self, subs: list[Substructure], boundary_names: set[str]) -> list[QuantityOfInterest]:
+    def qois(self, subs: list[Substructure], boundary_names: set[str],
+             history: History) -> list[QuantityOfInterest]:
         out = []
         for q, table in enumerate(self.data.get("qoi", [])):
             where = f"qoi[{q}]"
-            _check_keys(table, {"name", "type", "point", "component", "boundary", "scale"}, where)
+            _check_keys(table, {"name", "type", "point", "component", "boundary", "scale",
+                                "step", "between", "segment"}, where)
             name = str(_require(table, "name", where))
             where = f"qoi[{q}] ({name!r})"
+            scale = self.num(table.get("scale", 1.0), f"{where}.scale")
+            step = table.get("step")
+            if step is not None:
+                if isinstance(step, bool) or not isinstance(step, int) \
+                        or not 1 <= step <= history.n_steps:
+                    raise ModelError(f"{where}.step: expected a step in 1..{history.n_steps}, "
+                                     f"got {step!r}")
+            kind = _require(table, "type", where)
+            if kind == "contact_pressure":
+                a, b = (str(v) for v in _pair(_require(table, "between", where),
+                                              f"{where}.between"))
+                bodies = {s.body for s in subs}
+                for end in (a, b):
+                    if end not in bodies:
+                        raise ModelError(f"{where}.between: no body named {end!r}")
+                lo, hi = (self.num(v, f"{where}.segment")
+                          for v in _pair(_require(table, "segment", where), f"{where}.segment"))
+                if not hi > lo:
+                    raise ModelError(f"{where}.segment: expected [start, end] with end > start, "
+                                     f"got {[lo, hi]}")
+                out.append(QuantityOfInterest(name, kind, 0, scale=scale, step=step,
+                                              bodies=(a, b), segment=(lo, hi)))
+                continue
             comp = _require(table, "component", where)
             if comp not in ("x", "y"):
                 raise ModelError(f"{where}.component: expected 'x' or 'y', got {comp!r}")
-            scale = self.num(table.get("scale", 1.0), f"{where}.scale")
-            kind = _require(table, "type", where)
             if kind == "displacement":
                 px, py = (self.num(v, f"{where}.point")
                           for v in _pair(_require(table, "point", where), f"{where}.point"))
                 if not any(s.mesh.contains((px, py)) for s in subs):
                     raise ModelError(f"{where}.point: {[px, py]} lies in no substructure")
-                out.append(QuantityOfInterest(name, kind, "xy".index(comp), (px, py), None, scale))
+                out.append(QuantityOfInterest(name, kind, "xy".index(comp), (px, py), None, scale,
+                                              step))
             elif kind == "reaction":
                 bname = _require(table, "boundary", where)
                 if bname not in boundary_names:
                     raise ModelError(f"{where}.boundary: no boundary named {bname!r}")
-                out.append(QuantityOfInterest(name, kind, "xy".index(comp), None, bname, scale))
+                out.append(QuantityOfInterest(name, kind, "xy".index(comp), None, bname, scale,
+                                              step))
             else:
-                raise ModelError(f"{where}.type: unknown kind {kind!r} (known: displacement, reaction)")
+                raise ModelError(f"{where}.type: unknown kind {kind!r} "
+                                 "(known: displacement, reaction, contact_pressure)")
         return out
 
     def assembly(self, name: str) -> Assembly:
@@ -473,6 +542,7 @@ class _Builder:
                 "boundary: no displacement is prescribed anywhere; the assembly can move as a "
                 "rigid body"
             )
-        qois = self.qois(subs, {itf.condition.name for itf in boundaries if itf.condition})
+        qois = self.qois(subs, {itf.condition.name for itf in boundaries if itf.condition},
+                         history)
         return Assembly(name, tuple(subs), tuple(interfaces + boundaries), history, tuple(qois),
                         self.mu)

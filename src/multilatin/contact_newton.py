@@ -1,0 +1,148 @@
+"""Reference solver for frictional contact: a semi-smooth Newton method on the Alart–Curnier
+augmented Lagrangian, node to node, incremental over the load history.
+
+An algorithm independent of LATIN (no decomposition, no search directions): per step,
+unknowns are the free displacements u and, per contact pair, the normal and tangential
+forces λ = (λ_N, λ_T) that the first body exerts on the second. With [u] = u₂ − u₁,
+g = j + n·[u] (gap) and s = t·([u] − [u]ᵗ⁻¹) (slip increment):
+
+    K u = f + Gᵀ λ
+    λ_N = max(0, λ_N − r g)                                  (unilateral contact)
+    λ_T = proj_[−μ λ̄_N, μ λ̄_N](λ_T − r s),  λ̄_N = max(0, λ_N − r g)   (Coulomb)
+
+The generalised Jacobian is exact on each active set but for two tiny regularisations, of
+the Jacobian only (the residual, hence the converged equations, stay exact): floating bodies
+(B1's centre block at μ = 0 during the preload) and redundant constraints (a corner node
+against a stop and sticking on a face held by a wall: unique displacements, indeterminate
+multipliers).
+"""
+
+from __future__ import annotations
+
+import logging
+
+import numpy as np
+import numpy.typing as npt
+import scipy.sparse as sp
+import scipy.sparse.linalg as spla
+
+from .errors import NotConvergedError
+from .fem.elasticity import FloatArray
+from .monolithic import ContactSet
+
+log = logging.getLogger(__name__)
+
+
+def _jump_operator(contacts: ContactSet, n_dofs: int) -> sp.csr_matrix:
+    """G (2 n_pairs × n_dofs): rows n·[u] and t·[u] of each pair."""
+    n = contacts.normal
+    t = np.column_stack([-n[:, 1], n[:, 0]])
+    rows, cols, vals = [], [], []
+    for row_dir, direction in ((0, n), (1, t)):
+        for comp in range(2):
+            pair_rows = 2 * np.arange(contacts.size) + row_dir
+            rows.append(pair_rows)
+            cols.append(2 * contacts.first + comp)
+            vals.append(-direction[:, comp])
+            has_second = contacts.second >= 0
+            rows.append(pair_rows[has_second])
+            cols.append(2 * contacts.second[has_second] + comp)
+            vals.append(direction[has_second, comp])
+    return sp.csr_matrix((np.concatenate(vals), (np.concatenate(rows), np.concatenate(cols))),
+                         shape=(2 * contacts.size, n_dofs))
+
+
+def solve_contact_history(
+    stiffness: sp.csr_matrix,
+    load: FloatArray,
+    u_fixed: FloatArray,
+    free: npt.NDArray[np.bool_],
+    contacts: ContactSet,
+    young: float,
+    tol: float = 1e-10,
+    max_newton: int = 60,
+) -> tuple[FloatArray, FloatArray, FloatArray, int]:
+    """Displacements (n_dofs, n_steps), contact nodal forces, multipliers (n_steps, pairs, 2)
+    and the total number of Newton iterations."""
+    n_dofs, n_steps = load.shape
+    jump = _jump_operator(contacts, n_dofs)
+    jump_free = jump[:, free].tocsr()
+    k_ff = stiffness[free][:, free].tocsr()
+    k_fc = stiffness[free][:, ~free].tocsr()
+    n_free = int(free.sum())
+    n_pairs = contacts.size
+    r = young  # augmentation parameter, a stiffness per unit thickness
+    mu = contacts.friction
+    regularisation = sp.diags(1e-10 * k_ff.diagonal())
+    scale_force = max(float(np.abs(load).max()), 1.0)
+
+    u = u_fixed.copy()
+    multipliers = np.zeros((n_steps, n_pairs, 2))
+    contact_force = np.zeros((n_dofs, n_steps))
+    lam = np.zeros(2 * n_pairs)
+    u_free = np.zeros(n_free)
+    jump_prev = np.zeros(n_pairs)  # tangential jump t·[u] at the previous step
+    total_iterations = 0
+    for step in range(n_steps):
+        rhs = load[free, step] - k_fc @ u_fixed[~free, step]
+        jump_fixed = jump[:, ~free] @ u_fixed[~free, step]
+        converged = False
+        for newton in range(max_newton):
+            total_iterations += 1
+            jumps = jump_free @ u_free + jump_fixed
+            gap = contacts.gap + jumps[0::2]
+            slip = jumps[1::2] - jump_prev
+            lam_n, lam_t = lam[0::2], lam[1::2]
+            normal_trial = lam_n - r * gap
+            active = normal_trial > 0.0
+            bound = mu * np.where(active, normal_trial, 0.0)
+            tangent_trial = lam_t - r * slip
+            stick = active & (bound > 0.0) & (np.abs(tangent_trial) <= bound)
+            slip_mask = active & ~stick
+            sign = np.sign(tangent_trial)
+
+            c_n = np.where(active, r * gap, lam_n)
+            c_t = np.where(stick, r * slip,
+                           np.where(slip_mask, lam_t - bound * sign, lam_t))
+            res_eq = k_ff @ u_free - rhs - jump_free.T @ lam
+            res_c = np.empty(2 * n_pairs)
+            res_c[0::2], res_c[1::2] = c_n, c_t
+            size_eq = np.abs(res_eq).max() if n_free else 0.0
+            size_c = np.abs(res_c).max() / r if n_pairs else 0.0
+            if newton > 0 and size_eq < tol * scale_force and size_c < tol * scale_force / r * 1e3:
+                converged = True
+                break
+            # generalised Jacobian, rows: equilibrium, C_N, C_T
+            g_n = jump_free[0::2]
+            g_t = jump_free[1::2]
+            dn_du = sp.diags(np.where(active, r, 0.0)) @ g_n
+            # −δ on the diagonal of active constraint rows (Jacobian only): redundant
+            # constraints (a corner against a stop and a sticking face) keep it invertible
+            dn_dln = sp.diags(np.where(active, -1e-10, 1.0))
+            dt_du = (sp.diags(np.where(stick, r, 0.0)) @ g_t
+                     + sp.diags(np.where(slip_mask, mu * sign * r, 0.0)) @ g_n)
+            dt_dln = sp.diags(np.where(slip_mask, -mu * sign, 0.0))
+            dt_dlt = sp.diags(np.where(stick, -1e-10, 1.0))
+            zero = sp.csr_matrix((n_pairs, n_pairs))
+            order = np.argsort(np.r_[np.arange(0, 2 * n_pairs, 2), np.arange(1, 2 * n_pairs, 2)])
+            jacobian = sp.bmat([
+                [k_ff + regularisation, -jump_free[0::2].T, -jump_free[1::2].T],
+                [dn_du, dn_dln, zero],
+                [dt_du, dt_dln, dt_dlt],
+            ], format="csc")
+            residual = np.r_[res_eq, c_n, c_t]
+            delta = spla.splu(jacobian).solve(-residual)
+            u_free = u_free + delta[:n_free]
+            lam_split = delta[n_free:]
+            lam = lam + np.r_[lam_split[:n_pairs], lam_split[n_pairs:]][order]
+        if not converged:
+            raise NotConvergedError(
+                f"contact reference: semi-smooth Newton did not converge at load step "
+                f"{step + 1} within {max_newton} iterations", None)
+        u[free, step] = u_free
+        multipliers[step, :, 0] = lam[0::2]
+        multipliers[step, :, 1] = lam[1::2]
+        contact_force[:, step] = jump.T @ lam
+        jump_prev = (jump @ u[:, step])[1::2]
+        log.debug("contact step %d: %d Newton iterations", step + 1, newton)
+    return u, contact_force, multipliers, total_iterations
