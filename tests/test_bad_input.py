@@ -104,3 +104,61 @@ def test_cli_reports_bad_input_with_exit_status_2(capsys, tmp_path):
     assert "materials.steel.E: Young's modulus must be > 0, got -1" in capsys.readouterr().err
     assert main(["solve", "b0", "--kappa", "-1"]) == 2
     assert "kappa: the search direction must be > 0, got -1.0" in capsys.readouterr().err
+
+
+CONTACT = {
+    "materials": {"steel": {"E": 2e5, "nu": 0.3}},
+    "bodies": [
+        {"name": "low", "x": [0, 10], "y": [0, 10], "elements": [4, 4], "material": "steel"},
+        {"name": "high", "x": [0, 10], "y": [10, 20], "elements": [4, 4], "material": "steel"},
+        {"name": "side", "x": [20, 30], "y": [0, 10], "elements": [4, 4], "material": "steel"},
+    ],
+    "interfaces": [{"between": ["low", "high"], "type": "contact", "friction": 0.2,
+                    "gap": 0.0}],
+    "history": {"factors": {"P": [1.0, 2.0]}},
+    "boundary": [
+        {"name": "clamp", "face": "low.bottom", "type": "displacement", "value": [0, 0]},
+        {"name": "clamp2", "face": "side.bottom", "type": "displacement", "value": [0, 0]},
+        {"name": "press", "face": "high.top", "type": "force", "value": [0, -1],
+         "factor": "P"},
+        {"name": "stop", "face": "high.right", "type": "stop", "gap": 0.01},
+    ],
+}
+
+
+def contact_with(change):
+    data = copy.deepcopy(CONTACT)
+    change(data)
+    return lambda: ml.ModelSpec.from_dict(data)
+
+
+def test_good_contact_model_is_accepted():
+    assembly = contact_with(lambda d: None)().build()
+    assert {i.kind for i in assembly.interfaces} == {"contact", "boundary"}
+
+
+@pytest.mark.parametrize(
+    ("change", "expected"),
+    [
+        (lambda d: d["interfaces"][0].update(friction=-0.1),
+         "interfaces[0].friction: the friction coefficient must be >= 0, got -0.1"),
+        (lambda d: d["interfaces"][0].update(gap=-0.01),
+         "interfaces[0].gap: the initial gap must be >= 0, got -0.01"),
+        (lambda d: d["boundary"][3].update(gap=-1),
+         "boundary[3] ('stop').gap: the initial gap must be >= 0, got -1"),
+        (lambda d: d["boundary"][3].update(friction=-1),
+         "boundary[3] ('stop').friction: the friction coefficient must be >= 0, got -1"),
+        (lambda d: d["history"]["factors"].update(P=[]),
+         "history.factors.P: a load history with no steps"),
+        (lambda d: d["interfaces"].append({"between": ["low", "side"], "type": "contact"}),
+         "interfaces[1].between: 'low' and 'side' do not face each other"),
+        (lambda d: d["interfaces"][0].update(type="glue"),
+         "interfaces[0].type: unknown interface type 'glue'"),
+        (lambda d: d["interfaces"][0].update(type="perfect"),
+         "interfaces[0]: friction and gap apply to type = 'contact' only"),
+    ],
+)
+def test_contact_errors_name_field_and_value(change, expected):
+    with pytest.raises(ml.ModelError) as info:
+        contact_with(change)()
+    assert expected in str(info.value)

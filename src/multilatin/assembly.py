@@ -137,6 +137,12 @@ class Assembly:
     def n_dofs(self) -> int:
         return sum(2 * s.mesh.n_nodes for s in self.substructures)
 
+    def body_box(self, body: str) -> tuple[float, float, float, float]:
+        """``(xmin, xmax, ymin, ymax)`` of the substructures of ``body``."""
+        meshes = [s.mesh for s in self.substructures if s.body == body]
+        return (min(m.x0 for m in meshes), max(m.x1 for m in meshes),
+                min(m.y0 for m in meshes), max(m.y1 for m in meshes))
+
     def substructure_index(self, name: str) -> int:
         for i, sub in enumerate(self.substructures):
             if sub.name == name:

@@ -33,7 +33,9 @@ class LatinOptions:
     """Discretisation and solver choices (arguments, not model parameters).
 
     kappa: search direction k = κ E / L per interface (E: mean Young's modulus of the two
-        sides, L: interface length); the converged answer does not depend on it.
+        sides, L: the smaller side of the body the interface bounds, so that splitting a
+        body into more substructures keeps the same k, measured best in
+        ``benchmarks/b1_search_direction.py``); the converged answer does not depend on it.
     tol: stop when the indicator η (paper §4.3) drops below ``tol``.
     max_iter: iteration cap; reaching it without η < tol is a failure, not an answer.
     relaxation: ω in s ← ω s_new + (1 − ω) s_old after each linear stage (method.md §4:
@@ -44,9 +46,9 @@ class LatinOptions:
     """
 
     kappa: float = 0.5
-    tol: float = 1e-6
+    tol: float = 1e-5
     max_iter: int = 1000
-    relaxation: float = 0.8
+    relaxation: float = 0.9
     macro: bool = True
     interface_elements: str = "nodal"
     dirichlet_stiffening: float = 10.0
@@ -122,9 +124,8 @@ class LatinOperators:
         for i, itf in enumerate(self.assembly.interfaces):
             subs = [self.assembly.substructures[r.substructure] for r in itf.sides]
             young = float(np.mean([s.material.young for s in subs]))
-            mesh = subs[0].mesh
-            _, _, lo, hi = mesh.side_line(itf.sides[0].side)
-            value = opts.kappa * young / (hi - lo)
+            x0, x1, y0, y1 = self.assembly.body_box(subs[0].body)
+            value = opts.kappa * young / min(x1 - x0, y1 - y0)
             for side_index in range(len(itf.sides)):
                 k[pts.side_points[(i, side_index)]] = value
             if itf.condition is not None:

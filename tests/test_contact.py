@@ -1,0 +1,117 @@
+"""Frictional contact over a load history (B1) against the independent semi-smooth Newton
+reference, the contact and Coulomb conditions, and independence of the search direction."""
+
+import numpy as np
+import pytest
+
+import multilatin as ml
+
+TIGHT = ml.LatinOptions(tol=1e-8, max_iter=5000)
+CASES = [(0.0, 0.0), (0.1, 0.3), (0.35, 0.25), (0.6, 0.6)]
+
+
+@pytest.fixture(scope="module")
+def b1():
+    return ml.load_model("b1")
+
+
+@pytest.fixture(scope="module")
+def solved(b1):
+    out = {}
+    for mu1, mu2 in CASES:
+        mu = {"mu1": mu1, "mu2": mu2}
+        out[(mu1, mu2)] = (b1.solve(mu, options=TIGHT), b1.reference(mu))
+    return out
+
+
+@pytest.mark.parametrize("case", CASES)
+def test_latin_matches_the_newton_reference(solved, case):
+    latin, reference = solved[case]
+    r_ref = reference.qoi["R_stop"]
+    tolerance = 1.0 if r_ref < 200 else 0.005 * r_ref
+    assert abs(latin.qoi["R_stop"] - r_ref) <= tolerance
+    u_latin, u_ref = np.array(latin.qoi["u_A"]), np.array(reference.qoi["u_A"])
+    # frictionless: the centre block floats during the preload (steps 1-5), u_A is not unique
+    first = 5 if case == (0.0, 0.0) else 0
+    assert np.abs(u_latin - u_ref)[first:].max() <= 0.01 * np.abs(u_ref).max()
+    p_latin, p_ref = np.array(latin.qoi["p_B"]), np.array(reference.qoi["p_B"])
+    assert np.abs(p_latin - p_ref).max() <= 0.01 * np.abs(p_ref).max()
+
+
+def test_frictionless_stop_carries_the_whole_push(solved):
+    latin, reference = solved[(0.0, 0.0)]
+    assert latin.qoi["R_stop"] == pytest.approx(1500.0, rel=1e-4)
+    assert reference.qoi["R_stop"] == pytest.approx(1500.0, rel=1e-4)
+    assert latin.qoi["u_A"][-1] == pytest.approx(0.04, rel=1e-3)  # against the stop
+
+
+def test_rigid_estimate_and_known_values(solved):
+    """Order of magnitude against the rigid estimate max(0, 1500 − 2500 (μ1 + μ2)) and the
+    values two external finite-element codes gave (method.md: 531.0 N, 41.7 N)."""
+    assert solved[(0.1, 0.3)][0].qoi["R_stop"] == pytest.approx(531.0, abs=1.0)
+    assert solved[(0.35, 0.25)][0].qoi["R_stop"] == pytest.approx(41.7, abs=0.5)
+    assert solved[(0.6, 0.6)][0].qoi["R_stop"] == pytest.approx(0.0, abs=1e-6)
+
+
+@pytest.mark.parametrize("case", CASES)
+def test_contact_and_coulomb_conditions_hold_at_convergence(solved, case):
+    """On the admissible fields s (linear stage) at every contact point and step: no
+    penetration, no tension, |F_T| ≤ μ|F_N|, complementarity, and slip along the friction
+    force on E (the friction on E' opposes its slip)."""
+    latin, _ = solved[case]
+    itf = latin.interface
+    assembly = latin.assembly
+    force_scale = 50.0  # MPa: the loads
+    disp_scale = 0.05  # mm: the displacements
+    for i, interface in enumerate(assembly.interfaces):
+        if interface.kind != "contact":
+            continue
+        mu = interface.contact.friction
+        pts = np.flatnonzero(itf.interface == i)
+        subs = itf.substructure[pts]
+        a = pts[subs == interface.sides[0].substructure]
+        b = pts[subs == interface.sides[1].substructure]
+        n = assembly.substructures[interface.sides[0].substructure].mesh.outward_normal(
+            interface.sides[0].side)
+        t = np.array([-n[1], n[0]])
+        jump = itf.displacement[:, b] - itf.displacement[:, a]
+        gap = interface.contact.gap + jump @ n
+        f_n = itf.force[:, a] @ n
+        f_t = itf.force[:, a] @ t
+        assert gap.min() >= -1e-5 * disp_scale
+        assert f_n.max() <= 1e-5 * force_scale
+        assert np.abs(itf.force[:, a] + itf.force[:, b]).max() <= 1e-5 * force_scale
+        assert np.abs(gap * f_n).max() <= 1e-5 * disp_scale * force_scale
+        assert (np.abs(f_t) - mu * np.abs(f_n)).max() <= 1e-5 * force_scale
+        slip = np.diff(np.vstack([np.zeros((1, a.size)), jump @ t]), axis=0)
+        sliding = np.abs(slip) > 1e-4 * disp_scale
+        if mu > 0 and sliding.any():
+            assert np.all(f_t[sliding] * slip[sliding] >= 0)
+            assert np.allclose(np.abs(f_t[sliding]), mu * np.abs(f_n[sliding]),
+                               atol=1e-4 * force_scale)
+
+
+def test_answer_does_not_depend_on_search_direction(b1, solved):
+    mu = {"mu1": 0.1, "mu2": 0.3}
+    base = solved[(0.1, 0.3)][0].qoi["R_stop"]
+    for kappa in (0.25, 1.0):
+        other = b1.solve(mu, options=ml.LatinOptions(kappa=kappa, tol=1e-8, max_iter=5000))
+        assert other.qoi["R_stop"] == pytest.approx(base, rel=1e-4)
+        np.testing.assert_allclose(other.qoi["u_A"], solved[(0.1, 0.3)][0].qoi["u_A"],
+                                   atol=1e-4 * 0.04)
+
+
+@pytest.mark.parametrize("mu", [(0.1, 0.3), (0.35, 0.25)])
+def test_decompositions_of_the_same_mesh_agree(solved, mu):
+    """b1, b1-4 and b1-9 are the same mesh decomposed differently."""
+    base = solved[mu][0].qoi["R_stop"]
+    for name in ("b1-4", "b1-9"):
+        other = ml.load_model(name).solve({"mu1": mu[0], "mu2": mu[1]}, options=TIGHT)
+        assert abs(other.qoi["R_stop"] - base) <= 1e-3 * max(base, 1.0)
+
+
+def test_default_tolerance_gives_r_stop_within_0_1_percent(b1, solved):
+    """The default tolerance was chosen from docs/tolerance.md; check one case."""
+    default = b1.solve({"mu1": 0.1, "mu2": 0.3})
+    assert default.qoi["R_stop"] == pytest.approx(solved[(0.1, 0.3)][0].qoi["R_stop"],
+                                                  rel=1e-3)
