@@ -63,3 +63,39 @@ def test_console_script_is_installed():
     out = subprocess.run([sys.executable, "-m", "multilatin.cli", "models"],
                          capture_output=True, text=True, check=True).stdout
     assert out.startswith("b0:")
+
+
+def test_b1_figures_and_reference_overlay(tmp_path, capsys):
+    status = main(["solve", "b1", "--set", "mu1=0.1", "--set", "mu2=0.3", "--json",
+                   "--with-reference", "--out", str(tmp_path)])
+    data = json.loads(capsys.readouterr().out)
+    assert status == 0
+    assert len(data["qoi"]["u_A"]) == 15 and len(data["qoi"]["p_B"]) == 15
+    assert isinstance(data["qoi"]["R_stop"], float)
+    assert data["qoi"]["R_stop"] == pytest.approx(data["reference"]["qoi"]["R_stop"], rel=5e-3)
+    for name in ("deformed.png", "history.png", "convergence.png"):
+        assert (tmp_path / name).stat().st_size > 10_000
+    assert (tmp_path / "vtk" / "b1.pvd").read_text().count("<DataSet") == 3 * 15
+
+
+def test_contact_status_partitions_the_contact_points():
+    """With μ1 = μ2 = 0.6 friction holds the centre block (R_stop = 0): the lower interface
+    sticks everywhere in the last push step (micro-slip only near the wall-held corner of
+    the upper one); with μ = 0 every contact point slides."""
+    import multilatin as ml
+    from multilatin.plots import contact_status
+
+    model = ml.load_model("b1")
+    for mu, expect_slip in ((0.6, False), (0.0, True)):
+        result = model.solve({"mu1": mu, "mu2": mu})
+        status = contact_status(result, step=14)
+        total = sum(len(v) for v in status.values())
+        frictional = [i for i in result.assembly.interfaces if i.kind == "contact"]
+        n_points = sum(result.assembly.substructures[i.sides[0].substructure].mesh.nx + 1
+                       for i in frictional) + 25  # + the stop's side
+        assert total == n_points
+        lower = status["slip"][np.isclose(status["slip"][:, 1], 50.0)]
+        if expect_slip:
+            assert len(status["stick"]) == 0 and len(lower) >= 25  # + the stop corner
+        else:
+            assert len(lower) == 0 and len(status["stick"]) > 10 * len(status["slip"])

@@ -18,6 +18,7 @@ from .latin import LatinOptions
 from .model import Model, bundled_models, load_model
 from .output import write_result
 from .parameters import parse_assignments
+from .plots import plot_histories
 from .result import SolveResult
 
 EXIT_BAD_INPUT = 2
@@ -73,6 +74,8 @@ def build_parser() -> argparse.ArgumentParser:
     solve = sub.add_parser("solve", help="solve a model with the LATIN micro-macro solver")
     _add_model_arguments(solve)
     _add_latin_arguments(solve)
+    solve.add_argument("--with-reference", action="store_true",
+                       help="also solve monolithically; report both and overlay the histories")
     ref = sub.add_parser("reference", help="solve a model monolithically (reference)")
     _add_model_arguments(ref)
     sub.add_parser("models", help="list the bundled models")
@@ -81,23 +84,34 @@ def build_parser() -> argparse.ArgumentParser:
     return parser
 
 
-def _report(result: SolveResult, args: argparse.Namespace) -> None:
+def _report(result: SolveResult, args: argparse.Namespace,
+            reference: SolveResult | None = None) -> None:
     if args.out is not None:
         for path in write_result(result, args.out):
             log.info("wrote %s", path)
+        if reference is not None:
+            plot_histories({"LATIN": result, "monolithic reference": reference},
+                           args.out / "history.png")
     if args.json:
-        print(json.dumps(result.to_json_dict()))
+        data = result.to_json_dict()
+        if reference is not None:
+            data["reference"] = {"qoi": reference.qoi, "wall_s": reference.wall_s}
+        print(json.dumps(data))
         return
     status = "converged" if result.converged else "NOT CONVERGED"
     print(f"{result.assembly.name} ({result.method}): {status}, {result.iterations} iterations, "
           f"indicator {result.indicator:.2e}, {result.wall_s:.3f} s")
     print("parameters: " + ", ".join(f"{k} = {v:g}" for k, v in result.assembly.mu.items()))
-    for name, value in result.qoi.items():
-        if isinstance(value, list):
-            shown = ", ".join(f"{v:.6g}" for v in value)
-            print(f"  {name} = [{shown}]")
-        else:
-            print(f"  {name} = {value:.9g}")
+    if not result.converged:
+        print("  (quantities of interest withheld: the iteration did not converge)")
+        return
+    for label, res in [("", result)] + ([("reference ", reference)] if reference else []):
+        for name, value in res.qoi.items():
+            if isinstance(value, list):
+                shown = ", ".join(f"{v:.6g}" for v in value)
+                print(f"  {label}{name} = [{shown}]")
+            else:
+                print(f"  {label}{name} = {value:.9g}")
     if args.out is not None:
         print(f"results written to {args.out}")
 
@@ -146,7 +160,9 @@ def main(argv: list[str] | None = None) -> int:
             _report(exc.result, args)
             print(f"error: {exc}", file=sys.stderr)
             return EXIT_NOT_CONVERGED
-        _report(result, args)
+        reference = (model.reference(mu, refine=args.refine, split=split)
+                     if args.with_reference else None)
+        _report(result, args, reference)
         return 0
     except ModelError as exc:
         print(f"error: {exc}", file=sys.stderr)

@@ -13,6 +13,7 @@ from __future__ import annotations
 
 import time
 from dataclasses import dataclass
+from typing import Any
 
 import numpy as np
 import scipy.sparse as sp
@@ -86,7 +87,7 @@ class ContactSet:
 def contact_set(assembly: Assembly, maps: list[IntArray]) -> ContactSet:
     """Contact pairs; a node pair met on two substructure sides (a cross point) is one pair
     with the weights added."""
-    records: dict[tuple[int, int], list] = {}
+    records: dict[tuple[int, int], list[Any]] = {}
     for itf in assembly.interfaces:
         if itf.contact is None:
             continue

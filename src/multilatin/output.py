@@ -13,6 +13,7 @@ import meshio
 import numpy as np
 
 from .fem.elasticity import cell_stresses, von_mises
+from .plots import plot_deformed, plot_histories
 from .result import SolveResult
 
 log = logging.getLogger(__name__)
@@ -107,5 +108,9 @@ def write_result(result: SolveResult, folder: Path) -> list[Path]:
         tol = result.options.get("tol")
         written.append(plot_convergence({result.assembly.name: result},
                                         folder / "convergence.png", tol))
+        written.append(plot_deformed(result, folder / "deformed.png"))
+    history = plot_histories({result.method: result}, folder / "history.png")
+    if history is not None:
+        written.append(history)
     log.info("wrote %s", ", ".join(str(p) for p in written))
     return written
