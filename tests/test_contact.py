@@ -115,3 +115,9 @@ def test_default_tolerance_gives_r_stop_within_0_1_percent(b1, solved):
     default = b1.solve({"mu1": 0.1, "mu2": 0.3})
     assert default.qoi["R_stop"] == pytest.approx(solved[(0.1, 0.3)][0].qoi["R_stop"],
                                                   rel=1e-3)
+
+
+def test_anderson_mixing_converges_to_the_same_answer(b1, solved):
+    options = ml.LatinOptions(tol=1e-8, max_iter=5000, acceleration="anderson")
+    result = b1.solve({"mu1": 0.1, "mu2": 0.3}, options=options)
+    assert result.qoi["R_stop"] == pytest.approx(solved[(0.1, 0.3)][0].qoi["R_stop"], rel=1e-5)

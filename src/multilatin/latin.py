@@ -41,6 +41,9 @@ class LatinOptions:
     max_iter: iteration cap; reaching it without η < tol is a failure, not an answer.
     relaxation: ω in s ← ω s_new + (1 − ω) s_old after each linear stage (method.md §4:
         without it, statically determined clusters give an eigenvalue −1).
+    acceleration: ``"relaxation"`` alone, or ``"anderson"``: Anderson mixing of the last
+        ``anderson_depth`` iterates of the fixed point s ↦ linear(local(s)), damped by ω
+        (combinations of admissible fields stay admissible).
     macro: solve the macro problem (eq. [14]–[15]); False gives the one-scale LATIN.
     interface_elements: see ``multilatin.interfaces``.
     dirichlet_stiffening: factor on k for prescribed-displacement components.
@@ -53,6 +56,8 @@ class LatinOptions:
     macro: bool = True
     interface_elements: str = "nodal"
     dirichlet_stiffening: float = 10.0
+    acceleration: str = "relaxation"
+    anderson_depth: int = 5
 
     def __post_init__(self) -> None:
         if not self.kappa > 0:
@@ -68,6 +73,11 @@ class LatinOptions:
                 f"interface_elements: expected one of {INTERFACE_ELEMENTS}, "
                 f"got {self.interface_elements!r}"
             )
+        if self.acceleration not in ("relaxation", "anderson"):
+            raise ModelError(f"acceleration: expected 'relaxation' or 'anderson', "
+                             f"got {self.acceleration!r}")
+        if self.anderson_depth < 1:
+            raise ModelError(f"anderson_depth: must be >= 1, got {self.anderson_depth!r}")
         if not self.dirichlet_stiffening >= 1:
             raise ModelError(
                 f"dirichlet_stiffening: must be >= 1, got {self.dirichlet_stiffening!r}"
@@ -331,11 +341,16 @@ def solve_latin(assembly: Assembly, options: LatinOptions | None = None,
     # the iteration is many small dense products: BLAS threads cost more than they give
     # (measured 3x slower per iteration with 2 OpenBLAS threads on b1-9)
     blas_limit = threadpool_limits(limits=1, user_api="blas")
+    mixer = (_Anderson(options.anderson_depth, options.relaxation,
+                       np.sqrt(pts.weights[:, None] * k), np.sqrt(pts.weights[:, None] / k))
+             if options.acceleration == "anderson" else None)
     for iteration in range(1, options.max_iter + 1):
         ta = time.perf_counter()
         w_new, f_new = ops.linear_stage(w_hat, f_hat, macro_data)  # type: ignore[arg-type]
-        if w is None or f is None or options.relaxation == 1.0:
+        if w is None or f is None or options.relaxation == 1.0 and mixer is None:
             w, f = w_new, f_new
+        elif mixer is not None:
+            w, f = mixer(w, f, w_new, f_new)
         else:
             omega = options.relaxation
             w = omega * w_new + (1.0 - omega) * w
@@ -419,3 +434,42 @@ def _reactions(assembly: Assembly, pts: InterfacePoints, force_hat: FloatArray
 def _body_pair(assembly: Assembly, pts: InterfacePoints, interface: int) -> frozenset[str]:
     itf = assembly.interfaces[interface]
     return frozenset(assembly.substructures[r.substructure].body for r in itf.sides)
+
+
+class _Anderson:
+    """Anderson mixing (type II) of the LATIN fixed point x ↦ G(x) = linear(local(x)),
+    in the norm of the indicator; damped by ω. Affine combinations of admissible fields are
+    admissible, so s stays in A_d."""
+
+    def __init__(self, depth: int, damping: float, w_scale: FloatArray,
+                 f_scale: FloatArray) -> None:
+        self.depth = depth
+        self.damping = damping
+        self.scale = np.concatenate([w_scale.ravel(), f_scale.ravel()])
+        self.xs: list[FloatArray] = []
+        self.rs: list[FloatArray] = []
+
+    def __call__(self, w: FloatArray, f: FloatArray, w_new: FloatArray,
+                 f_new: FloatArray) -> tuple[FloatArray, FloatArray]:
+        shape = w.shape
+        x = np.concatenate([w.reshape(shape[0], -1), f.reshape(shape[0], -1)], axis=1)
+        g = np.concatenate([w_new.reshape(shape[0], -1), f_new.reshape(shape[0], -1)], axis=1)
+        r = g - x
+        self.xs.append(x)
+        self.rs.append(r)
+        if len(self.xs) > self.depth + 1:
+            self.xs.pop(0)
+            self.rs.pop(0)
+        x_mix, r_mix = x, r
+        if len(self.xs) > 1:
+            d_r = np.stack([(b - a).ravel() for a, b in zip(self.rs[:-1], self.rs[1:],
+                                                          strict=True)], axis=1)
+            d_x = np.stack([(b - a).ravel() for a, b in zip(self.xs[:-1], self.xs[1:],
+                                                          strict=True)], axis=1)
+            scale = np.tile(self.scale, shape[0])
+            gamma, *_ = np.linalg.lstsq(d_r * scale[:, None], r.ravel() * scale, rcond=1e-10)
+            x_mix = x - (d_x @ gamma).reshape(x.shape)
+            r_mix = r - (d_r @ gamma).reshape(r.shape)
+        out = x_mix + self.damping * r_mix
+        half = w.reshape(shape[0], -1).shape[1]
+        return out[:, :half].reshape(shape), out[:, half:].reshape(shape)
