@@ -149,7 +149,12 @@ def main(argv: list[str] | None = None) -> int:
         mu = model.parameters.parse(parse_assignments(args.assignments))
         split = _parse_split(args.split)
         if args.command == "reference":
-            _report(model.reference(mu, refine=args.refine, split=split), args)
+            try:
+                monolithic = model.reference(mu, refine=args.refine, split=split)
+            except NotConvergedError as exc:
+                print(f"error: {exc}", file=sys.stderr)
+                return EXIT_NOT_CONVERGED
+            _report(monolithic, args)
             return 0
         options = LatinOptions(kappa=args.kappa, tol=args.tol, max_iter=args.max_iter,
                                relaxation=args.relaxation, macro=not args.no_macro,
@@ -160,8 +165,12 @@ def main(argv: list[str] | None = None) -> int:
             _report(exc.result, args)
             print(f"error: {exc}", file=sys.stderr)
             return EXIT_NOT_CONVERGED
-        reference = (model.reference(mu, refine=args.refine, split=split)
-                     if args.with_reference else None)
+        try:
+            reference = (model.reference(mu, refine=args.refine, split=split)
+                         if args.with_reference else None)
+        except NotConvergedError as exc:
+            print(f"error: {exc}", file=sys.stderr)
+            return EXIT_NOT_CONVERGED
         _report(result, args, reference)
         return 0
     except ModelError as exc:

@@ -332,43 +332,13 @@ def solve_latin(assembly: Assembly, options: LatinOptions | None = None,
     macro_data = (ops.project @ local.prescribed_force_field(pts.n_points)
                   .reshape(n_steps, -1).T) if ops.macro_basis is not None else None
 
-    w_hat = np.zeros((n_steps, pts.n_points, 2))
-    f_hat = np.zeros_like(w_hat)
-    w = f = None
     history: list[float] = []
-    t_linear = t_local = 0.0
     t1 = time.perf_counter()
     # the iteration is many small dense products: BLAS threads cost more than they give
     # (measured 3x slower per iteration with 2 OpenBLAS threads on b1-9)
-    blas_limit = threadpool_limits(limits=1, user_api="blas")
-    mixer = (_Anderson(options.anderson_depth, options.relaxation,
-                       np.sqrt(pts.weights[:, None] * k), np.sqrt(pts.weights[:, None] / k))
-             if options.acceleration == "anderson" else None)
-    for iteration in range(1, options.max_iter + 1):
-        ta = time.perf_counter()
-        w_new, f_new = ops.linear_stage(w_hat, f_hat, macro_data)  # type: ignore[arg-type]
-        if w is None or f is None or options.relaxation == 1.0 and mixer is None:
-            w, f = w_new, f_new
-        elif mixer is not None:
-            w, f = mixer(w, f, w_new, f_new)
-        else:
-            omega = options.relaxation
-            w = omega * w_new + (1.0 - omega) * w
-            f = omega * f_new + (1.0 - omega) * f
-        tb = time.perf_counter()
-        w_hat, f_hat = local(w, f)
-        t_local += time.perf_counter() - tb
-        t_linear += tb - ta
-        gap = _norm(pts.weights, k, w - w_hat, f - f_hat)
-        size = 0.5 * (_norm(pts.weights, k, w, f) + _norm(pts.weights, k, w_hat, f_hat))
-        eta = gap / size if size > 0 else 0.0
-        history.append(eta)
-        if iteration % 50 == 0:
-            log.debug("iteration %d: eta = %.3e", iteration, eta)
-        if eta < options.tol:
-            break
-    blas_limit.restore_original_limits()
-    assert w is not None and f is not None
+    with threadpool_limits(limits=1, user_api="blas"):
+        w, f, w_hat, f_hat, t_linear, t_local = _iterate(ops, local, options, macro_data,
+                                                         history)
     t_iter = time.perf_counter() - t1
     converged = history[-1] < options.tol
 
@@ -415,6 +385,54 @@ def solve_latin(assembly: Assembly, options: LatinOptions | None = None,
             f"LATIN did not converge: eta = {history[-1]:.3e} >= tol = {options.tol:g} after "
             f"{len(history)} iterations (max_iter)", result)
     return result
+
+
+def _iterate(
+    ops: LatinOperators,
+    local: LocalStage,
+    options: LatinOptions,
+    macro_data: FloatArray | None,
+    history: list[float],
+) -> tuple[FloatArray, FloatArray, FloatArray, FloatArray, float, float]:
+    """LATIN iterations from ŝ = 0 until η < tol or the cap; η is appended to ``history``.
+
+    Returns s = (W, F), ŝ = (Ŵ, F̂) and the time spent in the linear and local stages.
+    """
+    pts = ops.points
+    k = ops.search_direction
+    n_steps = local.prescribed.shape[0]
+    w_hat = np.zeros((n_steps, pts.n_points, 2))
+    f_hat = np.zeros_like(w_hat)
+    w = f = None
+    t_linear = t_local = 0.0
+    mixer = (_Anderson(options.anderson_depth, options.relaxation,
+                       np.sqrt(pts.weights[:, None] * k), np.sqrt(pts.weights[:, None] / k))
+             if options.acceleration == "anderson" else None)
+    for iteration in range(1, options.max_iter + 1):
+        ta = time.perf_counter()
+        w_new, f_new = ops.linear_stage(w_hat, f_hat, macro_data)  # type: ignore[arg-type]
+        if w is None or f is None or options.relaxation == 1.0 and mixer is None:
+            w, f = w_new, f_new
+        elif mixer is not None:
+            w, f = mixer(w, f, w_new, f_new)
+        else:
+            omega = options.relaxation
+            w = omega * w_new + (1.0 - omega) * w
+            f = omega * f_new + (1.0 - omega) * f
+        tb = time.perf_counter()
+        w_hat, f_hat = local(w, f)
+        t_local += time.perf_counter() - tb
+        t_linear += tb - ta
+        gap = _norm(pts.weights, k, w - w_hat, f - f_hat)
+        size = 0.5 * (_norm(pts.weights, k, w, f) + _norm(pts.weights, k, w_hat, f_hat))
+        eta = gap / size if size > 0 else 0.0
+        history.append(eta)
+        if iteration % 50 == 0:
+            log.debug("iteration %d: eta = %.3e", iteration, eta)
+        if eta < options.tol:
+            break
+    assert w is not None and f is not None
+    return w, f, w_hat, f_hat, t_linear, t_local
 
 
 def _reactions(assembly: Assembly, pts: InterfacePoints, force_hat: FloatArray
