@@ -16,13 +16,13 @@ import multilatin as ml
 TOLERANCES = (1e-4, 3e-5, 1e-5)
 
 
-def count(job: tuple[str, tuple[float, float], float, float, str, int]) -> str:
-    name, (mu1, mu2), kappa, omega, acceleration, depth = job
+def count(job: tuple[str, tuple[float, float], float, float, str, int, float]) -> str:
+    name, (mu1, mu2), kappa, omega, acceleration, depth, ratio = job
     result = ml.load_model(name).solve(
         {"mu1": mu1, "mu2": mu2},
         options=ml.LatinOptions(tol=min(TOLERANCES), max_iter=600, kappa=kappa,
                                 relaxation=omega, acceleration=acceleration,
-                                anderson_depth=depth),
+                                anderson_depth=depth, tangential_ratio=ratio),
         check=False)
     hits = [np.flatnonzero(result.history < t) for t in TOLERANCES]
     return " / ".join(str(h[0] + 1) if h.size else "> 600" for h in hits)
@@ -35,10 +35,13 @@ def main() -> None:
     parser.add_argument("--workers", type=int, default=2)
     parser.add_argument("--acceleration", default="relaxation", choices=["relaxation", "anderson"])
     parser.add_argument("--depth", type=int, default=3, help="Anderson depth")
+    parser.add_argument("--tangential-ratio", type=float, default=1.0,
+                        help="k_T / k_N on contact interfaces")
     args = parser.parse_args()
     settings = [(k, w) for w in args.relaxation for k in args.kappa]
     rows = [(name, mu) for name in ("b1", "b1-4", "b1-9") for mu in ((0.1, 0.3), (0.3, 0.0))]
-    jobs = [(name, mu, k, w, args.acceleration, args.depth) for name, mu in rows
+    jobs = [(name, mu, k, w, args.acceleration, args.depth, args.tangential_ratio)
+            for name, mu in rows
             for k, w in settings]
     with ProcessPoolExecutor(args.workers) as pool:
         cells = list(pool.map(count, jobs))

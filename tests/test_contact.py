@@ -94,8 +94,9 @@ def test_contact_and_coulomb_conditions_hold_at_convergence(solved, case):
 def test_answer_does_not_depend_on_search_direction(b1, solved):
     mu = {"mu1": 0.1, "mu2": 0.3}
     base = solved[(0.1, 0.3)][0].qoi["R_stop"]
-    for kappa in (0.25, 1.0):
-        other = b1.solve(mu, options=ml.LatinOptions(kappa=kappa, tol=1e-8, max_iter=5000))
+    for kappa, ratio in ((0.25, 1.0), (1.0, 1.0), (0.5, 0.3)):
+        other = b1.solve(mu, options=ml.LatinOptions(kappa=kappa, tangential_ratio=ratio,
+                                                     tol=1e-8, max_iter=5000))
         assert other.qoi["R_stop"] == pytest.approx(base, rel=1e-4)
         np.testing.assert_allclose(other.qoi["u_A"], solved[(0.1, 0.3)][0].qoi["u_A"],
                                    atol=1e-4 * 0.04)

@@ -44,6 +44,8 @@ class LatinOptions:
     acceleration: ``"relaxation"`` alone, or ``"anderson"``: Anderson mixing of the last
         ``anderson_depth`` iterates of the fixed point s ↦ linear(local(s)), damped by ω
         (combinations of admissible fields stay admissible).
+    tangential_ratio: k_T / k_N on contact interfaces and stops (separate normal and
+        tangential search directions).
     macro: solve the macro problem (eq. [14]–[15]); False gives the one-scale LATIN.
     interface_elements: see ``multilatin.interfaces``.
     dirichlet_stiffening: factor on k for prescribed-displacement components.
@@ -57,7 +59,8 @@ class LatinOptions:
     interface_elements: str = "nodal"
     dirichlet_stiffening: float = 10.0
     acceleration: str = "relaxation"
-    anderson_depth: int = 5
+    anderson_depth: int = 3
+    tangential_ratio: float = 1.0
 
     def __post_init__(self) -> None:
         if not self.kappa > 0:
@@ -76,6 +79,8 @@ class LatinOptions:
         if self.acceleration not in ("relaxation", "anderson"):
             raise ModelError(f"acceleration: expected 'relaxation' or 'anderson', "
                              f"got {self.acceleration!r}")
+        if not self.tangential_ratio > 0:
+            raise ModelError(f"tangential_ratio: must be > 0, got {self.tangential_ratio!r}")
         if self.anderson_depth < 1:
             raise ModelError(f"anderson_depth: must be >= 1, got {self.anderson_depth!r}")
         if not self.dirichlet_stiffening >= 1:
@@ -144,7 +149,11 @@ class LatinOperators:
             value = opts.kappa * young / min(x1 - x0, y1 - y0)
             for side_index in range(len(itf.sides)):
                 k[pts.side_points[(i, side_index)]] = value
-            if itf.condition is not None:
+            if itf.contact is not None:
+                tangential = 1 if itf.sides[0].side in ("left", "right") else 0
+                for side_index in range(len(itf.sides)):
+                    k[pts.side_points[(i, side_index)], tangential] *= opts.tangential_ratio
+            elif itf.condition is not None:
                 for comp, kind in enumerate(itf.condition.kinds):
                     if kind == DISPLACEMENT:
                         k[pts.side_points[(i, 0)], comp] *= opts.dirichlet_stiffening
@@ -210,12 +219,12 @@ class LocalStage:
         self.is_displacement = points.boundary_is_displacement
         self.contact_pairs = points.contact_pairs
         a = points.contact_pairs[0]
-        self.k_contact = k[a, 0]  # same k on both components
+        self.k_contact = k[a]  # diagonal in the interface's (axis-aligned) frame
         self.n_contact = points.normals[a]
         self.mu_contact = points.contact_friction
         self.gap_contact = points.contact_gap
         self.stops = points.stops
-        self.k_stop = k[points.stops, 0]
+        self.k_stop = k[points.stops]
         self.n_stop = points.normals[points.stops]
         self.mu_stop = points.stop_friction
         self.gap_stop = points.stop_gap
@@ -277,7 +286,8 @@ class LocalStage:
         """Unilateral contact with gap and Coulomb friction between two substructures
         (paper §3, eq. [16]–[17]), n outward from E, [x] = x_E' − x_E."""
         a, b = self.contact_pairs
-        k, n = self.k_contact[:, None], self.n_contact
+        k, n = self.k_contact, self.n_contact
+        k_normal = np.sum(np.abs(n) * k, axis=1)
         prev_a = np.zeros((a.size, 2))
         prev_b = np.zeros((a.size, 2))
         for t in range(displacement.shape[0]):
@@ -285,7 +295,7 @@ class LocalStage:
             dwb = displacement[t, b] - prev_b
             trial = 0.5 * (force[t, a] - force[t, b]) + 0.5 * k * (dwb - dwa)
             closing = self.gap_contact + np.sum(n * (prev_b - prev_a), axis=1)
-            normal_force = np.sum(n * trial, axis=1) + 0.5 * k[:, 0] * closing
+            normal_force = np.sum(n * trial, axis=1) + 0.5 * k_normal * closing
             fa = self._coulomb(trial, normal_force, n, self.mu_contact)
             prev_a = prev_a + dwa + (fa - force[t, a]) / k
             prev_b = prev_b + dwb + (-fa - force[t, b]) / k
@@ -296,13 +306,14 @@ class LocalStage:
               f_hat: FloatArray) -> None:
         """Unilateral contact with a fixed rigid obstacle at distance ``gap`` along n."""
         p = self.stops
-        k, n = self.k_stop[:, None], self.n_stop
+        k, n = self.k_stop, self.n_stop
+        k_normal = np.sum(np.abs(n) * k, axis=1)
         prev = np.zeros((p.size, 2))
         for t in range(displacement.shape[0]):
             dw = displacement[t, p] - prev
             trial = force[t, p] - k * dw
             closing = self.gap_stop - np.sum(n * prev, axis=1)
-            normal_force = np.sum(n * trial, axis=1) + k[:, 0] * closing
+            normal_force = np.sum(n * trial, axis=1) + k_normal * closing
             fp = self._coulomb(trial, normal_force, n, self.mu_stop)
             prev = prev + dw + (fp - force[t, p]) / k
             f_hat[t, p] = fp
