@@ -20,23 +20,105 @@ multipliers).
 from __future__ import annotations
 
 import logging
+from dataclasses import dataclass
+from typing import Any
 
 import numpy as np
 import numpy.typing as npt
 import scipy.sparse as sp
 import scipy.sparse.linalg as spla
 
+from .assembly import Assembly
 from .errors import NotConvergedError
-from .fem.elasticity import FloatArray
-from .monolithic import ContactSet
+from .fem.elasticity import FloatArray, IntArray
+from .interfaces import discretise_side
 
 log = logging.getLogger(__name__)
+
+
+@dataclass(frozen=True)
+class ContactSet:
+    """Node-to-node contact pairs of the merged mesh. For a rigid stop ``second`` is −1.
+
+    ``normal`` points out of the first body; ``weight`` is the dual-cell length × thickness;
+    ``extent`` the dual cell along the interface (for mean pressures); ``bodies`` and
+    ``boundary`` name what each pair belongs to.
+    """
+
+    first: IntArray
+    second: IntArray
+    normal: FloatArray
+    friction: FloatArray
+    gap: FloatArray
+    weight: FloatArray
+    extent: FloatArray
+    bodies: list[frozenset[str]]
+    boundary: list[str | None]
+
+    @property
+    def size(self) -> int:
+        return int(self.first.size)
+
+
+def contact_set(assembly: Assembly, maps: list[IntArray]) -> ContactSet:
+    """Contact pairs; a node pair met on two substructure sides (a cross point) is one pair
+    with the weights added."""
+    records: dict[tuple[int, int], list[Any]] = {}
+    for itf in assembly.interfaces:
+        if itf.contact is None:
+            continue
+        ref = itf.sides[0]
+        sub = assembly.substructures[ref.substructure]
+        nodes = sub.mesh.side_nodes(ref.side)
+        cells = discretise_side(sub.mesh.nodes, nodes, "nodal", sub.material.thickness)
+        weight = cells.weights
+        lo, hi = cells.extents[:, 0], cells.extents[:, 1]
+        first = maps[ref.substructure][nodes]
+        if len(itf.sides) == 2:
+            other = itf.sides[1]
+            second = maps[other.substructure][
+                assembly.substructures[other.substructure].mesh.side_nodes(other.side)]
+            bodies = frozenset((sub.body, assembly.substructures[other.substructure].body))
+            boundary = None
+        else:
+            second = np.full(nodes.size, -1)
+            bodies = frozenset((sub.body,))
+            assert itf.condition is not None
+            boundary = itf.condition.name
+        normal = sub.mesh.outward_normal(ref.side)
+        for p in range(nodes.size):
+            key = (int(first[p]), int(second[p]))
+            if key in records:
+                rec = records[key]
+                rec[4] += weight[p]
+                rec[5] = (min(rec[5][0], lo[p]), max(rec[5][1], hi[p]))
+            else:
+                records[key] = [normal, itf.contact.friction, itf.contact.gap, bodies,
+                                weight[p], (lo[p], hi[p]), boundary]
+    keys = list(records)
+    vals = list(records.values())
+    return ContactSet(
+        first=np.array([k[0] for k in keys], dtype=np.int64),
+        second=np.array([k[1] for k in keys], dtype=np.int64),
+        normal=np.array([v[0] for v in vals]).reshape(-1, 2),
+        friction=np.array([v[1] for v in vals], dtype=float),
+        gap=np.array([v[2] for v in vals], dtype=float),
+        weight=np.array([v[4] for v in vals], dtype=float),
+        extent=np.array([v[5] for v in vals], dtype=float).reshape(-1, 2),
+        bodies=[v[3] for v in vals],
+        boundary=[v[6] for v in vals],
+    )
+
+
+def tangents(normal: FloatArray) -> FloatArray:
+    """t = n rotated by +90°: the tangential direction of each contact pair."""
+    return np.column_stack([-normal[:, 1], normal[:, 0]])
 
 
 def _jump_operator(contacts: ContactSet, n_dofs: int) -> sp.csr_matrix:
     """G (2 n_pairs × n_dofs): rows n·[u] and t·[u] of each pair."""
     n = contacts.normal
-    t = np.column_stack([-n[:, 1], n[:, 0]])
+    t = tangents(n)
     rows, cols, vals = [], [], []
     for row_dir, direction in ((0, n), (1, t)):
         for comp in range(2):
@@ -73,8 +155,13 @@ def solve_contact_history(
     n_pairs = contacts.size
     r = young  # augmentation parameter, a stiffness per unit thickness
     mu = contacts.friction
-    regularisation = sp.diags(1e-10 * k_ff.diagonal())
+    jacobian_uu = k_ff + sp.diags(1e-10 * k_ff.diagonal())  # floating bodies
+    g_n, g_t = jump_free[0::2], jump_free[1::2]  # n·[u] and t·[u] rows
+    minus_g_n_t, minus_g_t_t = -g_n.T, -g_t.T
+    zero = sp.csr_matrix((n_pairs, n_pairs))
+    jump_on_fixed = jump[:, ~free]
     scale_force = max(float(np.abs(load).max()), 1.0)
+    gap_tol = 1e3 * tol * scale_force / r  # on gaps and slips (mm); forces: tol * scale_force
 
     u = u_fixed.copy()
     multipliers = np.zeros((n_steps, n_pairs, 2))
@@ -85,7 +172,7 @@ def solve_contact_history(
     total_iterations = 0
     for step in range(n_steps):
         rhs = load[free, step] - k_fc @ u_fixed[~free, step]
-        jump_fixed = jump[:, ~free] @ u_fixed[~free, step]
+        jump_fixed = jump_on_fixed @ u_fixed[~free, step]
         converged = False
         for newton in range(max_newton):
             total_iterations += 1
@@ -109,12 +196,10 @@ def solve_contact_history(
             res_c[0::2], res_c[1::2] = c_n, c_t
             size_eq = np.abs(res_eq).max() if n_free else 0.0
             size_c = np.abs(res_c).max() / r if n_pairs else 0.0
-            if newton > 0 and size_eq < tol * scale_force and size_c < tol * scale_force / r * 1e3:
+            if newton > 0 and size_eq < tol * scale_force and size_c < gap_tol:
                 converged = True
                 break
             # generalised Jacobian, rows: equilibrium, C_N, C_T
-            g_n = jump_free[0::2]
-            g_t = jump_free[1::2]
             dn_du = sp.diags(np.where(active, r, 0.0)) @ g_n
             # −δ on the diagonal of active constraint rows (Jacobian only): redundant
             # constraints (a corner against a stop and a sticking face) keep it invertible
@@ -123,18 +208,16 @@ def solve_contact_history(
                      + sp.diags(np.where(slip_mask, mu * sign * r, 0.0)) @ g_n)
             dt_dln = sp.diags(np.where(slip_mask, -mu * sign, 0.0))
             dt_dlt = sp.diags(np.where(stick, -1e-10, 1.0))
-            zero = sp.csr_matrix((n_pairs, n_pairs))
-            order = np.argsort(np.r_[np.arange(0, 2 * n_pairs, 2), np.arange(1, 2 * n_pairs, 2)])
             jacobian = sp.bmat([
-                [k_ff + regularisation, -jump_free[0::2].T, -jump_free[1::2].T],
+                [jacobian_uu, minus_g_n_t, minus_g_t_t],
                 [dn_du, dn_dln, zero],
                 [dt_du, dt_dln, dt_dlt],
             ], format="csc")
             residual = np.r_[res_eq, c_n, c_t]
             delta = spla.splu(jacobian).solve(-residual)
             u_free = u_free + delta[:n_free]
-            lam_split = delta[n_free:]
-            lam = lam + np.r_[lam_split[:n_pairs], lam_split[n_pairs:]][order]
+            lam[0::2] += delta[n_free:n_free + n_pairs]
+            lam[1::2] += delta[n_free + n_pairs:]
         if not converged:
             raise NotConvergedError(
                 f"contact reference: semi-smooth Newton did not converge at load step "

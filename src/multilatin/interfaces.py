@@ -32,6 +32,7 @@ import scipy.sparse as sp
 
 from .assembly import DISPLACEMENT, FORCE, Assembly, Interface
 from .fem.elasticity import FloatArray, IntArray
+from .fem.mesh import normal_axis
 
 INTERFACE_ELEMENTS = ("nodal", "edges", "edge-pairs")
 
@@ -269,8 +270,8 @@ def free_macro_components(itf: Interface) -> tuple[bool, bool]:
     assert itf.condition is not None
     if itf.is_stop:
         assert itf.contact is not None
-        normal_axis = 0 if itf.sides[0].side in ("left", "right") else 1
+        axis = normal_axis(itf.sides[0].side)
         frictionless = itf.contact.friction == 0.0
-        return (frictionless and normal_axis == 1, frictionless and normal_axis == 0)
+        return (frictionless and axis == 1, frictionless and axis == 0)
     kinds = itf.condition.kinds
     return kinds[0] == FORCE, kinds[1] == FORCE

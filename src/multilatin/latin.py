@@ -22,6 +22,7 @@ from threadpoolctl import threadpool_limits
 from .assembly import DISPLACEMENT, Assembly
 from .errors import ModelError, NotConvergedError
 from .fem.elasticity import FloatArray, stiffness_matrix
+from .fem.mesh import normal_axis
 from .interfaces import INTERFACE_ELEMENTS, InterfacePoints, build_points, macro_basis
 from .qoi import ContactPressures, evaluate_qois
 from .result import InterfaceFields, SolveResult
@@ -122,15 +123,15 @@ class LatinOperators:
         if self.macro_basis is not None and self.macro_basis.shape[1]:
             basis = self.macro_basis
             # Q = C k Ẽ: interface displacement caused by a unit macro W̃ᴹ
-            self.macro_response = np.asarray(self.condensed @ (sp.diags(k_flat) @ basis).toarray())
+            macro_response = np.asarray(self.condensed @ (sp.diags(k_flat) @ basis).toarray())
             mk_basis = sp.diags(self.m0 * k_flat) @ basis
             # L = Ẽᵀ M0 k (I − C k) Ẽ, the assembled homogenised operator (eq. [14]–[15])
-            homogenised = (basis.T @ mk_basis).toarray() - mk_basis.T @ self.macro_response
+            homogenised = (basis.T @ mk_basis).toarray() - mk_basis.T @ macro_response
             homogenised = 0.5 * (homogenised + homogenised.T)
             factor = self._factorise_macro(homogenised)
             inverse = sla.cho_solve(factor, np.eye(homogenised.shape[0]))
             # residual of macro admissibility -> interface displacement and force corrections
-            self.macro_to_displacement = self.macro_response @ inverse
+            self.macro_to_displacement = macro_response @ inverse
             self.macro_to_force = k_flat[:, None] * (
                 np.asarray(basis @ inverse) - self.macro_to_displacement)
             self.project = (basis.T @ sp.diags(self.m0)).tocsr()
@@ -150,7 +151,7 @@ class LatinOperators:
             for side_index in range(len(itf.sides)):
                 k[pts.side_points[(i, side_index)]] = value
             if itf.contact is not None:
-                tangential = 1 if itf.sides[0].side in ("left", "right") else 0
+                tangential = 1 - normal_axis(itf.sides[0].side)
                 for side_index in range(len(itf.sides)):
                     k[pts.side_points[(i, side_index)], tangential] *= opts.tangential_ratio
             elif itf.condition is not None:
@@ -475,6 +476,7 @@ class _Anderson:
         self.depth = depth
         self.damping = damping
         self.scale = np.concatenate([w_scale.ravel(), f_scale.ravel()])
+        self.scale_all_steps: FloatArray | None = None
         self.xs: list[FloatArray] = []
         self.rs: list[FloatArray] = []
 
@@ -495,7 +497,9 @@ class _Anderson:
                                                           strict=True)], axis=1)
             d_x = np.stack([(b - a).ravel() for a, b in zip(self.xs[:-1], self.xs[1:],
                                                           strict=True)], axis=1)
-            scale = np.tile(self.scale, shape[0])
+            if self.scale_all_steps is None:
+                self.scale_all_steps = np.tile(self.scale, shape[0])
+            scale = self.scale_all_steps
             gamma, *_ = np.linalg.lstsq(d_r * scale[:, None], r.ravel() * scale, rcond=1e-10)
             x_mix = x - (d_x @ gamma).reshape(x.shape)
             r_mix = r - (d_r @ gamma).reshape(r.shape)

@@ -12,8 +12,6 @@ semi-smooth Newton method on the Alart–Curnier augmented Lagrangian, node to n
 from __future__ import annotations
 
 import time
-from dataclasses import dataclass
-from typing import Any
 
 import numpy as np
 import scipy.sparse as sp
@@ -21,8 +19,10 @@ import scipy.sparse.csgraph as csgraph
 import scipy.sparse.linalg as spla
 
 from .assembly import DISPLACEMENT, Assembly
+from .contact_newton import contact_set, solve_contact_history, tangents
 from .errors import ModelError
 from .fem.elasticity import FloatArray, IntArray, stiffness_matrix
+from .interfaces import discretise_side
 from .qoi import ContactPressures, evaluate_qois
 from .result import SolveResult
 
@@ -52,94 +52,8 @@ def merge_nodes(assembly: Assembly) -> tuple[int, list[IntArray]]:
                                    for s in range(len(assembly.substructures))]
 
 
-def _dual_lengths(xy: FloatArray) -> FloatArray:
-    edge = np.linalg.norm(np.diff(xy, axis=0), axis=1)
-    dual = np.zeros(xy.shape[0])
-    dual[:-1] += 0.5 * edge
-    dual[1:] += 0.5 * edge
-    return dual
-
-
-@dataclass(frozen=True)
-class ContactSet:
-    """Node-to-node contact pairs of the merged mesh. For a rigid stop ``second`` is −1.
-
-    ``normal`` points out of the first body; ``weight`` is the dual-cell length × thickness;
-    ``extent`` the dual cell along the interface (for mean pressures); ``bodies`` and
-    ``boundary`` name what each pair belongs to.
-    """
-
-    first: IntArray
-    second: IntArray
-    normal: FloatArray
-    friction: FloatArray
-    gap: FloatArray
-    weight: FloatArray
-    extent: FloatArray
-    bodies: list[frozenset[str]]
-    boundary: list[str | None]
-
-    @property
-    def size(self) -> int:
-        return int(self.first.size)
-
-
-def contact_set(assembly: Assembly, maps: list[IntArray]) -> ContactSet:
-    """Contact pairs; a node pair met on two substructure sides (a cross point) is one pair
-    with the weights added."""
-    records: dict[tuple[int, int], list[Any]] = {}
-    for itf in assembly.interfaces:
-        if itf.contact is None:
-            continue
-        ref = itf.sides[0]
-        sub = assembly.substructures[ref.substructure]
-        nodes = sub.mesh.side_nodes(ref.side)
-        xy = sub.mesh.nodes[nodes]
-        weight = _dual_lengths(xy) * sub.material.thickness
-        axis = int(np.argmax(np.abs(xy[-1] - xy[0])))
-        mid = 0.5 * (xy[1:, axis] + xy[:-1, axis])
-        lo, hi = np.r_[xy[0, axis], mid], np.r_[mid, xy[-1, axis]]
-        first = maps[ref.substructure][nodes]
-        if len(itf.sides) == 2:
-            other = itf.sides[1]
-            second = maps[other.substructure][
-                assembly.substructures[other.substructure].mesh.side_nodes(other.side)]
-            bodies = frozenset((sub.body, assembly.substructures[other.substructure].body))
-            boundary = None
-        else:
-            second = np.full(nodes.size, -1)
-            bodies = frozenset((sub.body,))
-            assert itf.condition is not None
-            boundary = itf.condition.name
-        normal = sub.mesh.outward_normal(ref.side)
-        for p in range(nodes.size):
-            key = (int(first[p]), int(second[p]))
-            if key in records:
-                rec = records[key]
-                rec[4] += weight[p]
-                rec[5] = (min(rec[5][0], lo[p]), max(rec[5][1], hi[p]))
-            else:
-                records[key] = [normal, itf.contact.friction, itf.contact.gap, bodies,
-                                weight[p], (lo[p], hi[p]), boundary]
-    keys = list(records)
-    vals = list(records.values())
-    return ContactSet(
-        first=np.array([k[0] for k in keys], dtype=np.int64),
-        second=np.array([k[1] for k in keys], dtype=np.int64),
-        normal=np.array([v[0] for v in vals]).reshape(-1, 2),
-        friction=np.array([v[1] for v in vals], dtype=float),
-        gap=np.array([v[2] for v in vals], dtype=float),
-        weight=np.array([v[4] for v in vals], dtype=float),
-        extent=np.array([v[5] for v in vals], dtype=float).reshape(-1, 2),
-        bodies=[v[3] for v in vals],
-        boundary=[v[6] for v in vals],
-    )
-
-
 def solve_monolithic(assembly: Assembly) -> SolveResult:
     """The reference solution of ``assembly``."""
-    from .contact_newton import solve_contact_history
-
     t0 = time.perf_counter()
     n_nodes, maps = merge_nodes(assembly)
     n_dofs = 2 * n_nodes
@@ -169,7 +83,8 @@ def solve_monolithic(assembly: Assembly) -> SolveResult:
         gnodes = maps[ref.substructure][side]
         factor = assembly.history.factor(cond.factor)
         # consistent loads of a uniform traction: half of each edge to each of its nodes
-        nodal_len = _dual_lengths(sub.mesh.nodes[side]) * sub.material.thickness
+        # dual-cell length × thickness at each node: the consistent load of a uniform traction
+        nodal_len = discretise_side(sub.mesh.nodes, side, "nodal", sub.material.thickness).weights
         mine = own_load.setdefault(cond.name, np.zeros((n_dofs, n_steps)))
         for comp, kind in enumerate(cond.kinds):
             dofs = 2 * gnodes + comp
@@ -213,7 +128,7 @@ def solve_monolithic(assembly: Assembly) -> SolveResult:
         reactions[name] = total
     for name in {b for b in contacts.boundary if b is not None}:
         chosen = np.array([b == name for b in contacts.boundary])
-        normal, tangent = contacts.normal[chosen], _tangent(contacts.normal[chosen])
+        normal, tangent = contacts.normal[chosen], tangents(contacts.normal[chosen])
         lam = multipliers[:, chosen]
         on_body = -(lam[..., :1] * normal + lam[..., 1:] * tangent)
         reactions[name] = on_body.sum(axis=1)
@@ -242,7 +157,3 @@ def solve_monolithic(assembly: Assembly) -> SolveResult:
         reactions=reactions,
         qoi=qoi,
     )
-
-
-def _tangent(normal: FloatArray) -> FloatArray:
-    return np.column_stack([-normal[:, 1], normal[:, 0]])

@@ -8,6 +8,7 @@ from pathlib import Path
 from typing import Any
 
 import numpy as np
+import numpy.typing as npt
 
 from .fem.elasticity import FloatArray
 from .result import SolveResult
@@ -24,21 +25,20 @@ def _pyplot() -> Any:
     return plt
 
 
-def contact_status(result: SolveResult, step: int, slip_tol: float = 1e-6) -> dict[str, FloatArray]:
-    """Points of contact interfaces (side E) by status at ``step``: open, stick or slip.
-
-    Open: no contact force; stick: no tangential slip increment; slip: the rest.
-    """
+def _status_points(result: SolveResult, step: int,
+                   slip_tol: float = 1e-6) -> dict[str, npt.NDArray[np.int64]]:
+    """Interface point indices (side E of contact interfaces and stops) by status at
+    ``step``: open (no contact force), stick (no tangential slip increment) or slip."""
     itf = result.interface
     assert itf is not None
-    out: dict[str, list[FloatArray]] = {k: [] for k in STATUS_COLOURS}
+    out: dict[str, list[npt.NDArray[np.int64]]] = {k: [] for k in STATUS_COLOURS}
     scale = max(float(np.abs(itf.displacement_hat).max()), 1e-300)
+    force_scale = max(float(np.abs(itf.force_hat).max()), 1.0)
     for i, interface in enumerate(result.assembly.interfaces):
         if interface.contact is None:
             continue
         pts = np.flatnonzero(itf.interface == i)
         first = pts[itf.substructure[pts] == interface.sides[0].substructure]
-        force = itf.force_hat[step, first]
         w = itf.displacement_hat[:, first]
         if len(interface.sides) == 2:
             second = pts[itf.substructure[pts] == interface.sides[1].substructure]
@@ -49,13 +49,19 @@ def contact_status(result: SolveResult, step: int, slip_tol: float = 1e-6) -> di
         normal = result.assembly.substructures[interface.sides[0].substructure].mesh \
             .outward_normal(interface.sides[0].side)
         tangential = increment - np.outer(increment @ normal, normal)
-        is_open = np.linalg.norm(force, axis=1) <= 1e-9 * max(np.abs(itf.force_hat).max(), 1.0)
+        is_open = np.linalg.norm(itf.force_hat[step, first], axis=1) <= 1e-9 * force_scale
         sliding = np.linalg.norm(tangential, axis=1) > slip_tol * scale
-        coords = itf.coords[first]
-        out["open"].append(coords[is_open])
-        out["stick"].append(coords[~is_open & ~sliding])
-        out["slip"].append(coords[~is_open & sliding])
-    return {k: np.concatenate(v) if v else np.zeros((0, 2)) for k, v in out.items()}
+        out["open"].append(first[is_open])
+        out["stick"].append(first[~is_open & ~sliding])
+        out["slip"].append(first[~is_open & sliding])
+    return {k: np.concatenate(v) if v else np.zeros(0, dtype=np.int64) for k, v in out.items()}
+
+
+def contact_status(result: SolveResult, step: int, slip_tol: float = 1e-6) -> dict[str, FloatArray]:
+    """Coordinates of the contact points (side E) by status at ``step``: open, stick, slip."""
+    assert result.interface is not None
+    coords = result.interface.coords
+    return {k: coords[v] for k, v in _status_points(result, step, slip_tol).items()}
 
 
 def _macro_part(result: SolveResult, step: int) -> list[tuple[FloatArray, FloatArray]]:
@@ -82,6 +88,8 @@ def plot_deformed(result: SolveResult, path: Path, step: int | None = None,
     """Deformed assembly (amplified) with the contact status, and the macro displacements of
     the interfaces (paper fig. 10b)."""
     plt = _pyplot()
+    from matplotlib.collections import PolyCollection
+
     step = result.assembly.n_steps - 1 if step is None else step
     size = max(max(s.mesh.x1 for s in result.assembly.substructures)
                - min(s.mesh.x0 for s in result.assembly.substructures),
@@ -99,15 +107,13 @@ def plot_deformed(result: SolveResult, path: Path, step: int | None = None,
                                       xy[mesh.side_nodes("top")][::-1],
                                       xy[mesh.side_nodes("left")][::-1]])
             axis.plot(outline[:, 0], outline[:, 1], color="k", lw=0.8)
-        for q in quads[:: max(1, len(quads) // 400)]:
-            ax.fill(q[:, 0], q[:, 1], facecolor="none", edgecolor="0.8", lw=0.3)
+        ax.add_collection(PolyCollection(quads, facecolor="none", edgecolor="0.8", lw=0.3))
     if result.interface is not None:
         itf = result.interface
-        for status, pts in contact_status(result, step).items():
-            if not pts.size:
+        for status, index in _status_points(result, step).items():
+            if not index.size:
                 continue
-            index = [int(np.argmin(np.linalg.norm(itf.coords - p, axis=1))) for p in pts]
-            shown = pts + amp * itf.displacement_hat[step, index]
+            shown = itf.coords[index] + amp * itf.displacement_hat[step, index]
             ax.scatter(shown[:, 0], shown[:, 1], s=12, color=STATUS_COLOURS[status], label=status,
                        zorder=3)
         for xy, macro in _macro_part(result, step):

@@ -34,7 +34,7 @@ from .assembly import (
 from .errors import ModelError
 from .expressions import evaluate
 from .fem.elasticity import PLANE_STRAIN, PLANE_STRESS
-from .fem.mesh import SIDES, RectMesh
+from .fem.mesh import SIDES, RectMesh, normal_axis
 from .parameters import Mu, Parameter, Parameters
 
 if sys.version_info >= (3, 11):
@@ -414,8 +414,8 @@ class _Builder:
                         )
             elif kind == "wall":
                 # smooth wall: normal displacement prescribed, tangential force zero
-                normal_axis = 0 if refs and refs[0].side in ("left", "right") else 1
-                kinds = (DISPLACEMENT, FORCE) if normal_axis == 0 else (FORCE, DISPLACEMENT)
+                axis = normal_axis(refs[0].side) if refs else 0
+                kinds = (DISPLACEMENT, FORCE) if axis == 0 else (FORCE, DISPLACEMENT)
                 table = {**table, "value": table.get("value", [0.0, 0.0])}
             elif kind == STOP:
                 kinds = (STOP, STOP)

@@ -19,6 +19,13 @@ SIDES = ("bottom", "right", "top", "left")
 """Side names of a rectangle, in counter-clockwise order."""
 
 
+def normal_axis(side: str) -> int:
+    """The axis (0: x, 1: y) normal to a rectangle's side; the other one is tangential."""
+    if side not in SIDES:
+        raise ValueError(f"unknown side {side!r}; expected one of {SIDES}")
+    return 0 if side in ("left", "right") else 1
+
+
 @dataclass(frozen=True)
 class RectMesh:
     """A structured ``nx`` × ``ny`` Q4 mesh of ``[x0, x1] × [y0, y1]``."""
