@@ -7,6 +7,7 @@ file and a parameter set ``Mu``.
 
 from __future__ import annotations
 
+import hashlib
 from dataclasses import dataclass, field
 
 import numpy as np
@@ -39,6 +40,11 @@ class Substructure:
     body: str
     mesh: RectMesh
     material: Material
+
+    def signature(self) -> str:
+        """A digest of everything the substructure's stiffness depends on (mesh, material):
+        equal signatures mean its operators can be reused."""
+        return hashlib.sha1(repr((self.mesh, self.material)).encode()).hexdigest()
 
 
 @dataclass(frozen=True)

@@ -14,7 +14,11 @@ The generalised Jacobian is exact on each active set but for two tiny regularisa
 the Jacobian only (the residual, hence the converged equations, stay exact): floating bodies
 (B1's centre block at μ = 0 during the preload) and redundant constraints (a corner node
 against a stop and sticking on a face held by a wall: unique displacements, indeterminate
-multipliers).
+multipliers). A pair whose two nodes have their tangential displacement held (a fixed dof,
+or a closed stop on that node) keeps its previous tangential force, limited to the cone: the
+friction there is statically indeterminate, and this is the rule of the LATIN local stage
+(``latin.LocalStage``) and the limit of any tangential compliance. Steps are damped by
+backtracking on the residual norm (full semi-smooth steps can cycle between active sets).
 """
 
 from __future__ import annotations
@@ -110,6 +114,29 @@ def contact_set(assembly: Assembly, maps: list[IntArray]) -> ContactSet:
     )
 
 
+def _held_corners(contacts: ContactSet, free: npt.NDArray[np.bool_]) -> tuple[IntArray, IntArray]:
+    """Pairs between two bodies whose nodes both have the tangential displacement held, by a
+    fixed dof or by a stop pair on that node (index in the pairs, −1 for a fixed dof)."""
+    tangential = np.argmax(np.abs(tangents(contacts.normal)), axis=1)
+    stop_of = {(int(node), int(np.argmax(np.abs(normal)))): q for q, (node, second, normal)
+               in enumerate(zip(contacts.first, contacts.second, contacts.normal, strict=True))
+               if second < 0}
+    corner, corner_stops = [], []
+    for j in np.flatnonzero(contacts.second >= 0):
+        component = int(tangential[j])
+        holders = []
+        for node in (int(contacts.first[j]), int(contacts.second[j])):
+            if not free[2 * node + component]:
+                holders.append(-1)
+            elif (node, component) in stop_of:
+                holders.append(stop_of[(node, component)])
+        if len(holders) == 2:
+            corner.append(j)
+            corner_stops.append(holders)
+    return (np.array(corner, dtype=np.int64),
+            np.array(corner_stops, dtype=np.int64).reshape(-1, 2))
+
+
 def tangents(normal: FloatArray) -> FloatArray:
     """t = n rotated by +90°: the tangential direction of each contact pair."""
     return np.column_stack([-normal[:, 1], normal[:, 0]])
@@ -169,36 +196,61 @@ def solve_contact_history(
     lam = np.zeros(2 * n_pairs)
     u_free = np.zeros(n_free)
     jump_prev = np.zeros(n_pairs)  # tangential jump t·[u] at the previous step
+    corner, corner_stops = _held_corners(contacts, free)
+    lam_t_prev = np.zeros(n_pairs)  # tangential multipliers at the previous step
     total_iterations = 0
+
+    def residuals(u_free: FloatArray, lam: FloatArray, rhs: FloatArray, jump_fixed: FloatArray,
+                  jump_prev: FloatArray, lam_t_prev: FloatArray) -> tuple[FloatArray, Any]:
+        """Equilibrium and Alart–Curnier residuals at (u, λ), with the active sets."""
+        jumps = jump_free @ u_free + jump_fixed
+        gap = contacts.gap + jumps[0::2]
+        slip = jumps[1::2] - jump_prev
+        lam_n, lam_t = lam[0::2], lam[1::2]
+        normal_trial = lam_n - r * gap
+        active = normal_trial > 0.0
+        bound = mu * np.where(active, normal_trial, 0.0)
+        tangent_trial = lam_t - r * slip
+        stick = active & (bound > 0.0) & (np.abs(tangent_trial) <= bound)
+        slip_mask = active & ~stick
+        sign = np.sign(tangent_trial)
+        if corner.size:
+            # held corner with its stops closed: the previous friction force, limited to
+            # the cone (same rule as the LATIN local stage; it is indeterminate there)
+            held = np.zeros(n_pairs, dtype=bool)
+            held[corner] = np.all((corner_stops < 0)
+                                  | active[np.maximum(corner_stops, 0)], axis=1)
+            held &= active
+            clipped = held & (np.abs(lam_t_prev) > bound)
+            stick = stick & ~held
+            slip_mask = (slip_mask & ~held) | clipped
+            sign = np.where(held, np.sign(lam_t_prev), sign)
+            frozen = held & ~clipped
+        else:
+            frozen = np.zeros(n_pairs, dtype=bool)
+        c_n = np.where(active, r * gap, lam_n)
+        c_t = np.where(stick, r * slip, np.where(slip_mask, lam_t - bound * sign, lam_t))
+        c_t = np.where(frozen, lam_t - lam_t_prev, c_t)
+        res_eq = k_ff @ u_free - rhs - jump_free.T @ lam
+        return np.r_[res_eq, c_n, c_t], (active, stick, slip_mask, sign)
+
+    def merit(residual: FloatArray) -> float:
+        """Largest residual relative to its tolerance (converged when < 1)."""
+        size_eq = np.abs(residual[:n_free]).max() / (tol * scale_force) if n_free else 0.0
+        size_c = (np.abs(residual[n_free:]).max() / (r * gap_tol)) if n_pairs else 0.0
+        return float(max(size_eq, size_c))
+
     for step in range(n_steps):
         rhs = load[free, step] - k_fc @ u_fixed[~free, step]
         jump_fixed = jump_on_fixed @ u_fixed[~free, step]
         converged = False
+        residual, sets = residuals(u_free, lam, rhs, jump_fixed, jump_prev, lam_t_prev)
         for newton in range(max_newton):
             total_iterations += 1
-            jumps = jump_free @ u_free + jump_fixed
-            gap = contacts.gap + jumps[0::2]
-            slip = jumps[1::2] - jump_prev
-            lam_n, lam_t = lam[0::2], lam[1::2]
-            normal_trial = lam_n - r * gap
-            active = normal_trial > 0.0
-            bound = mu * np.where(active, normal_trial, 0.0)
-            tangent_trial = lam_t - r * slip
-            stick = active & (bound > 0.0) & (np.abs(tangent_trial) <= bound)
-            slip_mask = active & ~stick
-            sign = np.sign(tangent_trial)
-
-            c_n = np.where(active, r * gap, lam_n)
-            c_t = np.where(stick, r * slip,
-                           np.where(slip_mask, lam_t - bound * sign, lam_t))
-            res_eq = k_ff @ u_free - rhs - jump_free.T @ lam
-            res_c = np.empty(2 * n_pairs)
-            res_c[0::2], res_c[1::2] = c_n, c_t
-            size_eq = np.abs(res_eq).max() if n_free else 0.0
-            size_c = np.abs(res_c).max() / r if n_pairs else 0.0
-            if newton > 0 and size_eq < tol * scale_force and size_c < gap_tol:
+            if newton > 0 and merit(residual) < 1.0:
                 converged = True
                 break
+            active, stick, slip_mask, sign = sets
             # generalised Jacobian, rows: equilibrium, C_N, C_T
             dn_du = sp.diags(np.where(active, r, 0.0)) @ g_n
             # −δ on the diagonal of active constraint rows (Jacobian only): redundant
@@ -213,11 +265,23 @@ def solve_contact_history(
                 [dn_du, dn_dln, zero],
                 [dt_du, dt_dln, dt_dlt],
             ], format="csc")
-            residual = np.r_[res_eq, c_n, c_t]
             delta = spla.splu(jacobian).solve(-residual)
-            u_free = u_free + delta[:n_free]
-            lam[0::2] += delta[n_free:n_free + n_pairs]
-            lam[1::2] += delta[n_free + n_pairs:]
+            delta_lam = np.empty(2 * n_pairs)
+            delta_lam[0::2] = delta[n_free:n_free + n_pairs]
+            delta_lam[1::2] = delta[n_free + n_pairs:]
+            # backtracking on the residual's norm: the full semi-smooth step can cycle
+            # between active sets (seen on B1 when the stop closes under friction)
+            current = float(np.linalg.norm(residual))
+            step_length = 1.0
+            for _ in range(12):
+                trial_u = u_free + step_length * delta[:n_free]
+                trial_lam = lam + step_length * delta_lam
+                trial_residual, trial_sets = residuals(trial_u, trial_lam, rhs, jump_fixed, jump_prev,
+                                                      lam_t_prev)
+                if np.linalg.norm(trial_residual) < (1.0 - 1e-4 * step_length) * current:
+                    break
+                step_length *= 0.5
+            u_free, lam, residual, sets = trial_u, trial_lam, trial_residual, trial_sets
         if not converged:
             raise NotConvergedError(
                 f"contact reference: semi-smooth Newton did not converge at load step "
@@ -225,6 +289,7 @@ def solve_contact_history(
         u[free, step] = u_free
         multipliers[step, :, 0] = lam[0::2]
         multipliers[step, :, 1] = lam[1::2]
+        lam_t_prev = lam[1::2].copy()
         contact_force[:, step] = jump.T @ lam
         jump_prev = (jump @ u[:, step])[1::2]
         log.debug("contact step %d: %d Newton iterations", step + 1, newton)

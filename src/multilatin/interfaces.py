@@ -112,6 +112,8 @@ class InterfacePoints:
     boundary: IntArray  # (P_b,) points with prescribed displacement / force components
     boundary_is_displacement: npt.NDArray[np.bool_]  # (P_b, 2) prescribed displacement (else force)
     side_points: dict[tuple[int, int], IntArray]  # (interface, side index) -> points
+    corner: IntArray  # contact pairs whose two sides' tangential motion is rigidly held
+    corner_stops: IntArray  # (n_corner, 2) index in ``stops`` holding side a / b, −1: fixed
 
     @property
     def n_points(self) -> int:
@@ -160,6 +162,7 @@ def build_points(assembly: Assembly, kind: str = "nodal") -> InterfacePoints:
         traces.append(sp.kron(node_trace, sp.identity(2), format="csr"))
         offsets.append(count)
 
+    all_coords = np.concatenate(coords) if coords else np.zeros((0, 2))
     pairs_a, pairs_b, bnd, bnd_disp = [], [], [], []
     contact_a, contact_b, contact_mu, contact_gap = [], [], [], []
     stop, stop_mu, stop_gap = [], [], []
@@ -190,27 +193,69 @@ def build_points(assembly: Assembly, kind: str = "nodal") -> InterfacePoints:
     def cat(parts: list[np.ndarray], dtype: type = np.int64) -> np.ndarray:
         return np.concatenate(parts).astype(dtype) if parts else np.zeros(0, dtype=dtype)
 
+    contact_pairs = (cat(contact_a), cat(contact_b))
+    stops = cat(stop)
+    boundary = cat(bnd)
+    is_displacement = (np.concatenate(bnd_disp) if bnd_disp else np.zeros((0, 2), dtype=bool))
+    corner, corner_stops = _held_corners(cat(substructure), all_coords, contact_pairs, stops,
+                                         boundary, is_displacement,
+                                         np.concatenate(normals) if normals else np.zeros((0, 2)))
     return InterfacePoints(
         substructure=cat(substructure),
         interface=cat(interface),
-        coords=np.concatenate(coords) if coords else np.zeros((0, 2)),
+        coords=all_coords,
         weights=cat(weights, np.float64),
         normals=np.concatenate(normals) if normals else np.zeros((0, 2)),
         extents=np.concatenate(extents) if extents else np.zeros((0, 2)),
         offsets=np.array(offsets, dtype=np.int64),
         traces=tuple(traces),
         pairs=(cat(pairs_a), cat(pairs_b)),
-        contact_pairs=(cat(contact_a), cat(contact_b)),
+        contact_pairs=contact_pairs,
         contact_friction=cat(contact_mu, np.float64),
         contact_gap=cat(contact_gap, np.float64),
-        stops=cat(stop),
+        stops=stops,
         stop_friction=cat(stop_mu, np.float64),
         stop_gap=cat(stop_gap, np.float64),
-        boundary=cat(bnd),
-        boundary_is_displacement=(np.concatenate(bnd_disp) if bnd_disp
-                                  else np.zeros((0, 2), dtype=bool)),
+        boundary=boundary,
+        boundary_is_displacement=is_displacement,
         side_points=side_points,
+        corner=corner,
+        corner_stops=corner_stops,
     )
+
+
+def _held_corners(substructure: IntArray, coords: FloatArray,
+                  contact_pairs: tuple[IntArray, IntArray], stops: IntArray,
+                  boundary: IntArray, is_displacement: npt.NDArray[np.bool_],
+                  normals: FloatArray) -> tuple[IntArray, IntArray]:
+    """Contact pairs whose tangential displacement is held rigidly on both sides, by a
+    prescribed displacement or by a stop at the same point of the same substructure (B1's
+    corner between the stop and the wall-held top block).
+
+    There the friction force is statically indeterminate (any value in the cone balances);
+    the local stage then keeps it at its previous step's value, the limit of any tangential
+    compliance (see ``LocalStage``).
+    """
+    def key(p: int) -> tuple[int, float, float]:
+        return (int(substructure[p]), round(float(coords[p, 0]), 9), round(float(coords[p, 1]), 9))
+
+    fixed = {(key(int(p)), c) for p, mask in zip(boundary, is_displacement, strict=True)
+             for c in range(2) if mask[c]}
+    stop_of = {(key(int(p)), int(np.argmax(np.abs(normals[p])))): q for q, p in enumerate(stops)}
+    corner, corner_stops = [], []
+    for j, (a, b) in enumerate(zip(*contact_pairs, strict=True)):
+        tangential = 1 - int(np.argmax(np.abs(normals[a])))
+        holders = []
+        for p in (int(a), int(b)):
+            if (key(p), tangential) in fixed:
+                holders.append(-1)
+            elif (key(p), tangential) in stop_of:
+                holders.append(stop_of[(key(p), tangential)])
+        if len(holders) == 2:
+            corner.append(j)
+            corner_stops.append(holders)
+    return (np.array(corner, dtype=np.int64),
+            np.array(corner_stops, dtype=np.int64).reshape(-1, 2))
 
 
 def macro_basis(assembly: Assembly, points: InterfacePoints) -> sp.csr_matrix:

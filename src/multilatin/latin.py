@@ -9,6 +9,7 @@ Interior displacements are recovered once, at the end.
 
 from __future__ import annotations
 
+import hashlib
 import logging
 import time
 from dataclasses import asdict, dataclass
@@ -19,6 +20,7 @@ import scipy.sparse as sp
 import scipy.sparse.linalg as spla
 from threadpoolctl import threadpool_limits
 
+from .acceleration import Anderson
 from .assembly import DISPLACEMENT, Assembly
 from .errors import ModelError, NotConvergedError
 from .fem.elasticity import FloatArray, stiffness_matrix
@@ -90,6 +92,18 @@ class LatinOptions:
             )
 
 
+def operator_signature(assembly: Assembly, options: LatinOptions) -> str:
+    """A digest of everything the linear-stage operators depend on: the substructures'
+    meshes and materials, the interface topology and kinds, and the search direction.
+    Friction coefficients, gaps and loads are not in it: they change no operator."""
+    interfaces = [(itf.kind, itf.sides, itf.condition.kinds if itf.condition else None,
+                   itf.contact is not None) for itf in assembly.interfaces]
+    choices = (options.kappa, options.macro, options.interface_elements,
+               options.dirichlet_stiffening, options.tangential_ratio)
+    text = repr(([s.signature() for s in assembly.substructures], interfaces, choices))
+    return hashlib.sha1(text.encode()).hexdigest()
+
+
 class LatinOperators:
     """Everything of the linear stage that depends on the geometry only: factorised
     substructure operators, the condensed block-diagonal operator C, the macro basis and the
@@ -98,6 +112,7 @@ class LatinOperators:
     def __init__(self, assembly: Assembly, options: LatinOptions) -> None:
         self.assembly = assembly
         self.options = options
+        self.signature = operator_signature(assembly, options)
         self.points: InterfacePoints = build_points(assembly, options.interface_elements)
         pts = self.points
         self.search_direction = self._search_direction()
@@ -229,6 +244,8 @@ class LocalStage:
         self.n_stop = points.normals[points.stops]
         self.mu_stop = points.stop_friction
         self.gap_stop = points.stop_gap
+        self.corner = points.corner
+        self.corner_stops = points.corner_stops
         n_steps = assembly.n_steps
         prescribed = np.zeros((n_steps, points.boundary.size, 2))
         offset = 0
@@ -265,10 +282,8 @@ class LocalStage:
         w, f, data = displacement[:, bd], force[:, bd], self.prescribed
         w_hat[:, bd] = np.where(self.is_displacement, data, w + (data - f) / k)
         f_hat[:, bd] = np.where(self.is_displacement, f + k * (data - w), data)
-        if self.contact_pairs[0].size:
-            self._contact(displacement, force, w_hat, f_hat)
-        if self.stops.size:
-            self._stop(displacement, force, w_hat, f_hat)
+        if self.contact_pairs[0].size or self.stops.size:
+            self._contact_and_stops(displacement, force, w_hat, f_hat)
         return w_hat, f_hat
 
     @staticmethod
@@ -282,43 +297,71 @@ class LocalStage:
         contact_force = normal_force[:, None] * normal + scale[:, None] * tangential
         return np.where((normal_force <= 0.0)[:, None], contact_force, 0.0)
 
-    def _contact(self, displacement: FloatArray, force: FloatArray, w_hat: FloatArray,
-                 f_hat: FloatArray) -> None:
+    def _contact_and_stops(self, displacement: FloatArray, force: FloatArray,
+                           w_hat: FloatArray, f_hat: FloatArray) -> None:
         """Unilateral contact with gap and Coulomb friction between two substructures
-        (paper §3, eq. [16]–[17]), n outward from E, [x] = x_E' − x_E."""
+        (paper §3, eq. [16]–[17]; n outward from E, [x] = x_E' − x_E) and against rigid
+        stops, step after step: Coulomb's law acts on increments of the local history Ŵ.
+
+        At a *held corner* (a contact pair whose tangential motion is fixed on both sides,
+        by a prescribed displacement or a closed stop) the friction force is statically
+        indeterminate; it keeps its previous value, limited to the cone — the limit of any
+        tangential compliance, and what incremental penalty codes compute.
+        """
         a, b = self.contact_pairs
         k, n = self.k_contact, self.n_contact
         k_normal = np.sum(np.abs(n) * k, axis=1)
         prev_a = np.zeros((a.size, 2))
         prev_b = np.zeros((a.size, 2))
+        p = self.stops
+        k_stop, n_stop = self.k_stop, self.n_stop
+        k_stop_normal = np.sum(np.abs(n_stop) * k_stop, axis=1)
+        prev_stop = np.zeros((p.size, 2))
+        corner, corner_stops = self.corner, self.corner_stops
+        previous_corner_force = np.zeros((corner.size, 2))
+        stop_closed = np.zeros(p.size, dtype=bool)
         for t in range(displacement.shape[0]):
+            if p.size:
+                dw = displacement[t, p] - prev_stop
+                trial = force[t, p] - k_stop * dw
+                closing = self.gap_stop - np.sum(n_stop * prev_stop, axis=1)
+                normal_force = np.sum(n_stop * trial, axis=1) + k_stop_normal * closing
+                fp = self._coulomb(trial, normal_force, n_stop, self.mu_stop)
+                stop_closed = normal_force < 0.0
+                prev_stop = prev_stop + dw + (fp - force[t, p]) / k_stop
+                f_hat[t, p] = fp
+                w_hat[t, p] = prev_stop
+            if not a.size:
+                continue
             dwa = displacement[t, a] - prev_a  # increments from the local-stage history
             dwb = displacement[t, b] - prev_b
             trial = 0.5 * (force[t, a] - force[t, b]) + 0.5 * k * (dwb - dwa)
             closing = self.gap_contact + np.sum(n * (prev_b - prev_a), axis=1)
             normal_force = np.sum(n * trial, axis=1) + 0.5 * k_normal * closing
             fa = self._coulomb(trial, normal_force, n, self.mu_contact)
+            if corner.size:
+                held = np.all((corner_stops < 0)
+                              | stop_closed[np.maximum(corner_stops, 0)], axis=1)
+                fa[corner] = np.where(held[:, None], self._frozen(
+                    previous_corner_force, fa[corner], n[corner], self.mu_contact[corner]),
+                    fa[corner])
+                previous_corner_force = fa[corner]
             prev_a = prev_a + dwa + (fa - force[t, a]) / k
             prev_b = prev_b + dwb + (-fa - force[t, b]) / k
             f_hat[t, a], f_hat[t, b] = fa, -fa
             w_hat[t, a], w_hat[t, b] = prev_a, prev_b
 
-    def _stop(self, displacement: FloatArray, force: FloatArray, w_hat: FloatArray,
-              f_hat: FloatArray) -> None:
-        """Unilateral contact with a fixed rigid obstacle at distance ``gap`` along n."""
-        p = self.stops
-        k, n = self.k_stop, self.n_stop
-        k_normal = np.sum(np.abs(n) * k, axis=1)
-        prev = np.zeros((p.size, 2))
-        for t in range(displacement.shape[0]):
-            dw = displacement[t, p] - prev
-            trial = force[t, p] - k * dw
-            closing = self.gap_stop - np.sum(n * prev, axis=1)
-            normal_force = np.sum(n * trial, axis=1) + k_normal * closing
-            fp = self._coulomb(trial, normal_force, n, self.mu_stop)
-            prev = prev + dw + (fp - force[t, p]) / k
-            f_hat[t, p] = fp
-            w_hat[t, p] = prev
+    @staticmethod
+    def _frozen(previous: FloatArray, current: FloatArray, normal: FloatArray,
+                friction: FloatArray) -> FloatArray:
+        """The current normal force with the previous tangential force, limited to the cone."""
+        normal_force = np.sum(current * normal, axis=1)
+        tangential = previous - np.sum(previous * normal, axis=1)[:, None] * normal
+        size = np.linalg.norm(tangential, axis=1)
+        limit = friction * np.abs(normal_force)
+        scale = np.where(size > limit, limit / np.maximum(size, 1e-300), 1.0)
+        frozen: FloatArray = normal_force[:, None] * normal + scale[:, None] * tangential
+        return frozen
 
 
 def _norm(weights: FloatArray, k: FloatArray, displacement: FloatArray, force: FloatArray) -> float:
@@ -327,17 +370,36 @@ def _norm(weights: FloatArray, k: FloatArray, displacement: FloatArray, force: F
 
 
 def solve_latin(assembly: Assembly, options: LatinOptions | None = None,
-                operators: LatinOperators | None = None, check: bool = True) -> SolveResult:
+                operators: LatinOperators | None = None, check: bool = True,
+                initial: tuple[FloatArray, FloatArray] | None = None) -> SolveResult:
     """Solve ``assembly`` with the micro-macro LATIN method.
+
+    operators: reuse the operators of an assembly with the same geometry (checked by
+        signature), e.g. across friction coefficients, gaps or loads.
+    initial: start from these interface fields ŝ = (Ŵ, F̂), shapes ``(n_steps, n_points,
+        2)`` — typically a neighbouring converged solution (multiresolution, paper §6) —
+        beginning with a linear stage; None starts from ŝ = 0.
 
     Raises ``NotConvergedError`` (with the unconverged result attached) when η ≥ tol after
     ``max_iter`` iterations, unless ``check`` is False.
     """
+    if operators is not None:
+        options = options or operators.options
+        if operators.signature != operator_signature(assembly, options):
+            raise ModelError("operators: they were built for another geometry or search "
+                             "direction than this assembly's")
     options = options or LatinOptions()
     t0 = time.perf_counter()
     ops = operators or LatinOperators(assembly, options)
     t_setup = time.perf_counter() - t0
-    pts = ops.points
+    # friction and gaps live on the points: take them from this assembly
+    pts = ops.points if ops.assembly is assembly else build_points(
+        assembly, options.interface_elements)
+    if initial is not None:
+        expected = (assembly.n_steps, pts.n_points, 2)
+        if any(np.shape(field) != expected for field in initial):
+            raise ModelError(f"initial: interface fields must have shape {expected}, got "
+                             f"{[np.shape(field) for field in initial]}")
     k = ops.search_direction
     local = LocalStage(assembly, pts, k)
     n_steps = assembly.n_steps
@@ -350,7 +412,7 @@ def solve_latin(assembly: Assembly, options: LatinOptions | None = None,
     # (measured 3x slower per iteration with 2 OpenBLAS threads on b1-9)
     with threadpool_limits(limits=1, user_api="blas"):
         w, f, w_hat, f_hat, t_linear, t_local = _iterate(ops, local, options, macro_data,
-                                                         history)
+                                                         history, initial)
     t_iter = time.perf_counter() - t1
     converged = history[-1] < options.tol
 
@@ -405,19 +467,24 @@ def _iterate(
     options: LatinOptions,
     macro_data: FloatArray | None,
     history: list[float],
+    initial: tuple[FloatArray, FloatArray] | None = None,
 ) -> tuple[FloatArray, FloatArray, FloatArray, FloatArray, float, float]:
-    """LATIN iterations from ŝ = 0 until η < tol or the cap; η is appended to ``history``.
+    """LATIN iterations from ŝ = ``initial`` (or 0) until η < tol or the cap; η is appended
+    to ``history``.
 
     Returns s = (W, F), ŝ = (Ŵ, F̂) and the time spent in the linear and local stages.
     """
     pts = ops.points
     k = ops.search_direction
     n_steps = local.prescribed.shape[0]
-    w_hat = np.zeros((n_steps, pts.n_points, 2))
-    f_hat = np.zeros_like(w_hat)
+    if initial is None:
+        w_hat = np.zeros((n_steps, pts.n_points, 2))
+        f_hat = np.zeros_like(w_hat)
+    else:
+        w_hat, f_hat = (np.array(field, dtype=np.float64) for field in initial)
     w = f = None
     t_linear = t_local = 0.0
-    mixer = (_Anderson(options.anderson_depth, options.relaxation,
+    mixer = (Anderson(options.anderson_depth, options.relaxation,
                        np.sqrt(pts.weights[:, None] * k), np.sqrt(pts.weights[:, None] / k))
              if options.acceleration == "anderson" else None)
     for iteration in range(1, options.max_iter + 1):
@@ -464,45 +531,3 @@ def _reactions(assembly: Assembly, pts: InterfacePoints, force_hat: FloatArray
 def _body_pair(assembly: Assembly, pts: InterfacePoints, interface: int) -> frozenset[str]:
     itf = assembly.interfaces[interface]
     return frozenset(assembly.substructures[r.substructure].body for r in itf.sides)
-
-
-class _Anderson:
-    """Anderson mixing (type II) of the LATIN fixed point x ↦ G(x) = linear(local(x)),
-    in the norm of the indicator; damped by ω. Affine combinations of admissible fields are
-    admissible, so s stays in A_d."""
-
-    def __init__(self, depth: int, damping: float, w_scale: FloatArray,
-                 f_scale: FloatArray) -> None:
-        self.depth = depth
-        self.damping = damping
-        self.scale = np.concatenate([w_scale.ravel(), f_scale.ravel()])
-        self.scale_all_steps: FloatArray | None = None
-        self.xs: list[FloatArray] = []
-        self.rs: list[FloatArray] = []
-
-    def __call__(self, w: FloatArray, f: FloatArray, w_new: FloatArray,
-                 f_new: FloatArray) -> tuple[FloatArray, FloatArray]:
-        shape = w.shape
-        x = np.concatenate([w.reshape(shape[0], -1), f.reshape(shape[0], -1)], axis=1)
-        g = np.concatenate([w_new.reshape(shape[0], -1), f_new.reshape(shape[0], -1)], axis=1)
-        r = g - x
-        self.xs.append(x)
-        self.rs.append(r)
-        if len(self.xs) > self.depth + 1:
-            self.xs.pop(0)
-            self.rs.pop(0)
-        x_mix, r_mix = x, r
-        if len(self.xs) > 1:
-            d_r = np.stack([(b - a).ravel() for a, b in zip(self.rs[:-1], self.rs[1:],
-                                                          strict=True)], axis=1)
-            d_x = np.stack([(b - a).ravel() for a, b in zip(self.xs[:-1], self.xs[1:],
-                                                          strict=True)], axis=1)
-            if self.scale_all_steps is None:
-                self.scale_all_steps = np.tile(self.scale, shape[0])
-            scale = self.scale_all_steps
-            gamma, *_ = np.linalg.lstsq(d_r * scale[:, None], r.ravel() * scale, rcond=1e-10)
-            x_mix = x - (d_x @ gamma).reshape(x.shape)
-            r_mix = r - (d_r @ gamma).reshape(r.shape)
-        out = x_mix + self.damping * r_mix
-        half = w.reshape(shape[0], -1).shape[1]
-        return out[:, :half].reshape(shape), out[:, half:].reshape(shape)
