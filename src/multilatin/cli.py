@@ -79,6 +79,31 @@ def build_parser() -> argparse.ArgumentParser:
                        help="also solve monolithically; report both and overlay the histories")
     ref = sub.add_parser("reference", help="solve a model monolithically (reference)")
     _add_model_arguments(ref)
+    study = sub.add_parser(
+        "study", help="a parametric study over a grid, with multiresolution",
+        description="Solve every parameter set of a grid; each case starts from its nearest "
+        "converged neighbour (multiresolution) unless --cold. Results go to a folder that a "
+        "second run of the same command resumes.")
+    study.add_argument("model", help="bundled model name or a .toml path")
+    study.add_argument("--grid", action="append", default=[], metavar="NAME=VALUES",
+                       help="a varied parameter: name=start:stop:count, name=v1,v2,... or "
+                       "name=value (repeatable)")
+    study.add_argument("--set", dest="assignments", action="append", default=[],
+                       metavar="NAME=VALUE", help="fix a parameter that is not varied")
+    modes = study.add_mutually_exclusive_group()
+    modes.add_argument("--cold", action="store_true",
+                       help="start every case from zero with its own operators")
+    modes.add_argument("--compare", action="store_true",
+                       help="run both modes and report the multiresolution gain")
+    study.add_argument("--out", type=Path, help="results folder (default: study-<model>)")
+    study.add_argument("--json", action="store_true", help="print one JSON object")
+    study.add_argument("--workers", type=int, default=0,
+                       help="run on a local Dask cluster of N processes")
+    study.add_argument("--scheduler", help="run on the Dask cluster at this address")
+    study.add_argument("--chains", type=int, default=None,
+                       help="independent multiresolution chains (default: workers, or 1)")
+    study.add_argument("--no-progress", action="store_true", help="no progress bar")
+    _add_latin_arguments(study)
     sub.add_parser("models", help="list the bundled models")
     show = sub.add_parser("show", help="describe a model: parameters, substructures, QoIs")
     show.add_argument("model")
@@ -133,6 +158,45 @@ def _show(model: Model) -> None:
     print("quantities of interest: " + ", ".join(q.name for q in assembly.qois))
 
 
+def _latin_options(args: argparse.Namespace) -> LatinOptions:
+    return LatinOptions(kappa=args.kappa, tol=args.tol, max_iter=args.max_iter,
+                        relaxation=args.relaxation, macro=not args.no_macro,
+                        interface_elements=args.interface_elements)
+
+
+def _study(model: Model, args: argparse.Namespace, argv: list[str] | None) -> int:
+    from .parameters import Grid
+    from .runner import run_study
+    from .study_report import case_table, format_table, summary_lines, write_study_outputs
+
+    fixed = parse_assignments(args.assignments)
+    grid = Grid.parse(args.grid)
+    overlap = sorted(set(fixed) & set(grid))
+    if overlap:
+        raise ModelError(f"--set {overlap[0]}: the parameter is also in --grid")
+    if fixed:
+        model = model.with_defaults(fixed)
+    modes = ("cold",) if args.cold else ("multiresolution", "cold") if args.compare else (
+        "multiresolution",)
+    out = args.out or Path(f"study-{model.name}")
+    command = "multilatin " + " ".join(argv if argv is not None else sys.argv[1:])
+    result = run_study(model, grid, options=_latin_options(args), modes=modes, out=out,
+                       chains=args.chains, workers=args.workers, scheduler=args.scheduler,
+                       progress=not args.no_progress and not args.json, command=command)
+    written = write_study_outputs(result, out)
+    if args.json:
+        print(json.dumps(result.to_json_dict()))
+    else:
+        header, rows = case_table(result)
+        print(format_table(header, rows))
+        print()
+        for line in summary_lines(result):
+            print(line)
+        print(f"results in {out}/: study.nc (xarray), table.csv, report.html, "
+              + ", ".join(p.name for p in written if p.suffix == ".png"))
+    return 0 if all(r["converged"] for r in result.records) else EXIT_NOT_CONVERGED
+
+
 def main(argv: list[str] | None = None) -> int:
     args = build_parser().parse_args(argv)
     level = logging.WARNING - 10 * args.verbose
@@ -144,6 +208,8 @@ def main(argv: list[str] | None = None) -> int:
                 print(f"{name}: {load_model(name).title}")
             return 0
         model = load_model(args.model)
+        if args.command == "study":
+            return _study(model, args, argv)
         if args.command == "show":
             _show(model)
             return 0
@@ -157,9 +223,7 @@ def main(argv: list[str] | None = None) -> int:
                 return EXIT_NOT_CONVERGED
             _report(monolithic, args)
             return 0
-        options = LatinOptions(kappa=args.kappa, tol=args.tol, max_iter=args.max_iter,
-                               relaxation=args.relaxation, macro=not args.no_macro,
-                               interface_elements=args.interface_elements)
+        options = _latin_options(args)
         try:
             result = model.solve(mu, options=options, refine=args.refine, split=split)
         except NotConvergedError as exc:

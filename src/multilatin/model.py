@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import dataclasses
 from collections.abc import Mapping
 from importlib import resources
 from pathlib import Path
@@ -39,6 +40,13 @@ class Model:
     @property
     def parameters(self) -> Parameters:
         return self.spec.parameters
+
+    def with_defaults(self, values: Mapping[str, float]) -> Model:
+        """The same model with other default values (each checked) for some parameters."""
+        mu = self.parameters.parse(values)
+        params = Parameters({name: dataclasses.replace(p, default=mu[name])
+                             for name, p in self.parameters.items()})
+        return Model(dataclasses.replace(self.spec, parameters=params))
 
     def assemble(self, mu: Mu | Mapping[str, float] | None = None, *, refine: int = 1,
                  split: Split | None = None) -> Assembly:

@@ -8,8 +8,10 @@ direction, tolerance) are solver arguments, never parameters.
 from __future__ import annotations
 
 import math
-from collections.abc import Iterator, Mapping
+from collections.abc import Iterable, Iterator, Mapping
 from dataclasses import dataclass
+
+import numpy as np
 
 from .errors import ModelError
 
@@ -110,3 +112,121 @@ def parse_assignments(assignments: list[str]) -> dict[str, float]:
         except ValueError:
             raise ModelError(f"--set {item!r}: value {text!r} is not a number") from None
     return values
+
+
+class Grid(Mapping[str, tuple[float, ...]]):
+    """A tensor grid of parameter values: name -> values, in the order the user gave them.
+
+    Built from command-line items (``parse``) or, after pyMOR's ``ParameterSpace``, by
+    sampling admissible ranges (``ParameterSpace.sample_uniformly``). Every value is checked
+    against the model's parameters on ``validate``.
+    """
+
+    __slots__ = ("_values",)
+
+    def __init__(self, values: Mapping[str, Iterable[float]]) -> None:
+        self._values: dict[str, tuple[float, ...]] = {}
+        for name, items in values.items():
+            grid_values = tuple(float(v) for v in items)
+            if not grid_values:
+                raise ModelError(f"grid {name!r}: no values")
+            if len(set(grid_values)) != len(grid_values):
+                raise ModelError(f"grid {name!r}: repeated values {grid_values}")
+            self._values[name] = grid_values
+
+    @classmethod
+    def parse(cls, items: Iterable[str]) -> Grid:
+        """``["mu2=0:0.6:13", "mu1=0.1,0.3", "rc=3"]``: ``start:stop:count`` (count values,
+        both ends included), a comma-separated list, or one value."""
+        values: dict[str, tuple[float, ...]] = {}
+        for item in items:
+            name, sep, text = item.partition("=")
+            name = name.strip()
+            if not sep or not name:
+                raise ModelError(f"--grid {item!r}: expected name=start:stop:count, "
+                                 "name=v1,v2,... or name=value")
+            if name in values:
+                raise ModelError(f"--grid {item!r}: parameter {name!r} given twice")
+            values[name] = _parse_values(item, text)
+        if not values:
+            raise ModelError("--grid: no parameter to vary")
+        return cls(values)
+
+    def __getitem__(self, key: str) -> tuple[float, ...]:
+        return self._values[key]
+
+    def __iter__(self) -> Iterator[str]:
+        return iter(self._values)
+
+    def __len__(self) -> int:
+        return len(self._values)
+
+    def __repr__(self) -> str:
+        return "Grid(" + ", ".join(f"{k}: {len(v)}" for k, v in self._values.items()) + ")"
+
+    @property
+    def shape(self) -> tuple[int, ...]:
+        return tuple(len(v) for v in self._values.values())
+
+    @property
+    def size(self) -> int:
+        return math.prod(self.shape)
+
+    def validate(self, parameters: Parameters) -> None:
+        """Every name known and every value admissible, before any computation starts."""
+        for name, grid_values in self._values.items():
+            if name not in parameters:
+                known = ", ".join(sorted(parameters)) or "none"
+                raise ModelError(f"--grid {name}: unknown parameter (this model's "
+                                 f"parameters: {known})")
+            for value in grid_values:
+                parameters[name].check(value)
+
+    def mu(self, index: tuple[int, ...], parameters: Parameters) -> Mu:
+        """The full parameter set at grid ``index`` (defaults for parameters not varied)."""
+        return parameters.parse({name: self._values[name][i]
+                                 for name, i in zip(self._values, index, strict=True)})
+
+
+def _parse_values(item: str, text: str) -> tuple[float, ...]:
+    text = text.strip()
+    if not text:
+        raise ModelError(f"--grid {item!r}: empty grid")
+    parts = text.split(":")
+    try:
+        if len(parts) == 1:
+            return tuple(float(v) for v in text.split(","))
+        if len(parts) != 3:
+            raise ValueError
+        start, stop, count = float(parts[0]), float(parts[1]), int(parts[2])
+    except ValueError:
+        raise ModelError(f"--grid {item!r}: expected start:stop:count (count an integer), "
+                         "a comma-separated list of numbers, or one number") from None
+    if count < 1:
+        raise ModelError(f"--grid {item!r}: empty grid (count {count})")
+    if count == 1 and start != stop:
+        raise ModelError(f"--grid {item!r}: one value cannot span {start}:{stop}")
+    return tuple(float(v) for v in np.round(np.linspace(start, stop, count), 12))
+
+
+@dataclass(frozen=True)
+class ParameterSpace:
+    """Parameters with the ranges to explore (pyMOR's ``ParameterSpace``)."""
+
+    parameters: Parameters
+    ranges: Mapping[str, tuple[float, float]]
+
+    def __post_init__(self) -> None:
+        for name, (low, high) in self.ranges.items():
+            if name not in self.parameters:
+                raise ModelError(f"ParameterSpace: unknown parameter {name!r}")
+            if not low <= high:
+                raise ModelError(f"ParameterSpace {name!r}: empty range [{low}, {high}]")
+            self.parameters[name].check(low)
+            self.parameters[name].check(high)
+
+    def sample_uniformly(self, counts: int | Mapping[str, int]) -> Grid:
+        """A tensor grid with ``counts`` values per range (ends included)."""
+        per = {name: counts if isinstance(counts, int) else counts[name] for name in self.ranges}
+        return Grid({name: np.round(np.linspace(low, high, per[name]), 12)
+                     for name, (low, high) in self.ranges.items()})

@@ -58,7 +58,7 @@ def evaluate_qois(
             values = (pressures or ContactPressures()).mean(frozenset(q.bodies), q.segment)
         else:  # pragma: no cover - rejected when the model is read
             raise ValueError(q.kind)
-        values = q.scale * values
+        values = q.scale * values + 0.0  # + 0.0: no "-0" for a zero force
         if q.step is not None:
             values = values[q.step - 1:q.step]
         out[q.name] = float(values[0]) if values.size == 1 else [float(v) for v in values]

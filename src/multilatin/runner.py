@@ -1,0 +1,221 @@
+"""Running a study: serially or as Dask tasks, with progress, into a resumable store."""
+
+from __future__ import annotations
+
+import json
+import logging
+import sys
+import tempfile
+import time
+from collections.abc import Callable, Sequence
+from dataclasses import asdict, dataclass
+from hashlib import sha1
+from pathlib import Path
+from typing import Any
+
+import xarray as xr
+
+from .errors import ModelError
+from .latin import LatinOptions
+from .model import Model
+from .parameters import Grid
+from .store import StudyStore
+from .study import MODES, Case, ChainState, StudyPlan, plan_study, run_chain_step
+
+log = logging.getLogger(__name__)
+
+
+@dataclass(frozen=True)
+class StudyResult:
+    """A finished (or resumed and finished) study."""
+
+    plan: StudyPlan
+    dataset: xr.Dataset
+    records: list[dict[str, Any]]
+    elapsed_s: dict[str, float]  # per mode: the study's wall time (summed over resumptions)
+    folder: Path | None
+
+    def mode_records(self, mode: str) -> list[dict[str, Any]]:
+        return sorted((r for r in self.records if r["mode"] == mode), key=lambda r: r["number"])
+
+    @property
+    def gains(self) -> dict[str, float] | None:
+        """Both modes run: the gain (Σ cold times / the multiresolution study's time), the
+        paper's gain (cases × the first cold time / the study's time) and the gain of the
+        warm starts alone (iteration times only, operators set aside)."""
+        cold, warm = self.mode_records("cold"), self.mode_records("multiresolution")
+        if not cold or not warm or len(cold) != len(warm):
+            return None
+        study_time = self.elapsed_s["multiresolution"]
+        first_cold = cold[0]["wall_s"]
+        return {
+            "gain": sum(r["wall_s"] for r in cold) / study_time,
+            "paper_gain": len(cold) * first_cold / study_time,
+            "warm_start_gain": (sum(r["wall_s"] - r["setup_s"] for r in cold)
+                                / sum(r["wall_s"] - r["setup_s"] for r in warm)),
+            "iterations_ratio": (sum(r["iterations"] for r in cold)
+                                 / sum(r["iterations"] for r in warm)),
+        }
+
+    def to_json_dict(self) -> dict[str, Any]:
+        main = "multiresolution" if self.mode_records("multiresolution") else "cold"
+        out: dict[str, Any] = {
+            "model": self.dataset.attrs.get("model"),
+            "grid": {name: list(self.plan.grid[name]) for name in self.plan.grid},
+            "mode": main,
+            "cases": [_case_json(r) for r in self.mode_records(main)],
+            "wall_s": self.elapsed_s[main],
+            "converged": all(r["converged"] for r in self.records),
+            "store": str(self.folder) if self.folder else None,
+        }
+        if main == "multiresolution" and self.mode_records("cold"):
+            out["cold_cases"] = [_case_json(r) for r in self.mode_records("cold")]
+            out["cold_wall_s"] = self.elapsed_s["cold"]
+            out.update(self.gains or {})
+        return out
+
+
+def _case_json(record: dict[str, Any]) -> dict[str, Any]:
+    return {key: record[key] for key in ("params", "iterations", "wall_s", "converged", "qoi",
+                                          "setup_s", "start")}
+
+
+def run_study(
+    model: Model,
+    grid: Grid,
+    *,
+    options: LatinOptions | None = None,
+    modes: Sequence[str] = ("multiresolution",),
+    out: str | Path | None = None,
+    chains: int | None = None,
+    workers: int = 0,
+    scheduler: str | None = None,
+    progress: bool = True,
+    command: str = "",
+    on_case: Callable[[dict[str, Any]], None] | None = None,
+) -> StudyResult:
+    """Run (or resume) a study of ``model`` over ``grid``.
+
+    modes: ``"multiresolution"`` and/or ``"cold"`` (both: the gain is measured).
+    out: the results folder (a temporary one when None); a folder holding the same study
+        resumes it: finished cases are kept, not recomputed.
+    chains: independent multiresolution chains (default: the number of workers, or 1).
+    workers / scheduler: run the chains' cases as tasks on a local Dask cluster of
+        ``workers`` processes, or on the cluster at ``scheduler``; 0 and None: serial.
+    """
+    options = options or LatinOptions()
+    for mode in modes:
+        if mode not in MODES:
+            raise ModelError(f"mode: expected one of {MODES}, got {mode!r}")
+    if workers < 0:
+        raise ModelError(f"--workers: must be >= 0, got {workers}")
+    n_chains = chains if chains is not None else max(workers, 1)
+    plan = plan_study(model, grid, options, n_chains)
+    identity = {
+        "model": model.name,
+        "model_sha1": sha1(json.dumps(model.spec.data, sort_keys=True, default=str)
+                           .encode()).hexdigest(),
+        "defaults": dict(model.parameters.defaults()),
+        "grid": {name: list(grid[name]) for name in grid},
+        "options": asdict(options),
+        "chains": len(plan.chains),
+    }
+    folder = Path(out) if out is not None else Path(tempfile.mkdtemp(prefix="multilatin-"))
+    store = StudyStore(folder, identity)
+    attrs = {"model": model.name, "title": model.title, "command": command,
+             "tolerance": options.tol, "chains": len(plan.chains),
+             "geometric_parameters": list(plan.geometric)}
+    elapsed: dict[str, float] = {}
+    try:
+        for mode in modes:
+            previous = max((r.get("elapsed_s", 0.0) for (m, _), r in store.records.items()
+                            if m == mode), default=0.0)
+            pending = [c for c in plan.cases if not store.finished(mode, c.number)]
+            if pending:
+                log.info("%s: %d of %d cases to compute (%s)", model.name, len(pending),
+                         plan.size, mode)
+            runner = _run_dask if (workers or scheduler) else _run_serial
+            bar = _progress_bar(plan.size, plan.size - len(pending), mode, progress)
+            start = time.perf_counter()
+
+            def finished(record: dict[str, Any], state: ChainState | None,
+                         start: float = start, previous: float = previous,
+                         bar: Any = bar) -> None:
+                record["elapsed_s"] = previous + time.perf_counter() - start
+                store.add(record, state)
+                store.maybe_write_dataset(grid, attrs)
+                if bar is not None:
+                    bar.set_postfix_str(", ".join(f"{k}={v:g}" for k, v in
+                                                  record["params"].items()))
+                    bar.update(1)
+                if on_case is not None:
+                    on_case(record)
+
+            runner(model, grid, plan, mode, options, store, finished, workers, scheduler)
+            if bar is not None:
+                bar.close()
+            elapsed[mode] = max((r.get("elapsed_s", 0.0) for (m, _), r in store.records.items()
+                                 if m == mode), default=0.0)
+        records = [r for r in store.records.values() if r["mode"] in modes]
+        dataset = store.write_dataset(grid, {**attrs, "elapsed_s": elapsed})
+    finally:
+        store.close()
+    return StudyResult(plan, dataset, records, elapsed, folder)
+
+
+def _progress_bar(total: int, done: int, mode: str, enabled: bool) -> Any:
+    if not enabled:
+        return None
+    from tqdm import tqdm
+    # disable=None: no bar when stderr is not a terminal (logs, CI)
+    return tqdm(total=total, initial=done, desc=mode, unit="case", file=sys.stderr,
+                dynamic_ncols=True, disable=None)
+
+
+def _run_serial(model: Model, grid: Grid, plan: StudyPlan, mode: str, options: LatinOptions,
+                store: StudyStore, finished: Callable[[dict[str, Any], ChainState | None], None],
+                workers: int, scheduler: str | None) -> None:
+    for chain_number, chain in enumerate(plan.chains):
+        state = store.chain_state(mode, chain_number) if mode != "cold" else None
+        for case in chain:
+            if store.finished(mode, case.number):
+                continue
+            record, state = run_chain_step(model, grid, case, mode, options, state)
+            finished(record, state)
+
+
+def _run_dask(model: Model, grid: Grid, plan: StudyPlan, mode: str, options: LatinOptions,
+              store: StudyStore, finished: Callable[[dict[str, Any], ChainState | None], None],
+              workers: int, scheduler: str | None) -> None:
+    """Each case a task; within a chain each task takes the previous one's output (its
+    warm-start state), chains run in parallel. The client alone writes the store."""
+    try:
+        from dask.distributed import Client, LocalCluster, as_completed
+    except ImportError:
+        raise ModelError("--workers/--scheduler need Dask: pip install 'multilatin[dask]'"
+                         ) from None
+    cluster = None
+    if scheduler:
+        client = Client(scheduler)
+    else:
+        cluster = LocalCluster(n_workers=workers, threads_per_worker=1, processes=True,
+                               dashboard_address=None)
+        client = Client(cluster)
+    try:
+        model_future = client.scatter(model, broadcast=True)
+        futures = []
+        for chain_number, chain in enumerate(plan.chains):
+            previous: Any = store.chain_state(mode, chain_number) if mode != "cold" else None
+            todo: list[Case] = [c for c in chain if not store.finished(mode, c.number)]
+            for case in todo:
+                previous = client.submit(run_chain_step, model_future, grid, case, mode,
+                                         options, previous, pure=False,
+                                         key=f"{mode}-case-{case.number}-{id(store)}")
+                futures.append(previous)
+        for future in as_completed(futures):
+            record, state = future.result()
+            finished(record, state)
+    finally:
+        client.close()
+        if cluster is not None:
+            cluster.close()

@@ -1,0 +1,248 @@
+"""Parametric studies with multiresolution (paper §6, figure 9; method.md §6).
+
+A study is a tensor grid of parameter sets. Its cases are traversed so that consecutive
+cases are neighbours (a boustrophedon over the grid, the parameters that change an operator —
+the geometry — outermost, as in the paper's figure 9), split into independent *chains*. In
+``multiresolution`` mode every case of a chain starts from the converged interface fields of
+the nearest already-converged case of its chain, beginning with a linear stage, and reuses
+the operators as long as the geometry does not change; in ``cold`` mode every case is a
+standalone computation (its own operators, started from zero).
+"""
+
+from __future__ import annotations
+
+import logging
+import time
+from collections import OrderedDict
+from collections.abc import Iterator
+from dataclasses import dataclass, field
+from typing import Any
+
+import numpy as np
+
+from .errors import ModelError
+from .fem.elasticity import FloatArray
+from .latin import LatinOperators, LatinOptions, operator_signature, solve_latin
+from .model import Model
+from .parameters import Grid, Mu
+
+log = logging.getLogger(__name__)
+
+MODES = ("multiresolution", "cold")
+
+
+@dataclass(frozen=True)
+class Case:
+    """One computation of a study: its place in the traversal and its parameters."""
+
+    number: int  # position in the traversal (0-based)
+    index: tuple[int, ...]  # grid index, in the grid's parameter order
+    mu: Mu
+    chain: int
+
+
+@dataclass(frozen=True)
+class StudyPlan:
+    """The cases of a study in traversal order, split into independent chains."""
+
+    grid: Grid
+    chains: tuple[tuple[Case, ...], ...]
+    geometric: tuple[str, ...]  # grid parameters that change an operator (outer loops)
+
+    @property
+    def cases(self) -> list[Case]:
+        return [case for chain in self.chains for case in chain]
+
+    @property
+    def size(self) -> int:
+        return sum(len(chain) for chain in self.chains)
+
+
+def boustrophedon(shape: tuple[int, ...]) -> Iterator[tuple[int, ...]]:
+    """Every index of ``shape``, consecutive ones differing by one step in one dimension
+    (the first dimension outermost)."""
+    if not shape:
+        yield ()
+        return
+    inner = list(boustrophedon(shape[1:]))
+    for i in range(shape[0]):
+        for rest in inner if i % 2 == 0 else reversed(inner):
+            yield (i, *rest)
+
+
+def plan_study(model: Model, grid: Grid, options: LatinOptions | None = None,
+               chains: int = 1) -> StudyPlan:
+    """Validate the grid against the model (names, ranges, geometry of every distinct
+    geometric parameter set) and order its cases; nothing is computed here."""
+    options = options or LatinOptions()
+    grid.validate(model.parameters)
+    if chains < 1:
+        raise ModelError(f"chains: must be >= 1, got {chains}")
+    names = list(grid)
+    first = (0,) * len(names)
+    base = operator_signature(_assemble(model, grid, first), options)
+    geometric = []
+    for d, name in enumerate(names):
+        if len(grid[name]) > 1:
+            probe = tuple(1 if e == d else 0 for e in range(len(names)))
+            if operator_signature(_assemble(model, grid, probe), options) != base:
+                geometric.append(name)
+    # every geometry of the study is built once now, so that a bad one fails before any work
+    geometric_dims = [names.index(name) for name in geometric]
+    for sub_index in np.ndindex(*[len(grid[name]) for name in geometric]):
+        index = [0] * len(names)
+        for d, i in zip(geometric_dims, sub_index, strict=True):
+            index[d] = i
+        _assemble(model, grid, tuple(index))
+    order = geometric_dims + [d for d in range(len(names)) if d not in geometric_dims]
+    shape = tuple(len(grid[names[d]]) for d in order)
+    ordered = []
+    for traversal_index in boustrophedon(shape):
+        index = [0] * len(names)
+        for d, i in zip(order, traversal_index, strict=True):
+            index[d] = i
+        ordered.append(tuple(index))
+    n_chains = min(chains, len(ordered))
+    bounds = np.linspace(0, len(ordered), n_chains + 1).round().astype(int)
+    chain_cases = tuple(
+        tuple(Case(number, ordered[number], grid.mu(ordered[number], model.parameters), c)
+              for number in range(bounds[c], bounds[c + 1]))
+        for c in range(n_chains))
+    return StudyPlan(grid, chain_cases, tuple(geometric))
+
+
+def _assemble(model: Model, grid: Grid, index: tuple[int, ...]) -> Any:
+    mu = grid.mu(index, model.parameters)
+    try:
+        return model.assemble(mu)
+    except ModelError as error:
+        params = ", ".join(f"{k}={v:g}" for k, v in mu.items())
+        raise ModelError(f"parameter set ({params}): {error}") from None
+
+
+@dataclass
+class ChainState:
+    """What a chain carries from case to case: the converged interface fields ŝ of its
+    latest converged cases, by grid index (most recent last)."""
+
+    capacity: int = 32
+    retained: OrderedDict[tuple[int, ...], tuple[FloatArray, FloatArray]] = field(
+        default_factory=OrderedDict)
+
+    def nearest(self, index: tuple[int, ...]) -> tuple[tuple[int, ...] | None,
+                                                      tuple[FloatArray, FloatArray] | None]:
+        """The retained case nearest to ``index`` (grid steps, L1; ties: most recent)."""
+        best, best_distance = None, None
+        for other in reversed(self.retained):
+            distance = sum(abs(a - b) for a, b in zip(other, index, strict=True))
+            if best_distance is None or distance < best_distance:
+                best, best_distance = other, distance
+        return (best, self.retained[best]) if best is not None else (None, None)
+
+    def added(self, index: tuple[int, ...], fields: tuple[FloatArray, FloatArray]
+              ) -> ChainState:
+        """A new state with ``fields`` retained (this one is left unchanged: distributed
+        tasks share their inputs)."""
+        retained = OrderedDict(self.retained)
+        retained[index] = fields
+        retained.move_to_end(index)
+        while len(retained) > self.capacity:
+            retained.popitem(last=False)
+        return ChainState(self.capacity, retained)
+
+    def to_arrays(self) -> dict[str, FloatArray]:
+        out: dict[str, FloatArray] = {"capacity": np.array(self.capacity)}
+        for n, (index, (w_hat, f_hat)) in enumerate(self.retained.items()):
+            out[f"index_{n}"] = np.array(index)
+            out[f"w_hat_{n}"] = w_hat
+            out[f"f_hat_{n}"] = f_hat
+        return out
+
+    @classmethod
+    def from_arrays(cls, arrays: dict[str, FloatArray]) -> ChainState:
+        state = cls(int(arrays["capacity"]))
+        n = 0
+        while f"index_{n}" in arrays:
+            index = tuple(int(i) for i in arrays[f"index_{n}"])
+            state.retained[index] = (arrays[f"w_hat_{n}"], arrays[f"f_hat_{n}"])
+            n += 1
+        return state
+
+
+# operators of the latest geometries met by this process (a worker keeps its own)
+_OPERATORS: OrderedDict[str, LatinOperators] = OrderedDict()
+_OPERATOR_CACHE_SIZE = 2
+
+
+def _operators(assembly: Any, options: LatinOptions) -> tuple[LatinOperators, bool]:
+    """Cached operators for this geometry; True when they had to be built."""
+    signature = operator_signature(assembly, options)
+    if signature in _OPERATORS:
+        _OPERATORS.move_to_end(signature)
+        return _OPERATORS[signature], False
+    ops = LatinOperators(assembly, options)
+    _OPERATORS[signature] = ops
+    while len(_OPERATORS) > _OPERATOR_CACHE_SIZE:
+        _OPERATORS.popitem(last=False)
+    return ops, True
+
+
+def run_case(model: Model, grid: Grid, case: Case, mode: str, options: LatinOptions,
+             state: ChainState | None) -> tuple[dict[str, Any], ChainState | None]:
+    """Solve one case; returns its record and the chain's state for the next case."""
+    t0 = time.perf_counter()
+    assembly = model.assemble(case.mu)
+    if mode == "cold":
+        ops, built = LatinOperators(assembly, options), True
+        start_index, initial = None, None
+    else:
+        ops, built = _operators(assembly, options)
+        state = state if state is not None else ChainState(_retained_capacity(grid))
+        start_index, initial = state.nearest(case.index)
+    setup_s = time.perf_counter() - t0
+    result = solve_latin(assembly, options, operators=ops, initial=initial, check=False)
+    wall_s = time.perf_counter() - t0
+    if mode != "cold" and result.converged and state is not None:
+        assert result.interface is not None
+        state = state.added(case.index, (result.interface.displacement_hat,
+                                         result.interface.force_hat))
+    start = ("zero" if start_index is None else
+             ", ".join(f"{n}={grid[n][i]:g}" for n, i in zip(grid, start_index, strict=True)))
+    params = {name: case.mu[name] for name in grid}
+    text = ", ".join(f"{k}={v:g}" for k, v in params.items())
+    record: dict[str, Any] = {
+        "mode": mode,
+        "number": case.number,
+        "chain": case.chain,
+        "index": list(case.index),
+        "params": params,
+        "converged": bool(result.converged),
+        "iterations": int(result.iterations),
+        "indicator": float(result.indicator),
+        "wall_s": wall_s,
+        "setup_s": setup_s,
+        "operators_built": built,
+        "start": start,
+        "qoi": result.qoi,
+        "log": (f"{mode} #{case.number + 1} ({text}): "
+                f"{'converged' if result.converged else 'NOT CONVERGED'} in "
+                f"{result.iterations} iterations, eta={result.indicator:.2e}, "
+                f"{wall_s:.3f} s, start: {start}, operators "
+                f"{'built' if built else 'reused'}"),
+    }
+    return record, state
+
+
+def _retained_capacity(grid: Grid) -> int:
+    """Enough converged neighbours to find one a single grid step away after a failure."""
+    inner = max(grid.shape) if len(grid) else 1
+    return int(min(2 * inner + 1, 64))
+
+
+def run_chain_step(model: Model, grid: Grid, case: Case, mode: str, options: LatinOptions,
+                   previous: tuple[dict[str, Any], ChainState | None] | ChainState | None
+                   ) -> tuple[dict[str, Any], ChainState | None]:
+    """A task of a distributed chain: ``previous`` is the previous task's output (or a
+    resumed state, or None at the start of a chain)."""
+    state = previous[1] if isinstance(previous, tuple) else previous
+    return run_case(model, grid, case, mode, options, state)

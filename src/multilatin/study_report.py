@@ -1,0 +1,234 @@
+"""Tables, figures and the self-contained HTML report of a study (paper §7, tables 1–2,
+figures 12, 13, 15)."""
+
+from __future__ import annotations
+
+import base64
+import csv
+import html
+from pathlib import Path
+from typing import Any
+
+import matplotlib
+
+matplotlib.use("Agg")
+import matplotlib.pyplot as plt  # noqa: E402
+import numpy as np  # noqa: E402
+import xarray as xr  # noqa: E402
+
+from .runner import StudyResult  # noqa: E402
+
+
+def case_table(result: StudyResult) -> tuple[list[str], list[list[Any]]]:
+    """One row per case in traversal order: parameters, iterations and time normalised by
+    the first cold computation (the paper's unit; by the first computation when no cold run),
+    for each mode run, and the scalar quantities of interest."""
+    main = "multiresolution" if result.mode_records("multiresolution") else "cold"
+    rows_main = result.mode_records(main)
+    cold = {r["number"]: r for r in result.mode_records("cold")}
+    unit = (cold[0]["wall_s"] if 0 in cold else rows_main[0]["wall_s"])
+    names = list(result.plan.grid)
+    scalar_qois = [k for k, v in rows_main[0]["qoi"].items() if not isinstance(v, list)]
+    header = ["case", *names, "iterations", "time / first cold"]
+    if main == "multiresolution" and cold:
+        header += ["cold iterations", "cold time / first cold"]
+    header += scalar_qois + ["converged", "start"]
+    rows = []
+    for record in rows_main:
+        row: list[Any] = [record["number"] + 1, *[record["params"][n] for n in names],
+                          record["iterations"], record["wall_s"] / unit]
+        if main == "multiresolution" and cold:
+            other = cold.get(record["number"])
+            row += ([other["iterations"], other["wall_s"] / unit] if other else ["", ""])
+        row += [record["qoi"][q] for q in scalar_qois]
+        row += [record["converged"], record["start"]]
+        rows.append(row)
+    return header, rows
+
+
+def summary_lines(result: StudyResult) -> list[str]:
+    main = "multiresolution" if result.mode_records("multiresolution") else "cold"
+    records = result.mode_records(main)
+    failed = [r for r in result.records if not r["converged"]]
+    lines = [
+        f"{len(records)} cases ({' x '.join(str(n) for n in result.plan.grid.shape)} grid over "
+        f"{', '.join(result.plan.grid)}), {len(result.plan.chains)} chain(s), mode {main}",
+        f"{main} study: {result.elapsed_s[main]:.2f} s, "
+        f"{sum(r['iterations'] for r in records)} iterations in all",
+    ]
+    if result.mode_records("cold") and main == "multiresolution":
+        gains = result.gains or {}
+        cold = result.mode_records("cold")
+        lines.append(f"cold (every case standalone, from zero): sum of times "
+                     f"{sum(r['wall_s'] for r in cold):.2f} s, "
+                     f"{sum(r['iterations'] for r in cold)} iterations in all")
+        lines.append(f"gain (sum of cold times / study time) = {gains['gain']:.2f}; "
+                     f"paper's definition (cases x first cold time / study time) = "
+                     f"{gains['paper_gain']:.2f}; warm starts alone (iteration times) = "
+                     f"{gains['warm_start_gain']:.2f}")
+    lines.append("converged: all" if not failed else
+                 f"NOT CONVERGED: {len(failed)} case(s): " +
+                 "; ".join(r["log"] for r in failed[:5]))
+    return lines
+
+
+def format_table(header: list[str], rows: list[list[Any]], max_rows: int = 40) -> str:
+    """A plain-text table (the middle rows elided past ``max_rows``)."""
+    def cell(value: Any) -> str:
+        if isinstance(value, bool):
+            return "yes" if value else "NO"
+        if isinstance(value, float):
+            return f"{value:.4g}"
+        return str(value)
+
+    shown: list[list[Any] | None] = list(rows)
+    if len(rows) > max_rows:
+        shown = [*rows[:max_rows // 2], None, *rows[-max_rows // 2:]]
+    cells = [[cell(v) for v in header]] + [[cell(v) for v in r] if r else ["..."] * len(header)
+                                           for r in shown]
+    widths = [max(len(c[i]) for c in cells) for i in range(len(header))]
+    return "\n".join("  ".join(c[i].rjust(widths[i]) for i in range(len(header)))
+                     for c in cells)
+
+
+def write_study_outputs(result: StudyResult, folder: Path) -> list[Path]:
+    """table.csv, response-surface and iteration figures, report.html."""
+    folder.mkdir(parents=True, exist_ok=True)
+    header, rows = case_table(result)
+    table_path = folder / "table.csv"
+    with table_path.open("w", newline="", encoding="utf-8") as stream:
+        writer = csv.writer(stream)
+        writer.writerow(header)
+        writer.writerows(rows)
+    figures = plot_response(result.dataset, folder) + [plot_iterations(result, folder)]
+    report = write_report(result, folder, header, rows, figures)
+    return [table_path, *figures, report]
+
+
+def _main_mode(dataset: xr.Dataset) -> str:
+    modes = list(dataset["mode"].values)
+    return "multiresolution" if "multiresolution" in modes else str(modes[0])
+
+
+def plot_response(dataset: xr.Dataset, folder: Path) -> list[Path]:
+    """Each scalar quantity of interest over the varied parameters: a curve for one, a
+    surface for two (paper fig. 12), small multiples over the others beyond."""
+    data = dataset.sel(mode=_main_mode(dataset))
+    varied = [str(d) for d in data["iterations"].dims if data.sizes[d] > 1]
+    scalars = [str(name) for name, var in data.data_vars.items()
+               if name not in ("iterations", "indicator", "wall_s", "setup_s", "finished",
+                               "converged", "log", "start") and "step" not in var.dims]
+    paths = []
+    for name in scalars:
+        values = data[name].where(data["converged"])
+        path = folder / f"response_{name}.png"
+        if len(varied) == 0:
+            continue
+        if len(varied) == 1:
+            fig, ax = plt.subplots(figsize=(6, 4))
+            curve = values.squeeze(drop=True)
+            ax.plot(curve[varied[0]], curve.values, "o-")
+            ax.set_xlabel(varied[0])
+            ax.set_ylabel(name)
+            ax.grid(alpha=0.3)
+        elif len(varied) == 2:
+            fig = plt.figure(figsize=(11, 4.5))
+            surface = values.squeeze(drop=True).transpose(*varied)
+            x, y = np.meshgrid(surface[varied[0]].values, surface[varied[1]].values,
+                               indexing="ij")
+            ax3 = fig.add_subplot(1, 2, 1, projection="3d")
+            ax3.plot_surface(x, y, surface.values, cmap="viridis", edgecolor="k", linewidth=0.2)
+            ax3.set_xlabel(varied[0])
+            ax3.set_ylabel(varied[1])
+            ax3.set_zlabel(name)
+            ax = fig.add_subplot(1, 2, 2)
+            contour = ax.contourf(x, y, surface.values, levels=15, cmap="viridis")
+            fig.colorbar(contour, ax=ax, label=name)
+            ax.set_xlabel(varied[0])
+            ax.set_ylabel(varied[1])
+        else:
+            inner, outer = varied[-2:], varied[:-2]
+            panels = list(np.ndindex(*[data.sizes[d] for d in outer]))[:25]
+            columns = min(5, len(panels))
+            rows_n = int(np.ceil(len(panels) / columns))
+            fig, axes = plt.subplots(rows_n, columns, figsize=(3 * columns, 2.6 * rows_n),
+                                     squeeze=False, sharex=True, sharey=True)
+            for ax, where in zip(axes.ravel(), panels, strict=False):
+                panel = values.isel({d: i for d, i in zip(outer, where, strict=True)})
+                panel = panel.squeeze(drop=True).transpose(*inner)
+                ax.contourf(panel[inner[0]], panel[inner[1]], panel.values.T, levels=12,
+                            cmap="viridis")
+                ax.set_title(", ".join(f"{d}={float(data[d][i]):g}"
+                                       for d, i in zip(outer, where, strict=True)), fontsize=8)
+            fig.supxlabel(inner[0])
+            fig.supylabel(inner[1])
+        fig.suptitle(f"{dataset.attrs.get('model', '')}: {name}")
+        fig.tight_layout()
+        fig.savefig(path, dpi=110)
+        plt.close(fig)
+        paths.append(path)
+    return paths
+
+
+def plot_iterations(result: StudyResult, folder: Path) -> Path:
+    """Iterations and time per case in traversal order, for each mode run."""
+    fig, (ax1, ax2) = plt.subplots(1, 2, figsize=(11, 4))
+    for mode, style in (("cold", "s-"), ("multiresolution", "o-")):
+        records = result.mode_records(mode)
+        if not records:
+            continue
+        numbers = [r["number"] + 1 for r in records]
+        ax1.plot(numbers, [r["iterations"] for r in records], style, ms=3, label=mode)
+        ax2.plot(numbers, [r["wall_s"] for r in records], style, ms=3, label=mode)
+    ax1.set_xlabel("case (traversal order)")
+    ax1.set_ylabel("LATIN iterations")
+    ax2.set_xlabel("case (traversal order)")
+    ax2.set_ylabel("wall time per case (s)")
+    for ax in (ax1, ax2):
+        ax.grid(alpha=0.3)
+        ax.legend()
+    fig.tight_layout()
+    path = folder / "iterations.png"
+    fig.savefig(path, dpi=110)
+    plt.close(fig)
+    return path
+
+
+def write_report(result: StudyResult, folder: Path, header: list[str], rows: list[list[Any]],
+                 figures: list[Path]) -> Path:
+    """report.html: self-contained (figures embedded)."""
+    attrs = result.dataset.attrs
+    parts = [
+        "<!doctype html><html><head><meta charset='utf-8'>",
+        f"<title>multilatin study: {html.escape(str(attrs.get('model', '')))}</title>",
+        "<style>body{font-family:sans-serif;max-width:1100px;margin:auto}"
+        "table{border-collapse:collapse;font-size:12px}td,th{border:1px solid #ccc;"
+        "padding:2px 6px;text-align:right}img{max-width:100%}</style></head><body>",
+        f"<h1>{html.escape(str(attrs.get('title', attrs.get('model', ''))))}</h1>",
+        f"<p>Command: <code>{html.escape(str(attrs.get('command', '')))}</code></p>",
+        "<h2>Parameters</h2><ul>",
+        *[f"<li>{html.escape(name)}: {', '.join(f'{v:g}' for v in values)}</li>"
+          for name, values in result.plan.grid.items()],
+        "</ul>",
+        f"<p>Tolerance η &lt; {attrs.get('tolerance')}; chains: {attrs.get('chains')}; "
+        f"geometric parameters (outer loops): "
+        f"{html.escape(str(attrs.get('geometric_parameters')))}</p>",
+        "<h2>Summary</h2><ul>",
+        *[f"<li>{html.escape(line)}</li>" for line in summary_lines(result)],
+        "</ul><h2>Figures</h2>",
+    ]
+    for path in figures:
+        encoded = base64.b64encode(path.read_bytes()).decode()
+        parts.append(f"<p><img alt='{path.name}' src='data:image/png;base64,{encoded}'></p>")
+    parts.append("<h2>Cases</h2><table><tr>" +
+                 "".join(f"<th>{html.escape(h)}</th>" for h in header) + "</tr>")
+    for row in rows:
+        parts.append("<tr>" + "".join(
+            f"<td>{v:.5g}</td>" if isinstance(v, float) else f"<td>{html.escape(str(v))}</td>"
+            for v in row) + "</tr>")
+    parts.append("</table><p>Data: <code>study.nc</code> (xarray), <code>cases.jsonl</code> "
+                 "(one record per case), <code>table.csv</code>.</p></body></html>")
+    path = folder / "report.html"
+    path.write_text("\n".join(parts), encoding="utf-8")
+    return path
+

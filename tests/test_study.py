@@ -1,0 +1,163 @@
+"""Parametric studies: multiresolution changes no answer, a killed study resumes without
+losing or recomputing anything, Dask gives the serial results, bad grids are refused."""
+
+from __future__ import annotations
+
+import json
+import os
+import signal
+import subprocess
+import sys
+import time
+from pathlib import Path
+
+import numpy as np
+import pytest
+import xarray as xr
+
+import multilatin as ml
+from multilatin.errors import ModelError
+from multilatin.latin import LatinOptions
+from multilatin.parameters import Grid, ParameterSpace
+from multilatin.runner import run_study
+from multilatin.store import load_study
+from multilatin.study import boustrophedon, plan_study
+
+MU2_LINE = Grid({"mu1": [0.3], "mu2": [0.0, 0.1, 0.2, 0.3]})
+
+
+@pytest.fixture(scope="module")
+def b1() -> ml.Model:
+    return ml.load_model("b1")
+
+
+def test_grid_parsing_and_sampling(b1: ml.Model) -> None:
+    grid = Grid.parse(["mu2=0:0.6:13", "mu1=0.1,0.3", "gap=0.04"])
+    assert grid["mu2"][1] == pytest.approx(0.05) and grid["mu2"][-1] == 0.6
+    assert grid.shape == (13, 2, 1) and grid.size == 26
+    space = ParameterSpace(b1.parameters, {"mu1": (0.0, 0.6), "mu2": (0.0, 0.6)})
+    assert space.sample_uniformly(13)["mu1"] == Grid.parse(["mu1=0:0.6:13"])["mu1"]
+
+
+@pytest.mark.parametrize("items, message", [
+    (["mu2=0:0.6:0"], "empty grid"),
+    (["mu2="], "empty grid"),
+    (["mu2=0:0.6"], "start:stop:count"),
+    (["mu2=a,b"], "start:stop:count"),
+    (["mu2=0.1", "mu2=0.2"], "given twice"),
+    ([], "no parameter"),
+])
+def test_bad_grids_are_refused(items: list[str], message: str) -> None:
+    with pytest.raises(ModelError, match=message):
+        Grid.parse(items)
+
+
+def test_unknown_or_inadmissible_parameters_fail_before_any_work(b1: ml.Model,
+                                                                  tmp_path: Path) -> None:
+    with pytest.raises(ModelError, match="unknown parameter"):
+        run_study(b1, Grid({"friction": [0.1]}), out=tmp_path / "a", progress=False)
+    with pytest.raises(ModelError, match=r"mu2.*-0.1.*outside"):
+        run_study(b1, Grid({"mu2": [0.0, -0.1]}), out=tmp_path / "b", progress=False)
+    assert not (tmp_path / "a").exists() and not (tmp_path / "b").exists()
+
+
+def test_traversal_visits_neighbours_only() -> None:
+    order = list(boustrophedon((3, 4, 2)))
+    assert len(set(order)) == 24
+    steps = [sum(abs(a - b) for a, b in zip(p, q, strict=True))
+             for p, q in zip(order, order[1:], strict=False)]
+    assert steps == [1] * 23
+
+
+def test_plan_puts_no_friction_parameter_in_the_outer_loop(b1: ml.Model) -> None:
+    plan = plan_study(b1, Grid({"mu1": [0.1, 0.2], "mu2": [0.0, 0.3]}), chains=2)
+    assert plan.geometric == ()
+    assert [len(c) for c in plan.chains] == [2, 2]
+    assert plan_study(ml.load_model("b0"), Grid({"P": [1.0, 2.0]})).geometric == ()
+
+
+def test_multiresolution_changes_no_answer(b1: ml.Model, tmp_path: Path) -> None:
+    """Converged tightly, warm-started QoIs equal the cold ones (the answer is unique; warm
+    starts only change the path); fewer iterations in all."""
+    options = LatinOptions(tol=1e-7, max_iter=3000)
+    result = run_study(b1, MU2_LINE, options=options, modes=("multiresolution", "cold"),
+                       out=tmp_path, progress=False)
+    warm, cold = result.mode_records("multiresolution"), result.mode_records("cold")
+    assert [r["start"] for r in warm[1:]] == ["mu1=0.3, mu2=0", "mu1=0.3, mu2=0.1",
+                                             "mu1=0.3, mu2=0.2"]
+    for w, c in zip(warm, cold, strict=True):
+        assert w["converged"] and c["converged"]
+        assert w["qoi"]["R_stop"] == pytest.approx(c["qoi"]["R_stop"], rel=2e-5, abs=1e-3)
+        np.testing.assert_allclose(w["qoi"]["p_B"], c["qoi"]["p_B"], rtol=1e-4)
+    assert sum(r["iterations"] for r in warm) < sum(r["iterations"] for r in cold)
+    assert [r["operators_built"] for r in warm] == [True, False, False, False]
+    gains = result.gains
+    assert gains is not None and gains["iterations_ratio"] > 1.0
+    dataset = load_study(tmp_path)
+    assert dataset["R_stop"].dims == ("mode", "mu1", "mu2")
+    assert dataset["u_A"].dims == ("mode", "mu1", "mu2", "step")
+    assert bool(dataset["finished"].all())
+
+
+def test_a_case_that_does_not_converge_is_recorded_and_the_study_goes_on(
+        b1: ml.Model, tmp_path: Path) -> None:
+    result = run_study(b1, MU2_LINE, options=LatinOptions(max_iter=5), out=tmp_path,
+                       progress=False)
+    assert len(result.records) == 4
+    assert not any(r["converged"] for r in result.records)
+    assert all("NOT CONVERGED" in r["log"] for r in result.records)
+    assert not bool(load_study(tmp_path)["converged"].any())
+
+
+def test_another_study_in_the_same_folder_is_refused(b1: ml.Model, tmp_path: Path) -> None:
+    run_study(b1, Grid({"mu2": [0.0]}), out=tmp_path, progress=False)
+    with pytest.raises(ModelError, match="different study.*grid"):
+        run_study(b1, Grid({"mu2": [0.1]}), out=tmp_path, progress=False)
+
+
+def _comparable(dataset: xr.Dataset) -> xr.Dataset:
+    return dataset.drop_vars(["wall_s", "setup_s", "log"]).drop_attrs()
+
+
+def test_a_killed_study_resumes_without_loss_or_recomputation(tmp_path: Path) -> None:
+    """A real SIGKILL mid-study; the same command again finishes it. Nothing finished is
+    recomputed (the first run's records are kept as they were), and the store equals an
+    uninterrupted run's."""
+    command = [sys.executable, "-m", "multilatin.cli", "study", "b1", "--grid", "mu1=0.3",
+               "--grid", "mu2=0:0.6:9", "--tol", "1e-6", "--no-progress", "--json"]
+    killed = tmp_path / "killed"
+    process = subprocess.Popen([*command, "--out", str(killed)], stdout=subprocess.DEVNULL,
+                               stderr=subprocess.DEVNULL)
+    journal = killed / "cases.jsonl"
+    deadline = time.monotonic() + 120
+    while time.monotonic() < deadline:
+        if journal.exists() and journal.read_text().count("\n") >= 3:
+            break
+        time.sleep(0.01)
+    os.kill(process.pid, signal.SIGKILL)
+    process.wait()
+    before = [json.loads(line) for line in journal.read_text().splitlines() if line.strip()]
+    assert 3 <= len(before) < 9, "the study was not interrupted mid-run"
+
+    resumed = subprocess.run([*command, "--out", str(killed)], capture_output=True, text=True,
+                             check=True)
+    after = [json.loads(line) for line in journal.read_text().splitlines() if line.strip()]
+    numbers = [r["number"] for r in after]
+    assert sorted(numbers) == list(range(9))  # each case once: none lost, none twice
+    assert after[:len(before)] == before  # finished cases kept as they were
+    assert len(json.loads(resumed.stdout)["cases"]) == 9
+
+    straight = tmp_path / "straight"
+    subprocess.run([*command, "--out", str(straight)], capture_output=True, check=True)
+    xr.testing.assert_identical(_comparable(load_study(killed)),
+                                _comparable(load_study(straight)))
+
+
+def test_dask_cluster_gives_the_serial_results(b1: ml.Model, tmp_path: Path) -> None:
+    pytest.importorskip("dask.distributed")
+    grid = Grid({"mu1": [0.1, 0.3], "mu2": [0.0, 0.2, 0.4]})
+    serial = run_study(b1, grid, chains=2, out=tmp_path / "serial", progress=False)
+    distributed = run_study(b1, grid, chains=2, workers=2, out=tmp_path / "dask",
+                            progress=False)
+    xr.testing.assert_identical(_comparable(serial.dataset), _comparable(distributed.dataset))
+    assert len({r["chain"] for r in distributed.records}) == 2
