@@ -9,12 +9,14 @@ from .errors import ModelError, NotConvergedError
 from .latin import LatinOperators, LatinOptions, solve_latin
 from .model import Model, bundled_models, load_model
 from .monolithic import solve_monolithic
-from .parameters import Mu, Parameter, Parameters
+from .parameters import Grid, Mu, Parameter, Parameters, ParameterSpace
 from .result import SolveResult
+from .runner import StudyResult, run_study
 from .spec import ModelSpec
 
 __version__ = "0.1.0"
 __all__ = [
+    "Grid",
     "LatinOperators",
     "LatinOptions",
     "Model",
@@ -23,10 +25,13 @@ __all__ = [
     "Mu",
     "NotConvergedError",
     "Parameter",
+    "ParameterSpace",
     "Parameters",
     "SolveResult",
+    "StudyResult",
     "bundled_models",
     "load_model",
+    "run_study",
     "solve_latin",
     "solve_monolithic",
 ]
