@@ -99,3 +99,33 @@ def test_contact_status_partitions_the_contact_points():
             assert len(status["stick"]) == 0 and len(lower) >= 25  # + the stop corner
         else:
             assert len(lower) == 0 and len(status["stick"]) > 10 * len(status["slip"])
+
+
+def test_study_json_contract_and_outputs(capsys, tmp_path):
+    status, data = run_json(capsys, "study", "b1", "--grid", "mu1=0.3", "--grid", "mu2=0,0.2",
+                            "--compare", "--json", "--out", str(tmp_path))
+    assert status == 0
+    assert {"cases", "wall_s", "gain", "paper_gain"} <= set(data)
+    assert [c["params"] for c in data["cases"]] == [{"mu1": 0.3, "mu2": 0.0},
+                                                   {"mu1": 0.3, "mu2": 0.2}]
+    for case in data["cases"]:
+        assert {"params", "iterations", "wall_s", "converged", "qoi"} <= set(case)
+        assert case["converged"] is True and case["qoi"]["R_stop"] > 200
+    assert data["gain"] > 0
+    report = (tmp_path / "report.html").read_text()
+    assert "multilatin study b1 --grid mu1=0.3" in report and "data:image/png" in report
+    assert (tmp_path / "response_R_stop.png").stat().st_size > 10_000
+    assert (tmp_path / "table.csv").read_text().count("\n") == 3
+
+
+@pytest.mark.parametrize("argv, field", [
+    (["--grid", "mu2=0:0.6:0"], "mu2"),
+    (["--grid", "friction=0.1"], "friction"),
+    (["--grid", "mu1=0.1,-0.2"], "mu1"),
+    (["--grid", "mu1=0.1", "--set", "mu1=0.2"], "mu1"),
+])
+def test_study_bad_input_exits_2_naming_the_field(capsys, tmp_path, argv, field):
+    status = main(["study", "b1", *argv, "--out", str(tmp_path / "s")])
+    assert status == 2
+    assert field in capsys.readouterr().err
+    assert not (tmp_path / "s").exists()
