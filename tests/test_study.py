@@ -21,7 +21,7 @@ from multilatin.latin import LatinOptions
 from multilatin.parameters import Grid, ParameterSpace
 from multilatin.runner import run_study
 from multilatin.store import load_study
-from multilatin.study import boustrophedon, plan_study
+from multilatin.study import boustrophedon, clear_operator_cache, plan_study
 
 MU2_LINE = Grid({"mu1": [0.3], "mu2": [0.0, 0.1, 0.2, 0.3]})
 
@@ -80,6 +80,7 @@ def test_multiresolution_changes_no_answer(b1: ml.Model, tmp_path: Path) -> None
     """Converged tightly, warm-started QoIs equal the cold ones (the answer is unique; warm
     starts only change the path); fewer iterations in all."""
     options = LatinOptions(tol=1e-7, max_iter=3000)
+    clear_operator_cache()
     result = run_study(b1, MU2_LINE, options=options, modes=("multiresolution", "cold"),
                        out=tmp_path, progress=False)
     warm, cold = result.mode_records("multiresolution"), result.mode_records("cold")

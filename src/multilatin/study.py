@@ -174,6 +174,11 @@ _OPERATORS: OrderedDict[str, LatinOperators] = OrderedDict()
 _OPERATOR_CACHE_SIZE = 2
 
 
+def clear_operator_cache() -> None:
+    """Forget the operators this process keeps between cases (and studies)."""
+    _OPERATORS.clear()
+
+
 def _operators(assembly: Any, options: LatinOptions) -> tuple[LatinOperators, bool]:
     """Cached operators for this geometry; True when they had to be built."""
     signature = operator_signature(assembly, options)
