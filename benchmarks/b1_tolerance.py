@@ -1,6 +1,7 @@
 """R_stop's error against the LATIN indicator η, to choose the default tolerance.
 
     python benchmarks/b1_tolerance.py
+    python benchmarks/b1_tolerance.py --models b1 --grid   # the 13 x 13 study grid (~25 min)
 
 For each model and friction pair, R_stop at η < tol is compared with the tightly converged
 value (η < 1e-9). Prints a Markdown table (the worst error over the cases per tolerance).
@@ -19,7 +20,11 @@ TOLERANCES = [1e-3, 3e-4, 1e-4, 3e-5, 1e-5, 3e-6, 1e-6]
 def main() -> None:
     parser = argparse.ArgumentParser(description=__doc__)
     parser.add_argument("--models", nargs="+", default=["b1", "b1-4", "b1-9"])
+    parser.add_argument("--grid", action="store_true",
+                        help="every (μ1, μ2) of the 13 x 13 study grid instead of five cases")
     args = parser.parse_args()
+    values = [round(0.05 * i, 2) for i in range(13)]
+    cases = [(a, b) for a in values for b in values] if args.grid else CASES
     header = "| model | μ1, μ2 | R_stop (η < 1e-9) | " + " | ".join(
         f"η < {t:g}" for t in TOLERANCES) + " |"
     print("Error of R_stop in N (iterations) at each tolerance:\n")
@@ -29,7 +34,7 @@ def main() -> None:
     worst_rel = dict.fromkeys(TOLERANCES, 0.0)
     for name in args.models:
         model = ml.load_model(name)
-        for mu1, mu2 in CASES:
+        for mu1, mu2 in cases:
             mu = {"mu1": mu1, "mu2": mu2}
             exact = model.solve(mu, options=ml.LatinOptions(tol=1e-9, max_iter=20000))
             r_exact = float(exact.qoi["R_stop"])  # type: ignore[arg-type]
