@@ -290,12 +290,20 @@ class LocalStage:
     def _coulomb(trial: FloatArray, normal_force: FloatArray, normal: FloatArray,
                  friction: FloatArray) -> FloatArray:
         """F̂ on side E from the trial force: contact where N ≤ 0, then stick or slip."""
-        tangential = trial - np.sum(trial * normal, axis=1)[:, None] * normal
+        contact_force = LocalStage._in_cone(trial, normal_force, normal, friction)
+        return np.where((normal_force <= 0.0)[:, None], contact_force, 0.0)
+
+    @staticmethod
+    def _in_cone(tangential_source: FloatArray, normal_force: FloatArray, normal: FloatArray,
+                 friction: FloatArray) -> FloatArray:
+        """N n plus the tangential part of ``tangential_source``, limited to μ |N|."""
+        tangential = (tangential_source
+                      - np.sum(tangential_source * normal, axis=1)[:, None] * normal)
         size = np.linalg.norm(tangential, axis=1)
         limit = friction * np.abs(normal_force)
         scale = np.where(size > limit, limit / np.maximum(size, 1e-300), 1.0)
-        contact_force = normal_force[:, None] * normal + scale[:, None] * tangential
-        return np.where((normal_force <= 0.0)[:, None], contact_force, 0.0)
+        force: FloatArray = normal_force[:, None] * normal + scale[:, None] * tangential
+        return force
 
     def _contact_and_stops(self, displacement: FloatArray, force: FloatArray,
                            w_hat: FloatArray, f_hat: FloatArray) -> None:
@@ -342,26 +350,16 @@ class LocalStage:
             if corner.size:
                 held = np.all((corner_stops < 0)
                               | stop_closed[np.maximum(corner_stops, 0)], axis=1)
-                fa[corner] = np.where(held[:, None], self._frozen(
-                    previous_corner_force, fa[corner], n[corner], self.mu_contact[corner]),
-                    fa[corner])
+                current = fa[corner]
+                frozen = self._in_cone(previous_corner_force,
+                                       np.sum(current * n[corner], axis=1), n[corner],
+                                       self.mu_contact[corner])
+                fa[corner] = np.where(held[:, None], frozen, current)
                 previous_corner_force = fa[corner]
             prev_a = prev_a + dwa + (fa - force[t, a]) / k
             prev_b = prev_b + dwb + (-fa - force[t, b]) / k
             f_hat[t, a], f_hat[t, b] = fa, -fa
             w_hat[t, a], w_hat[t, b] = prev_a, prev_b
-
-    @staticmethod
-    def _frozen(previous: FloatArray, current: FloatArray, normal: FloatArray,
-                friction: FloatArray) -> FloatArray:
-        """The current normal force with the previous tangential force, limited to the cone."""
-        normal_force = np.sum(current * normal, axis=1)
-        tangential = previous - np.sum(previous * normal, axis=1)[:, None] * normal
-        size = np.linalg.norm(tangential, axis=1)
-        limit = friction * np.abs(normal_force)
-        scale = np.where(size > limit, limit / np.maximum(size, 1e-300), 1.0)
-        frozen: FloatArray = normal_force[:, None] * normal + scale[:, None] * tangential
-        return frozen
 
 
 def _norm(weights: FloatArray, k: FloatArray, displacement: FloatArray, force: FloatArray) -> float:

@@ -35,6 +35,11 @@ class StudyResult:
     elapsed_s: dict[str, float]  # per mode: the study's wall time (summed over resumptions)
     folder: Path | None
 
+    @property
+    def main_mode(self) -> str:
+        """The mode the study is about: multiresolution when it ran, else cold."""
+        return "multiresolution" if self.mode_records("multiresolution") else "cold"
+
     def mode_records(self, mode: str) -> list[dict[str, Any]]:
         return sorted((r for r in self.records if r["mode"] == mode), key=lambda r: r["number"])
 
@@ -58,7 +63,7 @@ class StudyResult:
         }
 
     def to_json_dict(self) -> dict[str, Any]:
-        main = "multiresolution" if self.mode_records("multiresolution") else "cold"
+        main = self.main_mode
         out: dict[str, Any] = {
             "model": self.dataset.attrs.get("model"),
             "grid": {name: list(self.plan.grid[name]) for name in self.plan.grid},
@@ -128,8 +133,7 @@ def run_study(
     elapsed: dict[str, float] = {}
     try:
         for mode in modes:
-            previous = max((r.get("elapsed_s", 0.0) for (m, _), r in store.records.items()
-                            if m == mode), default=0.0)
+            previous = _elapsed(store, mode)
             pending = [c for c in plan.cases if not store.finished(mode, c.number)]
             if pending:
                 log.info("%s: %d of %d cases to compute (%s)", model.name, len(pending),
@@ -154,13 +158,18 @@ def run_study(
             runner(model, grid, plan, mode, options, store, finished, workers, scheduler)
             if bar is not None:
                 bar.close()
-            elapsed[mode] = max((r.get("elapsed_s", 0.0) for (m, _), r in store.records.items()
-                                 if m == mode), default=0.0)
+            elapsed[mode] = _elapsed(store, mode)
         records = [r for r in store.records.values() if r["mode"] in modes]
         dataset = store.write_dataset(grid, {**attrs, "elapsed_s": elapsed})
     finally:
         store.close()
     return StudyResult(plan, dataset, records, elapsed, folder)
+
+
+def _elapsed(store: StudyStore, mode: str) -> float:
+    """The study time of ``mode`` so far: the latest finished case's, over all runs."""
+    return max((r.get("elapsed_s", 0.0) for (m, _), r in store.records.items() if m == mode),
+               default=0.0)
 
 
 def _progress_bar(total: int, done: int, mode: str, enabled: bool) -> Any:

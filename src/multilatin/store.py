@@ -169,10 +169,9 @@ def to_dataset(grid: Grid, records: Iterable[dict[str, Any]], attrs: dict[str, A
     for name, values in qoi_values.items():
         variables[name] = ((*dims, "step") if values.ndim > len(dims) else dims, values)
     coords: dict[str, Any] = {"mode": modes, **{name: list(grid[name]) for name in names}}
-    if any(v[0][-1] == "step" for v in variables.values()):
-        n_steps = max(values.shape[-1] for values in qoi_values.values() if values.ndim >
-                      len(dims))
-        coords["step"] = np.arange(1, n_steps + 1)
+    step_counts = [values.shape[-1] for values in qoi_values.values() if values.ndim > len(dims)]
+    if step_counts:
+        coords["step"] = np.arange(1, max(step_counts) + 1)
     dataset = xr.Dataset(variables, coords=coords, attrs=_netcdf_attrs(attrs))
     dataset["wall_s"].attrs["units"] = "s"
     dataset["setup_s"].attrs["units"] = "s"

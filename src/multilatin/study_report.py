@@ -23,7 +23,7 @@ def case_table(result: StudyResult) -> tuple[list[str], list[list[Any]]]:
     """One row per case in traversal order: parameters, iterations and time normalised by
     the first cold computation (the paper's unit; by the first computation when no cold run),
     for each mode run, and the scalar quantities of interest."""
-    main = "multiresolution" if result.mode_records("multiresolution") else "cold"
+    main = result.main_mode
     rows_main = result.mode_records(main)
     cold = {r["number"]: r for r in result.mode_records("cold")}
     unit = (cold[0]["wall_s"] if 0 in cold else rows_main[0]["wall_s"])
@@ -47,7 +47,7 @@ def case_table(result: StudyResult) -> tuple[list[str], list[list[Any]]]:
 
 
 def summary_lines(result: StudyResult) -> list[str]:
-    main = "multiresolution" if result.mode_records("multiresolution") else "cold"
+    main = result.main_mode
     records = result.mode_records(main)
     failed = [r for r in result.records if not r["converged"]]
     lines = [
@@ -100,20 +100,16 @@ def write_study_outputs(result: StudyResult, folder: Path) -> list[Path]:
         writer = csv.writer(stream)
         writer.writerow(header)
         writer.writerows(rows)
-    figures = plot_response(result.dataset, folder) + [plot_iterations(result, folder)]
+    figures = (plot_response(result.dataset, folder, result.main_mode)
+               + [plot_iterations(result, folder)])
     report = write_report(result, folder, header, rows, figures)
     return [table_path, *figures, report]
 
 
-def _main_mode(dataset: xr.Dataset) -> str:
-    modes = list(dataset["mode"].values)
-    return "multiresolution" if "multiresolution" in modes else str(modes[0])
-
-
-def plot_response(dataset: xr.Dataset, folder: Path) -> list[Path]:
+def plot_response(dataset: xr.Dataset, folder: Path, mode: str) -> list[Path]:
     """Each scalar quantity of interest over the varied parameters: a curve for one, a
     surface for two (paper fig. 12), small multiples over the others beyond."""
-    data = dataset.sel(mode=_main_mode(dataset))
+    data = dataset.sel(mode=mode)
     varied = [str(d) for d in data["iterations"].dims if data.sizes[d] > 1]
     scalars = [str(name) for name, var in data.data_vars.items()
                if name not in ("iterations", "indicator", "wall_s", "setup_s", "finished",
