@@ -9,11 +9,15 @@ from __future__ import annotations
 
 import hashlib
 from dataclasses import dataclass, field
+from functools import cached_property
 
 import numpy as np
+import scipy.sparse as sp
 
 from .fem.elasticity import FloatArray, hooke_matrix
+from .fem.levelset import CutCells, LevelSet, cut_cells
 from .fem.mesh import RectMesh
+from .fem.xfem import xfem_stiffness
 from .parameters import Mu
 
 DISPLACEMENT = "displacement"
@@ -36,15 +40,28 @@ class Material:
 
 @dataclass(frozen=True)
 class Substructure:
+    """A substructure: its own Q4 mesh and material, and optionally a hole, the region where
+    the level set ``hole`` is negative, integrated X-FEM style on the fixed mesh (paper §5)."""
+
     name: str
     body: str
     mesh: RectMesh
     material: Material
+    hole: LevelSet | None = None
 
     def signature(self) -> str:
-        """A digest of everything the substructure's stiffness depends on (mesh, material):
-        equal signatures mean its operators can be reused."""
-        return hashlib.sha1(repr((self.mesh, self.material)).encode()).hexdigest()
+        """A digest of everything the substructure's stiffness depends on (mesh, material,
+        hole): equal signatures mean its operators can be reused."""
+        return hashlib.sha1(repr((self.mesh, self.material, self.hole)).encode()).hexdigest()
+
+    @cached_property
+    def cut(self) -> CutCells | None:
+        """Cells classified against the hole (None without a hole)."""
+        return None if self.hole is None else cut_cells(self.mesh, self.hole)
+
+    def stiffness(self) -> sp.csr_matrix:
+        """K_E (eq. [2]–[3]), on the material part only when there is a hole."""
+        return xfem_stiffness(self.mesh, self.material.hooke, self.material.thickness, self.cut)
 
 
 @dataclass(frozen=True)

@@ -103,6 +103,7 @@ class InterfacePoints:
     offsets: IntArray  # (n_sub + 1,) points of substructure s: offsets[s]:offsets[s+1]
     traces: tuple[sp.csr_matrix, ...]  # per substructure: (2 P_s, 2 n_nodes) dof trace T_E
     pairs: tuple[IntArray, IntArray]  # perfect interfaces: point a of E faces point b of E'
+    macro_only: tuple[int, ...]  # macro-only interfaces (eq. [20]), possibly non-matching
     contact_pairs: tuple[IntArray, IntArray]  # contact interfaces, a on side E (normal n_E)
     contact_friction: FloatArray  # per contact pair
     contact_gap: FloatArray
@@ -166,9 +167,12 @@ def build_points(assembly: Assembly, kind: str = "nodal") -> InterfacePoints:
     pairs_a, pairs_b, bnd, bnd_disp = [], [], [], []
     contact_a, contact_b, contact_mu, contact_gap = [], [], [], []
     stop, stop_mu, stop_gap = [], [], []
+    macro_only: list[int] = []
     for i, itf in enumerate(assembly.interfaces):
         pa = side_points[(i, 0)]
-        if itf.kind in ("perfect", "contact"):
+        if itf.kind == "macro":
+            macro_only.append(i)
+        elif itf.kind in ("perfect", "contact"):
             pb = side_points[(i, 1)]
             if itf.kind == "perfect":
                 pairs_a.append(pa)
@@ -210,6 +214,7 @@ def build_points(assembly: Assembly, kind: str = "nodal") -> InterfacePoints:
         offsets=np.array(offsets, dtype=np.int64),
         traces=tuple(traces),
         pairs=(cat(pairs_a), cat(pairs_b)),
+        macro_only=tuple(macro_only),
         contact_pairs=contact_pairs,
         contact_friction=cat(contact_mu, np.float64),
         contact_gap=cat(contact_gap, np.float64),
@@ -258,6 +263,30 @@ def _held_corners(substructure: IntArray, coords: FloatArray,
             np.array(corner_stops, dtype=np.int64).reshape(-1, 2))
 
 
+def interface_functions(points: InterfacePoints, interface: int, n_sides: int
+                        ) -> list[FloatArray]:
+    """The macro functions of one straight interface, per side: columns (constant, linear in
+    s), s along the interface from its first point. They are orthonormal in side 0's
+    discrete M0 inner product and take the same (affine) values at the points of side 1, so
+    that on a non-matching interface both sides carry the same continuous functions."""
+    pts = points.side_points[(interface, 0)]
+    xy = points.coords[pts]
+    w = points.weights[pts]
+    tangent = xy[-1] - xy[0]
+    tangent = tangent / np.linalg.norm(tangent)
+    s = (xy - xy[0]) @ tangent
+    const = 1.0 / np.sqrt(w.sum())
+    mean = (w @ s) / w.sum()
+    norm = np.sqrt(w @ (s - mean) ** 2)
+    linear = norm > 1e-12 * np.abs(s).max()
+    out = []
+    for side in range(n_sides):
+        side_s = (points.coords[points.side_points[(interface, side)]] - xy[0]) @ tangent
+        columns = [np.full_like(side_s, const)] + ([(side_s - mean) / norm] if linear else [])
+        out.append(np.column_stack(columns))
+    return out
+
+
 def macro_basis(assembly: Assembly, points: InterfacePoints) -> sp.csr_matrix:
     """The macro basis Ẽ (2P × n_macro) of the *free* macro unknowns (paper §2.2, fig. 3).
 
@@ -265,7 +294,8 @@ def macro_basis(assembly: Assembly, points: InterfacePoints) -> sp.csr_matrix:
     resultant, extension and moment, n_M = 4 for a straight interface; orthonormal in the
     discrete M0 inner product, so Π(F) = Σ (F, e_i) e_i is an exact projector (eq. [5]–[6]).
     A column takes the same values on both sides of a perfect or contact interface (W̃ᴹ
-    continuous, eq. [10]: action–reaction holds across contact too); see
+    continuous, eq. [10]: action–reaction holds across contact too) and the same continuous
+    function on both sides of a non-matching macro-only one (``interface_functions``); see
     ``free_macro_components`` for the outer boundary.
     """
     rows: list[np.ndarray] = []
@@ -273,26 +303,17 @@ def macro_basis(assembly: Assembly, points: InterfacePoints) -> sp.csr_matrix:
     vals: list[np.ndarray] = []
     n_cols = 0
     for i, itf in enumerate(assembly.interfaces):
-        pts = points.side_points[(i, 0)]
-        xy = points.coords[pts]
-        w = points.weights[pts]
-        tangent = xy[-1] - xy[0]
-        s = (xy - xy[0]) @ (tangent / np.linalg.norm(tangent))
-        const = np.ones_like(s)
-        const /= np.sqrt(w @ const**2)
-        linear = s - (w @ s) / w.sum()
-        norm = np.sqrt(w @ linear**2)
-        functions = [const] + ([linear / norm] if norm > 1e-12 * np.abs(s).max() else [])
-        sides = [pts] + ([points.side_points[(i, 1)]] if len(itf.sides) == 2 else [])
+        functions = interface_functions(points, i, len(itf.sides))
         free = free_macro_components(itf)
         for comp in range(2):
             if not free[comp]:
                 continue
-            for f in functions:
-                for side_pts in sides:
+            for f in range(functions[0].shape[1]):
+                for side_index, values in enumerate(functions):
+                    side_pts = points.side_points[(i, side_index)]
                     rows.append(2 * side_pts + comp)
                     cols.append(np.full(side_pts.size, n_cols))
-                    vals.append(f)
+                    vals.append(values[:, f])
                 n_cols += 1
     if not rows:
         return sp.csr_matrix((2 * points.n_points, 0))

@@ -23,9 +23,10 @@ from threadpoolctl import threadpool_limits
 from .acceleration import Anderson
 from .assembly import DISPLACEMENT, Assembly
 from .errors import ModelError, NotConvergedError
-from .fem.elasticity import FloatArray, stiffness_matrix
+from .fem.elasticity import FloatArray
 from .fem.mesh import normal_axis
 from .interfaces import INTERFACE_ELEMENTS, InterfacePoints, build_points, macro_basis
+from .local_stage import LocalStage
 from .qoi import ContactPressures, evaluate_qois
 from .result import InterfaceFields, SolveResult
 
@@ -122,8 +123,7 @@ class LatinOperators:
         self.factors: list[spla.SuperLU] = []
         blocks = []
         for s, sub in enumerate(assembly.substructures):
-            stiffness = stiffness_matrix(sub.mesh.nodes, sub.mesh.cells, sub.material.hooke,
-                                         sub.material.thickness)
+            stiffness = sub.stiffness()
             trace = pts.traces[s]
             lo, hi = 2 * pts.offsets[s], 2 * pts.offsets[s + 1]
             mk = self.m0[lo:hi] * k_flat[lo:hi]
@@ -218,148 +218,6 @@ class LatinOperators:
             u = self.factors[s].solve(np.ascontiguousarray(self.points.traces[s].T @ g[lo:hi]))
             out[sub.name] = u.T.reshape(n_steps, -1, 2)
         return out
-
-
-class LocalStage:
-    """Closed-form interface behaviours, vectorised over every point (paper §3, §4.2).
-
-    Perfect and prescribed interfaces act on all steps at once; contact and stops go through
-    the steps in order, since Coulomb's law acts on increments (method.md §4).
-    """
-
-    def __init__(self, assembly: Assembly, points: InterfacePoints, k: FloatArray) -> None:
-        self.pairs = points.pairs
-        self.k_pair = k[points.pairs[0]]
-        self.boundary = points.boundary
-        self.k_boundary = k[points.boundary]
-        self.is_displacement = points.boundary_is_displacement
-        self.contact_pairs = points.contact_pairs
-        a = points.contact_pairs[0]
-        self.k_contact = k[a]  # diagonal in the interface's (axis-aligned) frame
-        self.n_contact = points.normals[a]
-        self.mu_contact = points.contact_friction
-        self.gap_contact = points.contact_gap
-        self.stops = points.stops
-        self.k_stop = k[points.stops]
-        self.n_stop = points.normals[points.stops]
-        self.mu_stop = points.stop_friction
-        self.gap_stop = points.stop_gap
-        self.corner = points.corner
-        self.corner_stops = points.corner_stops
-        n_steps = assembly.n_steps
-        prescribed = np.zeros((n_steps, points.boundary.size, 2))
-        offset = 0
-        for i, itf in enumerate(assembly.interfaces):
-            if itf.kind != "boundary" or itf.is_stop:
-                continue
-            assert itf.condition is not None
-            n = points.side_points[(i, 0)].size
-            factor = assembly.history.factor(itf.condition.factor)
-            prescribed[:, offset:offset + n] = (factor[:, None] *
-                                                np.asarray(itf.condition.value))[:, None, :]
-            offset += n
-        self.prescribed = prescribed  # W_d on displacement components, F_d on force ones
-
-    def prescribed_force_field(self, n_points: int) -> FloatArray:
-        """F_d at every interface point (zero where no force is prescribed)."""
-        field = np.zeros((self.prescribed.shape[0], n_points, 2))
-        field[:, self.boundary] = np.where(self.is_displacement, 0.0, self.prescribed)
-        return field
-
-    def __call__(self, displacement: FloatArray, force: FloatArray) -> tuple[FloatArray,
-                                                                               FloatArray]:
-        w_hat = np.empty_like(displacement)
-        f_hat = np.empty_like(force)
-        a, b = self.pairs
-        k = self.k_pair
-        wa, wb, fa, fb = displacement[:, a], displacement[:, b], force[:, a], force[:, b]
-        # perfect interface: Ŵ_E = Ŵ_E', F̂_E + F̂_E' = 0 on the search direction E+ (eq. [8])
-        w_hat[:, a] = w_hat[:, b] = 0.5 * (wa + wb) - (fa + fb) / (2.0 * k)
-        f_hat[:, a] = 0.5 * (fa - fb) - 0.5 * k * (wa - wb)
-        f_hat[:, b] = -f_hat[:, a]
-        # prescribed displacement / force, component-wise
-        bd, k = self.boundary, self.k_boundary
-        w, f, data = displacement[:, bd], force[:, bd], self.prescribed
-        w_hat[:, bd] = np.where(self.is_displacement, data, w + (data - f) / k)
-        f_hat[:, bd] = np.where(self.is_displacement, f + k * (data - w), data)
-        if self.contact_pairs[0].size or self.stops.size:
-            self._contact_and_stops(displacement, force, w_hat, f_hat)
-        return w_hat, f_hat
-
-    @staticmethod
-    def _coulomb(trial: FloatArray, normal_force: FloatArray, normal: FloatArray,
-                 friction: FloatArray) -> FloatArray:
-        """F̂ on side E from the trial force: contact where N ≤ 0, then stick or slip."""
-        contact_force = LocalStage._in_cone(trial, normal_force, normal, friction)
-        return np.where((normal_force <= 0.0)[:, None], contact_force, 0.0)
-
-    @staticmethod
-    def _in_cone(tangential_source: FloatArray, normal_force: FloatArray, normal: FloatArray,
-                 friction: FloatArray) -> FloatArray:
-        """N n plus the tangential part of ``tangential_source``, limited to μ |N|."""
-        tangential = (tangential_source
-                      - np.sum(tangential_source * normal, axis=1)[:, None] * normal)
-        size = np.linalg.norm(tangential, axis=1)
-        limit = friction * np.abs(normal_force)
-        scale = np.where(size > limit, limit / np.maximum(size, 1e-300), 1.0)
-        force: FloatArray = normal_force[:, None] * normal + scale[:, None] * tangential
-        return force
-
-    def _contact_and_stops(self, displacement: FloatArray, force: FloatArray,
-                           w_hat: FloatArray, f_hat: FloatArray) -> None:
-        """Unilateral contact with gap and Coulomb friction between two substructures
-        (paper §3, eq. [16]–[17]; n outward from E, [x] = x_E' − x_E) and against rigid
-        stops, step after step: Coulomb's law acts on increments of the local history Ŵ.
-
-        At a *held corner* (a contact pair whose tangential motion is fixed on both sides,
-        by a prescribed displacement or a closed stop) the friction force is statically
-        indeterminate; it keeps its previous value, limited to the cone — the limit of any
-        tangential compliance, and what incremental penalty codes compute.
-        """
-        a, b = self.contact_pairs
-        k, n = self.k_contact, self.n_contact
-        k_normal = np.sum(np.abs(n) * k, axis=1)
-        prev_a = np.zeros((a.size, 2))
-        prev_b = np.zeros((a.size, 2))
-        p = self.stops
-        k_stop, n_stop = self.k_stop, self.n_stop
-        k_stop_normal = np.sum(np.abs(n_stop) * k_stop, axis=1)
-        prev_stop = np.zeros((p.size, 2))
-        corner, corner_stops = self.corner, self.corner_stops
-        previous_corner_force = np.zeros((corner.size, 2))
-        stop_closed = np.zeros(p.size, dtype=bool)
-        for t in range(displacement.shape[0]):
-            if p.size:
-                dw = displacement[t, p] - prev_stop
-                trial = force[t, p] - k_stop * dw
-                closing = self.gap_stop - np.sum(n_stop * prev_stop, axis=1)
-                normal_force = np.sum(n_stop * trial, axis=1) + k_stop_normal * closing
-                fp = self._coulomb(trial, normal_force, n_stop, self.mu_stop)
-                stop_closed = normal_force < 0.0
-                prev_stop = prev_stop + dw + (fp - force[t, p]) / k_stop
-                f_hat[t, p] = fp
-                w_hat[t, p] = prev_stop
-            if not a.size:
-                continue
-            dwa = displacement[t, a] - prev_a  # increments from the local-stage history
-            dwb = displacement[t, b] - prev_b
-            trial = 0.5 * (force[t, a] - force[t, b]) + 0.5 * k * (dwb - dwa)
-            closing = self.gap_contact + np.sum(n * (prev_b - prev_a), axis=1)
-            normal_force = np.sum(n * trial, axis=1) + 0.5 * k_normal * closing
-            fa = self._coulomb(trial, normal_force, n, self.mu_contact)
-            if corner.size:
-                held = np.all((corner_stops < 0)
-                              | stop_closed[np.maximum(corner_stops, 0)], axis=1)
-                current = fa[corner]
-                frozen = self._in_cone(previous_corner_force,
-                                       np.sum(current * n[corner], axis=1), n[corner],
-                                       self.mu_contact[corner])
-                fa[corner] = np.where(held[:, None], frozen, current)
-                previous_corner_force = fa[corner]
-            prev_a = prev_a + dwa + (fa - force[t, a]) / k
-            prev_b = prev_b + dwb + (-fa - force[t, b]) / k
-            f_hat[t, a], f_hat[t, b] = fa, -fa
-            w_hat[t, a], w_hat[t, b] = prev_a, prev_b
 
 
 def _norm(weights: FloatArray, k: FloatArray, displacement: FloatArray, force: FloatArray) -> float:

@@ -21,7 +21,7 @@ import scipy.sparse.linalg as spla
 from .assembly import DISPLACEMENT, Assembly
 from .contact_newton import contact_set, solve_contact_history, tangents
 from .errors import ModelError
-from .fem.elasticity import FloatArray, IntArray, stiffness_matrix
+from .fem.elasticity import FloatArray, IntArray
 from .interfaces import discretise_side
 from .qoi import ContactPressures, evaluate_qois
 from .result import SolveResult
@@ -60,8 +60,7 @@ def solve_monolithic(assembly: Assembly) -> SolveResult:
     n_steps = assembly.n_steps
     rows, cols, vals = [], [], []
     for sub, gmap in zip(assembly.substructures, maps, strict=True):
-        k = stiffness_matrix(sub.mesh.nodes, sub.mesh.cells, sub.material.hooke,
-                             sub.material.thickness).tocoo()
+        k = sub.stiffness().tocoo()
         gdof = np.stack([2 * gmap, 2 * gmap + 1], axis=1).ravel()
         rows.append(gdof[k.row])
         cols.append(gdof[k.col])

@@ -26,14 +26,19 @@ def _safe(name: str) -> str:
 def write_vtk(result: SolveResult, folder: Path) -> Path:
     """One .vtu per substructure and load step, and ``<model>.pvd`` that opens them all in
     ParaView (load steps as time 1, 2, …). Point data: displacement; cell data: stresses,
-    von Mises stress and the substructure index."""
+    von Mises stress, the substructure index and the material fraction (void cells of a
+    hole are left out)."""
     folder.mkdir(parents=True, exist_ok=True)
     datasets = []
     for s, sub in enumerate(result.assembly.substructures):
         mesh = sub.mesh
         points = np.column_stack([mesh.nodes, np.zeros(mesh.n_nodes)])
         u = result.displacements[sub.name]
-        stress = cell_stresses(mesh.nodes, mesh.cells, sub.material.hooke, u)
+        # void cells of a hole are left out; cut cells carry their material fraction
+        fraction = np.ones(mesh.n_cells) if sub.cut is None else sub.cut.material_fraction
+        kept = fraction > 0.0
+        cells = mesh.cells[kept]
+        stress = cell_stresses(mesh.nodes, cells, sub.material.hooke, u)
         vm = von_mises(stress, sub.material.poisson, sub.material.hypothesis)
         for step in range(u.shape[0]):
             name = f"{_safe(sub.name)}_step{step + 1:03d}.vtu"
@@ -41,14 +46,15 @@ def write_vtk(result: SolveResult, folder: Path) -> Path:
                 folder / name,
                 meshio.Mesh(
                     points,
-                    [("quad", mesh.cells)],
+                    [("quad", cells)],
                     point_data={"displacement": np.column_stack([u[step], np.zeros(mesh.n_nodes)])},
                     cell_data={
                         "stress_xx": [stress[step, :, 0]],
                         "stress_yy": [stress[step, :, 1]],
                         "stress_xy": [stress[step, :, 2]],
                         "von_mises": [vm[step]],
-                        "substructure": [np.full(mesh.n_cells, s, dtype=np.int32)],
+                        "substructure": [np.full(cells.shape[0], s, dtype=np.int32)],
+                        "material_fraction": [fraction[kept]],
                     },
                 ),
             )

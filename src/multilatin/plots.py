@@ -101,7 +101,12 @@ def plot_deformed(result: SolveResult, path: Path, step: int | None = None,
     for sub in result.assembly.substructures:
         mesh = sub.mesh
         xy = mesh.nodes + amp * result.displacements[sub.name][step]
-        quads = xy[mesh.cells]
+        fraction = np.ones(mesh.n_cells) if sub.cut is None else sub.cut.material_fraction
+        quads = xy[mesh.cells[fraction > 0.0]]
+        if sub.cut is not None and sub.cut.cut.size:  # cut cells shaded by material fraction
+            shade = [(0.3, 0.3, 0.3, 0.6 * f) for f in fraction[sub.cut.cut]]
+            ax.add_collection(PolyCollection(xy[mesh.cells[sub.cut.cut]], facecolor=shade,
+                                             edgecolor="none"))
         for axis in (ax, ax_macro):
             outline = np.concatenate([xy[mesh.side_nodes("bottom")], xy[mesh.side_nodes("right")],
                                       xy[mesh.side_nodes("top")][::-1],

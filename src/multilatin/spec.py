@@ -35,6 +35,7 @@ from .errors import ModelError
 from .expressions import evaluate
 from .fem.elasticity import PLANE_STRAIN, PLANE_STRESS
 from .fem.mesh import SIDES, RectMesh, normal_axis
+from .holes import place_holes
 from .parameters import Mu, Parameter, Parameters
 
 if sys.version_info >= (3, 11):
@@ -43,7 +44,7 @@ else:  # pragma: no cover
     import tomli as tomllib
 
 _TOP_LEVEL = {"title", "description", "analysis", "parameters", "materials", "bodies",
-              "substructures", "interfaces", "boundary", "history", "qoi"}
+              "substructures", "interfaces", "boundary", "history", "qoi", "holes"}
 _OPPOSITE = {"left": "right", "right": "left", "bottom": "top", "top": "bottom"}
 
 
@@ -218,7 +219,7 @@ class _Builder:
         common = {"name", "x", "y", "elements", "material", "hypothesis", "thickness"}
         for b, table in enumerate(self.data.get("bodies", [])):
             where = f"bodies[{b}]"
-            _check_keys(table, common | {"split"}, where)
+            _check_keys(table, common | {"split", "mesh"}, where)
             name = str(_require(table, "name", where))
             where = f"bodies[{b}] ({name!r})"
             if name in bodies:
@@ -238,10 +239,12 @@ class _Builder:
             mat = self.material(table, where, materials)
             xs = np.linspace(x0, x1, sx + 1)
             ys = np.linspace(y0, y1, sy + 1)
+            own = self.own_meshes(table.get("mesh", []), where, (sx, sy))
             for j, i in itertools.product(range(sy), range(sx)):
                 sub_name = name if sx * sy == 1 else f"{name}[{i},{j}]"
+                ex, ey = own.get((i, j), (nx // sx, ny // sy))
                 mesh = RectMesh(float(xs[i]), float(xs[i + 1]), float(ys[j]), float(ys[j + 1]),
-                                nx // sx * self.refine, ny // sy * self.refine)
+                                ex * self.refine, ey * self.refine)
                 subs.append(Substructure(sub_name, name, mesh, mat))
         for s, table in enumerate(self.data.get("substructures", [])):
             where = f"substructures[{s}]"
@@ -263,7 +266,29 @@ class _Builder:
             if names.count(name) > 1:
                 raise ModelError(f"substructures: the name {name!r} is used twice")
         self._check_overlaps(subs)
+        subs = place_holes(self.data.get("holes", []), subs, self.mu, self.num, _check_keys)
         return subs, bodies
+
+    @staticmethod
+    def own_meshes(tables: Any, where: str, split: tuple[int, int]
+                   ) -> dict[tuple[int, int], tuple[int, int]]:
+        """``[[bodies.mesh]]``: element counts of single substructures of a split body
+        (``substructure = [i, j]``, ``elements = [nx, ny]``); their sides then meet their
+        neighbours' with non-matching meshes (declare those interfaces ``type = "macro"``)."""
+        out = {}
+        if not isinstance(tables, list):
+            raise ModelError(f"{where}.mesh: expected a list of tables, got {tables!r}")
+        for m, table in enumerate(tables):
+            here = f"{where}.mesh[{m}]"
+            _check_keys(table, {"substructure", "elements"}, here)
+            i, j = _pair(_require(table, "substructure", here), f"{here}.substructure")
+            if not (isinstance(i, int) and isinstance(j, int)
+                    and 0 <= i < split[0] and 0 <= j < split[1]):
+                raise ModelError(f"{here}.substructure: expected [i, j] with 0 <= i < {split[0]} "
+                                 f"and 0 <= j < {split[1]}, got {[i, j]}")
+            out[(i, j)] = tuple(_positive_int(v, f"{here}.elements") for v in
+                                _pair(_require(table, "elements", here), f"{here}.elements"))
+        return out  # type: ignore[return-value]
 
     @staticmethod
     def _check_overlaps(subs: list[Substructure]) -> None:
@@ -300,10 +325,10 @@ class _Builder:
             _check_keys(table, {"between", "type", "friction", "gap"}, where)
             a, b = _pair(_require(table, "between", where), f"{where}.between")
             kind = table.get("type", "perfect")
-            if kind not in ("perfect", "contact"):
-                raise ModelError(
-                    f"{where}.type: unknown interface type {kind!r} (known: perfect, contact)")
-            if kind == "perfect" and ({"friction", "gap"} & set(table)):
+            if kind not in ("perfect", "contact", "macro"):
+                raise ModelError(f"{where}.type: unknown interface type {kind!r} "
+                                 "(known: perfect, contact, macro)")
+            if kind != "contact" and ({"friction", "gap"} & set(table)):
                 raise ModelError(f"{where}: friction and gap apply to type = 'contact' only")
             known = {s.name for s in subs} | {s.body for s in subs}
             for end in (a, b):
@@ -334,19 +359,23 @@ class _Builder:
                         f"{b.name!r} spans [{lo_b:g}, {hi_b:g}] along {'yx'[axis]}; "
                         "an interface must be a whole side of both substructures"
                     )
-                na, nb = a.mesh.side_nodes(side), b.mesh.side_nodes(other)
-                if na.size != nb.size or not np.allclose(
-                    a.mesh.nodes[na], b.mesh.nodes[nb], atol=scale
-                ):
-                    raise ModelError(
-                        f"{where}: meshes do not match: {na.size - 1} and {nb.size - 1} "
-                        "elements along the interface (a perfect interface needs matching nodes)"
-                    )
                 kind, law = "perfect", None
-                for key in (frozenset((a.body, b.body)), frozenset((a.name, b.name))):
+                # the most specific declaration wins: body-body, then with one name, then names
+                for key in (frozenset((a.body, b.body)), frozenset((a.name, b.body)),
+                            frozenset((a.body, b.name)), frozenset((a.name, b.name))):
                     if key in declared:
                         kind, law, _ = declared[key]
                         used_declarations.add(key)
+                na, nb = a.mesh.side_nodes(side), b.mesh.side_nodes(other)
+                matching = na.size == nb.size and np.allclose(a.mesh.nodes[na], b.mesh.nodes[nb],
+                                                              atol=scale)
+                if not matching and kind != "macro":
+                    raise ModelError(
+                        f"{where}: meshes do not match: {na.size - 1} and {nb.size - 1} "
+                        f"elements along the interface; a {kind} interface needs matching "
+                        "nodes (declare it type = 'macro' to transmit macro quantities only, "
+                        "paper eq. [20])"
+                    )
                 found.append(Interface(f"{a.name}|{b.name}", kind,
                                        (SideRef(i, side), SideRef(j, other)), contact=law))
         for key, (_, _, where) in declared.items():
@@ -518,6 +547,9 @@ class _Builder:
                           for v in _pair(_require(table, "point", where), f"{where}.point"))
                 if not any(s.mesh.contains((px, py)) for s in subs):
                     raise ModelError(f"{where}.point: {[px, py]} lies in no substructure")
+                if any(s.hole is not None and s.mesh.contains((px, py))
+                       and float(s.hole(np.array([px, py]))) < 0.0 for s in subs):
+                    raise ModelError(f"{where}.point: {[px, py]} lies in a hole")
                 out.append(QuantityOfInterest(name, kind, "xy".index(comp), (px, py), None, scale,
                                               step))
             elif kind == "reaction":

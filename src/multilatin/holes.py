@@ -1,0 +1,134 @@
+"""``[[holes]]`` of a model file: geometric details by level set, placed in the substructure
+that contains them (paper §5, §7.2–7.3).
+
+A hole must lie strictly inside one substructure (as in the paper); a parameter set that
+moves or grows it across a substructure boundary is refused with an error that names the
+parameter values. A circle of radius 0 is no hole.
+"""
+
+from __future__ import annotations
+
+import dataclasses
+import re
+from collections.abc import Callable, Mapping, Sequence
+from typing import Any
+
+import numpy as np
+
+from .assembly import Substructure
+from .errors import ModelError
+from .fem.levelset import Circle, LevelSet, Slot, Union
+from .parameters import Mu
+
+HOLE_FIELDS = {"name", "substructure", "body", "shape", "centre", "radius", "start", "end"}
+SHAPES = ("circle", "slot")
+
+
+def _parameters_named(table: Mapping[str, Any], mu: Mu) -> str:
+    """``"(xc = 25, rc = 3)"``: the parameters that the hole's fields use, for messages."""
+    used = sorted({name for value in table.values()
+                   for name in re.findall(r"[A-Za-z_]\w*", str(value)) if name in mu})
+    if not used:
+        return ""
+    return " (parameters " + ", ".join(f"{name} = {mu[name]:g}" for name in used) + ")"
+
+
+def _point(table: Mapping[str, Any], key: str, where: str,
+           num: Callable[[Any, str], float]) -> tuple[float, float]:
+    value = table.get(key)
+    if not isinstance(value, list) or len(value) != 2:
+        raise ModelError(f"{where}.{key}: expected a list of two values, got {value!r}")
+    return num(value[0], f"{where}.{key}"), num(value[1], f"{where}.{key}")
+
+
+def _shape(table: Mapping[str, Any], where: str, num: Callable[[Any, str], float],
+           params: str) -> tuple[Circle | Slot | None, tuple[float, float]]:
+    """The level set (None for a zero radius) and the point that places it."""
+    shape = table.get("shape", "circle")
+    if shape not in SHAPES:
+        raise ModelError(f"{where}.shape: unknown shape {shape!r} (known: {', '.join(SHAPES)})")
+    if "radius" not in table:
+        raise ModelError(f"{where}: missing field 'radius'")
+    radius = num(table["radius"], f"{where}.radius")
+    if radius < 0.0:
+        raise ModelError(f"{where}.radius: a hole radius must be >= 0, got {radius:g}{params}")
+    if shape == "circle":
+        centre = _point(table, "centre", where, num)
+        return (Circle(centre, radius) if radius > 0.0 else None), centre
+    start, end = _point(table, "start", where, num), _point(table, "end", where, num)
+    middle = (0.5 * (start[0] + end[0]), 0.5 * (start[1] + end[1]))
+    return (Slot(start, end, radius) if radius > 0.0 else None), middle
+
+
+def _owner(table: Mapping[str, Any], where: str, subs: Sequence[Substructure],
+           place: tuple[float, float], params: str) -> int:
+    """Index of the substructure that holds the hole."""
+    if "substructure" in table:
+        name = str(table["substructure"])
+        index = next((i for i, s in enumerate(subs) if s.name == name), None)
+        if index is None:
+            raise ModelError(f"{where}.substructure: no substructure named {name!r}")
+        if not subs[index].mesh.contains(place, tol=0.0):
+            raise ModelError(f"{where}: the hole at {list(place)} lies outside substructure "
+                             f"{name!r} {_box(subs[index])}{params}")
+        return index
+    body = table.get("body")
+    if body is not None and not any(s.body == body for s in subs):
+        raise ModelError(f"{where}.body: no body named {body!r}")
+    for i, sub in enumerate(subs):
+        if (body is None or sub.body == body) and sub.mesh.contains(place, tol=0.0):
+            return i
+    scope = f"body {body!r}" if body is not None else "the assembly"
+    raise ModelError(f"{where}: the hole at {list(place)} lies outside {scope}{params}")
+
+
+def _box(sub: Substructure) -> str:
+    m = sub.mesh
+    return f"[{m.x0:g}, {m.x1:g}] x [{m.y0:g}, {m.y1:g}]"
+
+
+def place_holes(tables: Sequence[Mapping[str, Any]], subs: list[Substructure], mu: Mu,
+                num: Callable[[Any, str], float],
+                check_keys: Callable[[Mapping[str, Any], set[str], str], None]
+                ) -> list[Substructure]:
+    """The substructures with their holes (several holes in one substructure: their union)."""
+    holes: dict[int, list[LevelSet]] = {}
+    for h, table in enumerate(tables):
+        where = f"holes[{h}]"
+        if not isinstance(table, Mapping):
+            raise ModelError(f"{where}: expected a table")
+        check_keys(table, HOLE_FIELDS, where)
+        where = f"holes[{h}] ({str(table.get('name', f'hole{h}'))!r})"
+        params = _parameters_named(table, mu)
+        level_set, place = _shape(table, where, num, params)
+        index = _owner(table, where, subs, place, params)
+        if level_set is None:
+            continue
+        sub = subs[index]
+        alone = dataclasses.replace(sub, hole=level_set).cut
+        assert alone is not None
+        if not np.any(alone.material_fraction > 0.0):
+            raise ModelError(f"{where}: the hole leaves substructure {sub.name!r} {_box(sub)} "
+                             f"with no material{params}")
+        x0, x1, y0, y1 = level_set.bounding_box()
+        margin = 1e-9 * max(sub.mesh.x1 - sub.mesh.x0, sub.mesh.y1 - sub.mesh.y0)
+        if not (sub.mesh.x0 + margin < x0 and x1 < sub.mesh.x1 - margin
+                and sub.mesh.y0 + margin < y0 and y1 < sub.mesh.y1 - margin):
+            raise ModelError(
+                f"{where}: the hole crosses the boundary of substructure {sub.name!r} "
+                f"{_box(sub)} (hole extent [{x0:g}, {x1:g}] x [{y0:g}, {y1:g}]){params}; a hole "
+                "must lie strictly inside one substructure")
+        holes.setdefault(index, []).append(level_set)
+    out = list(subs)
+    for index, parts in holes.items():
+        hole = parts[0] if len(parts) == 1 else Union(tuple(parts))
+        sub = dataclasses.replace(subs[index], hole=hole)
+        cut = sub.cut
+        assert cut is not None
+        boundary = np.concatenate([sub.mesh.side_nodes(s) for s in
+                                   ("bottom", "right", "top", "left")])
+        if not cut.active_nodes[boundary].all():
+            raise ModelError(f"holes: the holes leave no material at the boundary of "
+                             f"substructure {sub.name!r} {_box(sub)}")
+        out[index] = sub
+    return out

@@ -1,0 +1,215 @@
+"""The local stage of LATIN: interface behaviours in closed form, point by point (paper §3,
+§4.2; method.md §4). The search direction E+ is (F̂ − F) − k (Ŵ − W) = 0.
+"""
+
+from __future__ import annotations
+
+import numpy as np
+import scipy.linalg as sla
+import scipy.sparse as sp
+
+from .assembly import Assembly
+from .fem.elasticity import FloatArray, IntArray
+from .interfaces import InterfacePoints, interface_functions
+
+
+class LocalStage:
+    """Closed-form interface behaviours, vectorised over every point (paper §3, §4.2).
+
+    Perfect and prescribed interfaces act on all steps at once; contact and stops go through
+    the steps in order, since Coulomb's law acts on increments (method.md §4).
+    """
+
+    def __init__(self, assembly: Assembly, points: InterfacePoints, k: FloatArray) -> None:
+        self.pairs = points.pairs
+        self.macro_points, self.macro_map = macro_only_map(points, k)
+        self.k_macro = k[self.macro_points]
+        self.k_pair = k[points.pairs[0]]
+        self.boundary = points.boundary
+        self.k_boundary = k[points.boundary]
+        self.is_displacement = points.boundary_is_displacement
+        self.contact_pairs = points.contact_pairs
+        a = points.contact_pairs[0]
+        self.k_contact = k[a]  # diagonal in the interface's (axis-aligned) frame
+        self.n_contact = points.normals[a]
+        self.mu_contact = points.contact_friction
+        self.gap_contact = points.contact_gap
+        self.stops = points.stops
+        self.k_stop = k[points.stops]
+        self.n_stop = points.normals[points.stops]
+        self.mu_stop = points.stop_friction
+        self.gap_stop = points.stop_gap
+        self.corner = points.corner
+        self.corner_stops = points.corner_stops
+        n_steps = assembly.n_steps
+        prescribed = np.zeros((n_steps, points.boundary.size, 2))
+        offset = 0
+        for i, itf in enumerate(assembly.interfaces):
+            if itf.kind != "boundary" or itf.is_stop:
+                continue
+            assert itf.condition is not None
+            n = points.side_points[(i, 0)].size
+            factor = assembly.history.factor(itf.condition.factor)
+            prescribed[:, offset:offset + n] = (factor[:, None] *
+                                                np.asarray(itf.condition.value))[:, None, :]
+            offset += n
+        self.prescribed = prescribed  # W_d on displacement components, F_d on force ones
+
+    def prescribed_force_field(self, n_points: int) -> FloatArray:
+        """F_d at every interface point (zero where no force is prescribed)."""
+        field = np.zeros((self.prescribed.shape[0], n_points, 2))
+        field[:, self.boundary] = np.where(self.is_displacement, 0.0, self.prescribed)
+        return field
+
+    def __call__(self, displacement: FloatArray, force: FloatArray) -> tuple[FloatArray,
+                                                                               FloatArray]:
+        w_hat = np.empty_like(displacement)
+        f_hat = np.empty_like(force)
+        a, b = self.pairs
+        k = self.k_pair
+        wa, wb, fa, fb = displacement[:, a], displacement[:, b], force[:, a], force[:, b]
+        # perfect interface: Ŵ_E = Ŵ_E', F̂_E + F̂_E' = 0 on the search direction E+ (eq. [8])
+        w_hat[:, a] = w_hat[:, b] = 0.5 * (wa + wb) - (fa + fb) / (2.0 * k)
+        f_hat[:, a] = 0.5 * (fa - fb) - 0.5 * k * (wa - wb)
+        f_hat[:, b] = -f_hat[:, a]
+        m = self.macro_points
+        if m.size:  # macro-only interface (eq. [20]), see ``macro_only_map``
+            k = self.k_macro
+            x = displacement[:, m] - force[:, m] / k
+            flat = x.reshape(x.shape[0], -1)
+            w_m = x + np.asarray(self.macro_map @ flat.T).T.reshape(x.shape)
+            w_hat[:, m] = w_m
+            f_hat[:, m] = force[:, m] + k * (w_m - displacement[:, m])
+        # prescribed displacement / force, component-wise
+        bd, k = self.boundary, self.k_boundary
+        w, f, data = displacement[:, bd], force[:, bd], self.prescribed
+        w_hat[:, bd] = np.where(self.is_displacement, data, w + (data - f) / k)
+        f_hat[:, bd] = np.where(self.is_displacement, f + k * (data - w), data)
+        if self.contact_pairs[0].size or self.stops.size:
+            self._contact_and_stops(displacement, force, w_hat, f_hat)
+        return w_hat, f_hat
+
+    @staticmethod
+    def _coulomb(trial: FloatArray, normal_force: FloatArray, normal: FloatArray,
+                 friction: FloatArray) -> FloatArray:
+        """F̂ on side E from the trial force: contact where N ≤ 0, then stick or slip."""
+        contact_force = LocalStage._in_cone(trial, normal_force, normal, friction)
+        return np.where((normal_force <= 0.0)[:, None], contact_force, 0.0)
+
+    @staticmethod
+    def _in_cone(tangential_source: FloatArray, normal_force: FloatArray, normal: FloatArray,
+                 friction: FloatArray) -> FloatArray:
+        """N n plus the tangential part of ``tangential_source``, limited to μ |N|."""
+        tangential = (tangential_source
+                      - np.sum(tangential_source * normal, axis=1)[:, None] * normal)
+        size = np.linalg.norm(tangential, axis=1)
+        limit = friction * np.abs(normal_force)
+        scale = np.where(size > limit, limit / np.maximum(size, 1e-300), 1.0)
+        force: FloatArray = normal_force[:, None] * normal + scale[:, None] * tangential
+        return force
+
+    def _contact_and_stops(self, displacement: FloatArray, force: FloatArray,
+                           w_hat: FloatArray, f_hat: FloatArray) -> None:
+        """Unilateral contact with gap and Coulomb friction between two substructures
+        (paper §3, eq. [16]–[17]; n outward from E, [x] = x_E' − x_E) and against rigid
+        stops, step after step: Coulomb's law acts on increments of the local history Ŵ.
+
+        At a *held corner* (a contact pair whose tangential motion is fixed on both sides,
+        by a prescribed displacement or a closed stop) the friction force is statically
+        indeterminate; it keeps its previous value, limited to the cone — the limit of any
+        tangential compliance, and what incremental penalty codes compute.
+        """
+        a, b = self.contact_pairs
+        k, n = self.k_contact, self.n_contact
+        k_normal = np.sum(np.abs(n) * k, axis=1)
+        prev_a = np.zeros((a.size, 2))
+        prev_b = np.zeros((a.size, 2))
+        p = self.stops
+        k_stop, n_stop = self.k_stop, self.n_stop
+        k_stop_normal = np.sum(np.abs(n_stop) * k_stop, axis=1)
+        prev_stop = np.zeros((p.size, 2))
+        corner, corner_stops = self.corner, self.corner_stops
+        previous_corner_force = np.zeros((corner.size, 2))
+        stop_closed = np.zeros(p.size, dtype=bool)
+        for t in range(displacement.shape[0]):
+            if p.size:
+                dw = displacement[t, p] - prev_stop
+                trial = force[t, p] - k_stop * dw
+                closing = self.gap_stop - np.sum(n_stop * prev_stop, axis=1)
+                normal_force = np.sum(n_stop * trial, axis=1) + k_stop_normal * closing
+                fp = self._coulomb(trial, normal_force, n_stop, self.mu_stop)
+                stop_closed = normal_force < 0.0
+                prev_stop = prev_stop + dw + (fp - force[t, p]) / k_stop
+                f_hat[t, p] = fp
+                w_hat[t, p] = prev_stop
+            if not a.size:
+                continue
+            dwa = displacement[t, a] - prev_a  # increments from the local-stage history
+            dwb = displacement[t, b] - prev_b
+            trial = 0.5 * (force[t, a] - force[t, b]) + 0.5 * k * (dwb - dwa)
+            closing = self.gap_contact + np.sum(n * (prev_b - prev_a), axis=1)
+            normal_force = np.sum(n * trial, axis=1) + 0.5 * k_normal * closing
+            fa = self._coulomb(trial, normal_force, n, self.mu_contact)
+            if corner.size:
+                held = np.all((corner_stops < 0)
+                              | stop_closed[np.maximum(corner_stops, 0)], axis=1)
+                current = fa[corner]
+                frozen = self._in_cone(previous_corner_force,
+                                       np.sum(current * n[corner], axis=1), n[corner],
+                                       self.mu_contact[corner])
+                fa[corner] = np.where(held[:, None], frozen, current)
+                previous_corner_force = fa[corner]
+            prev_a = prev_a + dwa + (fa - force[t, a]) / k
+            prev_b = prev_b + dwb + (-fa - force[t, b]) / k
+            f_hat[t, a], f_hat[t, b] = fa, -fa
+            w_hat[t, a], w_hat[t, b] = prev_a, prev_b
+
+
+def macro_only_map(points: InterfacePoints, k: FloatArray) -> tuple[IntArray, sp.csr_matrix]:
+    """The local stage of macro-only perfect interfaces (paper eq. [20]) as a linear map.
+
+    On each side s (points P_s, weights M_s, search direction k_s), with the interface's macro
+    functions g_s (the same continuous functions on both sides, ``interface_functions``),
+    find ŝ on E+ with zero micro forces, balanced macro forces Σ_s g_sᵀ M_s F̂_s = 0 and
+    continuous macro displacements (Ŵ_s's M_s-projection on g_s is g_s a, the same a on both
+    sides). With X_s = W_s − F_s / k_s and G_s = g_sᵀ M_s g_s, in closed form:
+
+        a = (Σ_s k_s G_s)⁻¹ Σ_s k_s g_sᵀ M_s X_s,
+        Ŵ_s = X_s + g_s (a − G_s⁻¹ g_sᵀ M_s X_s),   F̂_s = F_s + k_s (Ŵ_s − W_s),
+
+    so that F̂_s = k_s g_s (a − G_s⁻¹ g_sᵀ M_s X_s) is macro only. Returns the points of
+    every macro-only interface and Q with Ŵ = X + Q X on their flattened (point, component)
+    values.
+    """
+    blocks: list[tuple[IntArray, IntArray, FloatArray]] = []
+    chosen: list[IntArray] = []
+    offset = 0
+    for i in points.macro_only:
+        functions = interface_functions(points, i, 2)
+        sides = [points.side_points[(i, s)] for s in range(2)]
+        local = [offset + np.arange(sides[0].size),
+                 offset + sides[0].size + np.arange(sides[1].size)]
+        offset += sum(p.size for p in sides)
+        chosen.extend(sides)
+        for comp in range(2):
+            weighted = [g.T * points.weights[p] for g, p in zip(functions, sides, strict=True)]
+            gram = [wg @ g for wg, g in zip(weighted, functions, strict=True)]
+            k_side = [float(k[p[0], comp]) for p in sides]
+            total = sla.inv(sum(ks * gm for ks, gm in zip(k_side, gram, strict=True)))
+            to_a = np.hstack([ks * wg for ks, wg in zip(k_side, weighted, strict=True)])
+            columns = np.concatenate(local)
+            for side in range(2):
+                g = functions[side]
+                block = g @ total @ to_a
+                own = slice(0 if side == 0 else sides[0].size, None if side == 1 else
+                            sides[0].size)
+                block[:, own] -= g @ sla.solve(gram[side], weighted[side])
+                blocks.append((2 * local[side] + comp, 2 * columns + comp, block))
+    size = 2 * offset
+    if not blocks:
+        return np.zeros(0, dtype=np.int64), sp.csr_matrix((0, 0))
+    rows = np.concatenate([np.repeat(r, c.size) for r, c, _ in blocks])
+    cols = np.concatenate([np.tile(c, r.size) for r, c, _ in blocks])
+    vals = np.concatenate([b.ravel() for _, _, b in blocks])
+    return (np.concatenate(chosen).astype(np.int64),
+            sp.csr_matrix((vals, (rows, cols)), shape=(size, size)))
