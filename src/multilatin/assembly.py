@@ -16,7 +16,7 @@ import scipy.sparse as sp
 
 from .fem.elasticity import FloatArray, hooke_matrix
 from .fem.levelset import CutCells, LevelSet, cut_cells
-from .fem.mesh import RectMesh
+from .fem.mesh import RectMesh, UnstructuredMesh
 from .fem.xfem import xfem_stiffness
 from .parameters import Mu
 
@@ -45,7 +45,7 @@ class Substructure:
 
     name: str
     body: str
-    mesh: RectMesh
+    mesh: RectMesh | UnstructuredMesh
     material: Material
     hole: LevelSet | None = None
 
@@ -57,7 +57,11 @@ class Substructure:
     @cached_property
     def cut(self) -> CutCells | None:
         """Cells classified against the hole (None without a hole)."""
-        return None if self.hole is None else cut_cells(self.mesh, self.hole)
+        if self.hole is None:
+            return None
+        if not isinstance(self.mesh, RectMesh):
+            raise TypeError(f"{self.name}: level-set holes need a structured mesh")
+        return cut_cells(self.mesh, self.hole)
 
     def stiffness(self) -> sp.csr_matrix:
         """K_E (eq. [2]–[3]), on the material part only when there is a hole."""

@@ -16,7 +16,7 @@ from pathlib import Path
 
 from .errors import ModelError, NotConvergedError
 from .latin import LatinOptions
-from .model import Model, bundled_models, load_model
+from .model import REFERENCE_MESHES, Model, bundled_models, load_model
 from .output import write_result
 from .parameters import parse_assignments
 from .plots import plot_histories
@@ -79,6 +79,11 @@ def build_parser() -> argparse.ArgumentParser:
                        help="also solve monolithically; report both and overlay the histories")
     ref = sub.add_parser("reference", help="solve a model monolithically (reference)")
     _add_model_arguments(ref)
+    for p in (solve, ref):
+        p.add_argument("--reference-mesh", choices=REFERENCE_MESHES, default="auto",
+                       help="reference on the same meshes, or with holed bodies meshed "
+                       "conforming by gmsh (auto: conforming when the model has holes or "
+                       "non-matching interfaces)")
     study = sub.add_parser(
         "study", help="a parametric study over a grid, with multiresolution",
         description="Solve every parameter set of a grid; each case starts from its nearest "
@@ -217,7 +222,8 @@ def main(argv: list[str] | None = None) -> int:
         split = _parse_split(args.split)
         if args.command == "reference":
             try:
-                monolithic = model.reference(mu, refine=args.refine, split=split)
+                monolithic = model.reference(mu, refine=args.refine, split=split,
+                                             mesh=args.reference_mesh)
             except NotConvergedError as exc:
                 print(f"error: {exc}", file=sys.stderr)
                 return EXIT_NOT_CONVERGED
@@ -231,7 +237,8 @@ def main(argv: list[str] | None = None) -> int:
             print(f"error: {exc}", file=sys.stderr)
             return EXIT_NOT_CONVERGED
         try:
-            reference = (model.reference(mu, refine=args.refine, split=split)
+            reference = (model.reference(mu, refine=args.refine, split=split,
+                                         mesh=args.reference_mesh)
                          if args.with_reference else None)
         except NotConvergedError as exc:
             print(f"error: {exc}", file=sys.stderr)

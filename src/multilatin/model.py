@@ -59,9 +59,29 @@ class Model:
         return solve_latin(self.assemble(mu, refine=refine, split=split), options, check=check)
 
     def reference(self, mu: Mu | Mapping[str, float] | None = None, *, refine: int = 1,
-                  split: Split | None = None) -> SolveResult:
-        """Monolithic finite-element solution on the same meshes."""
-        return solve_monolithic(self.assemble(mu, refine=refine, split=split))
+                  split: Split | None = None, mesh: str = "auto") -> SolveResult:
+        """Monolithic finite-element solution.
+
+        mesh: ``"same"``: on the same meshes as LATIN (holes by level set too; needs matching
+            meshes); ``"conforming"``: every holed body meshed with the hole cut out (gmsh,
+            ``multilatin.conforming``), one substructure per body; ``"auto"``: conforming
+            when the model has holes or macro-only interfaces, else the same meshes.
+        """
+        if mesh not in REFERENCE_MESHES:
+            raise ModelError(f"mesh: expected one of {REFERENCE_MESHES}, got {mesh!r}")
+        assembly = self.assemble(mu, refine=refine, split=split)
+        if mesh == "auto":
+            special = any(s.hole is not None for s in assembly.substructures) or any(
+                itf.kind == "macro" for itf in assembly.interfaces)
+            mesh = "conforming" if special else "same"
+        if mesh == "conforming":
+            from .conforming import conforming_assembly
+
+            assembly = conforming_assembly(self.spec, assembly.mu, refine=refine)
+        return solve_monolithic(assembly)
+
+
+REFERENCE_MESHES = ("auto", "same", "conforming")
 
 
 def bundled_models() -> list[str]:

@@ -55,6 +55,10 @@ def merge_nodes(assembly: Assembly) -> tuple[int, list[IntArray]]:
 def solve_monolithic(assembly: Assembly) -> SolveResult:
     """The reference solution of ``assembly``."""
     t0 = time.perf_counter()
+    if any(itf.kind == "macro" for itf in assembly.interfaces):
+        raise ModelError("the monolithic reference needs matching meshes, and this assembly "
+                         "has macro-only interfaces; use the conforming reference "
+                         "(multilatin reference --reference-mesh conforming)")
     n_nodes, maps = merge_nodes(assembly)
     n_dofs = 2 * n_nodes
     n_steps = assembly.n_steps

@@ -239,7 +239,10 @@ class _Builder:
             mat = self.material(table, where, materials)
             xs = np.linspace(x0, x1, sx + 1)
             ys = np.linspace(y0, y1, sy + 1)
-            own = self.own_meshes(table.get("mesh", []), where, (sx, sy))
+            # a split chosen by the caller (a discretisation choice) replaces the file's
+            # per-substructure meshes of that body
+            own = ({} if name in self.split else
+                   self.own_meshes(table.get("mesh", []), where, (sx, sy)))
             for j, i in itertools.product(range(sy), range(sx)):
                 sub_name = name if sx * sy == 1 else f"{name}[{i},{j}]"
                 ex, ey = own.get((i, j), (nx // sx, ny // sy))
@@ -331,6 +334,8 @@ class _Builder:
             if kind != "contact" and ({"friction", "gap"} & set(table)):
                 raise ModelError(f"{where}: friction and gap apply to type = 'contact' only")
             known = {s.name for s in subs} | {s.body for s in subs}
+            if self.split and not {a, b} <= known:
+                continue  # names substructures that a caller's split has replaced
             for end in (a, b):
                 if end not in known:
                     raise ModelError(f"{where}.between: no body or substructure named {end!r}")

@@ -151,8 +151,8 @@ def cut_cells(mesh: RectMesh, level_set: LevelSet, subdivisions: int = 4) -> Cut
     ref_grid = np.stack([gx, gy], axis=-1)
     phys = centre[candidates, None, None, :] + ref_grid * half[candidates, None, None, :]
     phi_grid = level_set(phys)  # (n_cand, m+1, m+1)
-    i, j = np.meshgrid(np.arange(m), np.arange(m), indexing="ij")
-    i, j = i.ravel(), j.ravel()
+    grid_i, grid_j = np.meshgrid(np.arange(m), np.arange(m), indexing="ij")
+    i, j = grid_i.ravel(), grid_j.ravel()
     triangles = np.stack([np.stack([i, i + 1, i + 1], -1), np.stack([j, j, j + 1], -1),
                           np.stack([i, i + 1, i], -1), np.stack([j, j + 1, j + 1], -1)])
     tri_i = np.concatenate([triangles[0], triangles[2]])  # (2 m², 3)

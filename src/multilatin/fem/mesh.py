@@ -1,12 +1,14 @@
-"""Structured Q4 meshes of rectangles.
+"""Q4 meshes of rectangles: structured (``RectMesh``) or unstructured (``UnstructuredMesh``,
+e.g. a conforming mesh of a holed rectangle from gmsh).
 
-Nodes are numbered row by row (x fastest); cells are counter-clockwise quadrangles.
-The four sides are listed by name; each side's nodes are ordered by increasing
-coordinate along the side, so that two matching sides pair node by node.
+Cells are counter-clockwise quadrangles. The four sides are listed by name; each side's
+nodes are ordered by increasing coordinate along the side, so that two matching sides pair
+node by node.
 """
 
 from __future__ import annotations
 
+import hashlib
 from dataclasses import dataclass, field
 
 import numpy as np
@@ -26,8 +28,45 @@ def normal_axis(side: str) -> int:
     return 0 if side in ("left", "right") else 1
 
 
+class RectangleSides:
+    """Sides of the rectangle ``[x0, x1] × [y0, y1]`` that a mesh covers."""
+
+    x0: float
+    x1: float
+    y0: float
+    y1: float
+
+    def side_line(self, side: str) -> tuple[int, float, float, float]:
+        """``(axis, level, start, end)``: the side lies on coordinate ``axis`` = ``level``
+        and spans ``[start, end]`` along the other axis."""
+        if side == "bottom":
+            return 1, self.y0, self.x0, self.x1
+        if side == "top":
+            return 1, self.y1, self.x0, self.x1
+        if side == "left":
+            return 0, self.x0, self.y0, self.y1
+        if side == "right":
+            return 0, self.x1, self.y0, self.y1
+        raise ValueError(f"unknown side {side!r}; expected one of {SIDES}")
+
+    def outward_normal(self, side: str) -> FloatArray:
+        return {
+            "bottom": np.array([0.0, -1.0]),
+            "right": np.array([1.0, 0.0]),
+            "top": np.array([0.0, 1.0]),
+            "left": np.array([-1.0, 0.0]),
+        }[side]
+
+    def contains(self, point: npt.ArrayLike, tol: float = 1e-9) -> bool:
+        x, y = np.asarray(point, dtype=float)
+        scale = tol * max(self.x1 - self.x0, self.y1 - self.y0)
+        return bool(
+            self.x0 - scale <= x <= self.x1 + scale and self.y0 - scale <= y <= self.y1 + scale
+        )
+
+
 @dataclass(frozen=True)
-class RectMesh:
+class RectMesh(RectangleSides):
     """A structured ``nx`` × ``ny`` Q4 mesh of ``[x0, x1] × [y0, y1]``."""
 
     x0: float
@@ -78,34 +117,6 @@ class RectMesh:
             return np.arange(self.nx, self.n_nodes, row, dtype=np.int64)
         raise ValueError(f"unknown side {side!r}; expected one of {SIDES}")
 
-    def side_line(self, side: str) -> tuple[int, float, float, float]:
-        """``(axis, level, start, end)``: the side lies on coordinate ``axis`` = ``level``
-        and spans ``[start, end]`` along the other axis."""
-        if side == "bottom":
-            return 1, self.y0, self.x0, self.x1
-        if side == "top":
-            return 1, self.y1, self.x0, self.x1
-        if side == "left":
-            return 0, self.x0, self.y0, self.y1
-        if side == "right":
-            return 0, self.x1, self.y0, self.y1
-        raise ValueError(f"unknown side {side!r}; expected one of {SIDES}")
-
-    def outward_normal(self, side: str) -> FloatArray:
-        return {
-            "bottom": np.array([0.0, -1.0]),
-            "right": np.array([1.0, 0.0]),
-            "top": np.array([0.0, 1.0]),
-            "left": np.array([-1.0, 0.0]),
-        }[side]
-
-    def contains(self, point: npt.ArrayLike, tol: float = 1e-9) -> bool:
-        x, y = np.asarray(point, dtype=float)
-        scale = tol * max(self.x1 - self.x0, self.y1 - self.y0)
-        return bool(
-            self.x0 - scale <= x <= self.x1 + scale and self.y0 - scale <= y <= self.y1 + scale
-        )
-
     def locate(self, point: npt.ArrayLike) -> tuple[int, FloatArray]:
         """The cell containing ``point`` and the point's reference coordinates in it."""
         x, y = np.asarray(point, dtype=float)
@@ -114,3 +125,61 @@ class RectMesh:
         xi = 2.0 * (x - (self.x0 + i * self.hx)) / self.hx - 1.0
         eta = 2.0 * (y - (self.y0 + j * self.hy)) / self.hy - 1.0
         return j * self.nx + i, np.array([xi, eta])
+
+
+@dataclass(frozen=True, eq=False, repr=False)
+class UnstructuredMesh(RectangleSides):
+    """A Q4 mesh of (part of) the rectangle ``[x0, x1] × [y0, y1]``, e.g. with holes; its
+    side nodes are the nodes on the rectangle's sides."""
+
+    x0: float
+    x1: float
+    y0: float
+    y1: float
+    nodes: FloatArray
+    cells: IntArray
+
+    def __repr__(self) -> str:
+        digest = hashlib.sha1(self.nodes.tobytes() + self.cells.tobytes()).hexdigest()[:12]
+        return (f"UnstructuredMesh([{self.x0:g}, {self.x1:g}] x [{self.y0:g}, {self.y1:g}], "
+                f"{self.n_nodes} nodes, {self.n_cells} cells, {digest})")
+
+    @property
+    def n_nodes(self) -> int:
+        return int(self.nodes.shape[0])
+
+    @property
+    def n_cells(self) -> int:
+        return int(self.cells.shape[0])
+
+    def side_nodes(self, side: str) -> IntArray:
+        """Node indices on ``side``, ordered by increasing coordinate along it."""
+        axis, level, _, _ = self.side_line(side)
+        scale = 1e-9 * max(self.x1 - self.x0, self.y1 - self.y0)
+        on_side = np.flatnonzero(np.abs(self.nodes[:, axis] - level) <= scale)
+        return on_side[np.argsort(self.nodes[on_side, 1 - axis])].astype(np.int64)
+
+    def locate(self, point: npt.ArrayLike) -> tuple[int, FloatArray]:
+        """The cell containing ``point`` and the point's reference coordinates in it
+        (inverse bilinear map by Newton's method)."""
+        x = np.asarray(point, dtype=float)
+        corners = self.nodes[self.cells]
+        scale = 1e-9 * max(self.x1 - self.x0, self.y1 - self.y0)
+        inside = np.flatnonzero(np.all((corners.min(axis=1) - scale <= x)
+                                       & (x <= corners.max(axis=1) + scale), axis=1))
+        sx = np.array([-1.0, 1.0, 1.0, -1.0])
+        sy = np.array([-1.0, -1.0, 1.0, 1.0])
+        for cell in inside:
+            xy = corners[cell]
+            ref = np.zeros(2)
+            for _ in range(20):
+                shape = 0.25 * (1 + ref[0] * sx) * (1 + ref[1] * sy)
+                jacobian = np.stack([0.25 * sx * (1 + ref[1] * sy), 0.25 * sy * (1 + ref[0] * sx)],
+                                    axis=1).T @ xy  # (d xi, d x)
+                step = np.linalg.solve(jacobian.T, x - shape @ xy)
+                ref = ref + step
+                if np.abs(step).max() < 1e-13:
+                    break
+            if np.all(np.abs(ref) <= 1.0 + 1e-9):
+                return int(cell), ref
+        raise ValueError(f"point {x.tolist()} lies in no cell of {self!r}")

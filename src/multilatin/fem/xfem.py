@@ -17,7 +17,7 @@ import scipy.sparse as sp
 
 from .elasticity import FloatArray, Quadrature, error_norms, stiffness_matrix
 from .levelset import CutCells
-from .mesh import RectMesh
+from .mesh import RectMesh, UnstructuredMesh
 
 
 def inactive_dofs(cut: CutCells | None) -> np.ndarray:
@@ -28,7 +28,7 @@ def inactive_dofs(cut: CutCells | None) -> np.ndarray:
     return np.stack([2 * nodes, 2 * nodes + 1], axis=1).ravel()
 
 
-def xfem_stiffness(mesh: RectMesh, hooke: FloatArray, thickness: float,
+def xfem_stiffness(mesh: RectMesh | UnstructuredMesh, hooke: FloatArray, thickness: float,
                    cut: CutCells | None) -> sp.csr_matrix:
     """K = Σ_material ∫ Bᵀ D B + Σ_cut ∫_(material part) Bᵀ D B, identity on removed dofs."""
     if cut is None:
