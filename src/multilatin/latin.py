@@ -105,12 +105,49 @@ def operator_signature(assembly: Assembly, options: LatinOptions) -> str:
     return hashlib.sha1(text.encode()).hexdigest()
 
 
+@dataclass(frozen=True)
+class SubstructureOperators:
+    """What one substructure contributes to the linear stage: the factorised
+    S_E = K_E + T_Eᵀ M0 k T_E (eq. [13]), the condensed C_E = T_E S_E⁻¹ T_Eᵀ M0, and its
+    share of the macro problem: the response Q_E = C_E k Ẽ_E to unit macro unknowns and the
+    homogenised operator L_E = Ẽ_Eᵀ M0 k Ẽ_E − (M0 k Ẽ_E)ᵀ Q_E (eq. [14])."""
+
+    key: str
+    factor: spla.SuperLU
+    condensed: FloatArray
+    macro_response: FloatArray | None
+    homogenised: FloatArray | None
+
+
+def _digest(*parts: object) -> str:
+    hasher = hashlib.sha1()
+    for part in parts:
+        if isinstance(part, np.ndarray):
+            hasher.update(np.ascontiguousarray(part).tobytes())
+            hasher.update(repr(part.shape).encode())
+        elif isinstance(part, sp.spmatrix | sp.sparray):
+            matrix = sp.csr_matrix(part)
+            for array in (matrix.data, matrix.indices, matrix.indptr):
+                hasher.update(np.ascontiguousarray(array).tobytes())
+            hasher.update(repr(matrix.shape).encode())
+        else:
+            hasher.update(repr(part).encode())
+    return hasher.hexdigest()
+
+
 class LatinOperators:
     """Everything of the linear stage that depends on the geometry only: factorised
     substructure operators, the condensed block-diagonal operator C, the macro basis and the
-    factorised homogenised macro operator (eq. [15])."""
+    factorised homogenised macro operator (eq. [15]).
 
-    def __init__(self, assembly: Assembly, options: LatinOptions) -> None:
+    reuse: operators of another assembly; every substructure whose geometry, interface
+        discretisation, search direction and macro basis are unchanged takes its operators
+        from there (paper §6: when a hole changes, only its substructure is rebuilt).
+        ``rebuilt`` names the substructures built here.
+    """
+
+    def __init__(self, assembly: Assembly, options: LatinOptions,
+                 reuse: LatinOperators | None = None) -> None:
         self.assembly = assembly
         self.options = options
         self.signature = operator_signature(assembly, options)
@@ -119,29 +156,37 @@ class LatinOperators:
         self.search_direction = self._search_direction()
         k_flat = self.search_direction.reshape(-1)
         self.m0 = np.repeat(pts.weights, 2)  # diagonal of M0 on flat (2P) vectors
+        basis = macro_basis(assembly, pts) if options.macro else None
+        if basis is not None and not basis.shape[1]:
+            basis = None
+        available = reuse.blocks if reuse is not None else {}
 
-        self.factors: list[spla.SuperLU] = []
-        blocks = []
+        self.blocks: dict[str, SubstructureOperators] = {}
+        self.substructure_operators: list[SubstructureOperators] = []
+        rebuilt = []
         for s, sub in enumerate(assembly.substructures):
-            stiffness = sub.stiffness()
-            trace = pts.traces[s]
             lo, hi = 2 * pts.offsets[s], 2 * pts.offsets[s + 1]
-            mk = self.m0[lo:hi] * k_flat[lo:hi]
-            operator = (stiffness + trace.T @ sp.diags(mk) @ trace).tocsc()
-            factor = spla.splu(operator)
-            self.factors.append(factor)
-            rhs = (trace.T @ sp.diags(self.m0[lo:hi])).toarray()
-            blocks.append(trace @ factor.solve(rhs))  # C_E = T S⁻¹ Tᵀ M0, dense
-        self.condensed = sp.block_diag(blocks, format="csr")
+            rows = basis[lo:hi] if basis is not None else None
+            key = _digest(sub.signature(), pts.traces[s], k_flat[lo:hi], self.m0[lo:hi], rows)
+            block = available.get(key) or self.blocks.get(key)
+            if block is None:
+                block = self._substructure(sub.stiffness(), pts.traces[s], self.m0[lo:hi],
+                                           k_flat[lo:hi], rows, key)
+                rebuilt.append(sub.name)
+            self.blocks[key] = block
+            self.substructure_operators.append(block)
+        self.rebuilt = tuple(rebuilt)
+        self.factors = [b.factor for b in self.substructure_operators]
+        self.condensed = sp.block_diag([b.condensed for b in self.substructure_operators],
+                                       format="csr")
 
-        self.macro_basis = macro_basis(assembly, pts) if options.macro else None
-        if self.macro_basis is not None and self.macro_basis.shape[1]:
-            basis = self.macro_basis
-            # Q = C k Ẽ: interface displacement caused by a unit macro W̃ᴹ
-            macro_response = np.asarray(self.condensed @ (sp.diags(k_flat) @ basis).toarray())
-            mk_basis = sp.diags(self.m0 * k_flat) @ basis
-            # L = Ẽᵀ M0 k (I − C k) Ẽ, the assembled homogenised operator (eq. [14]–[15])
-            homogenised = (basis.T @ mk_basis).toarray() - mk_basis.T @ macro_response
+        self.macro_basis = basis
+        if basis is not None:
+            macro_response = np.vstack([b.macro_response for b in self.substructure_operators
+                                        if b.macro_response is not None])
+            # L = Σ_E L_E, the assembled homogenised operator (eq. [14]–[15])
+            homogenised = np.sum([b.homogenised for b in self.substructure_operators
+                                  if b.homogenised is not None], axis=0)
             homogenised = 0.5 * (homogenised + homogenised.T)
             factor = self._factorise_macro(homogenised)
             inverse = sla.cho_solve(factor, np.eye(homogenised.shape[0]))
@@ -150,8 +195,22 @@ class LatinOperators:
             self.macro_to_force = k_flat[:, None] * (
                 np.asarray(basis @ inverse) - self.macro_to_displacement)
             self.project = (basis.T @ sp.diags(self.m0)).tocsr()
-        else:
-            self.macro_basis = None
+
+    @staticmethod
+    def _substructure(stiffness: sp.csr_matrix, trace: sp.csr_matrix, m0: FloatArray,
+                      k: FloatArray, basis_rows: sp.csr_matrix | None,
+                      key: str) -> SubstructureOperators:
+        operator = (stiffness + trace.T @ sp.diags(m0 * k) @ trace).tocsc()
+        factor = spla.splu(operator)
+        rhs = (trace.T @ sp.diags(m0)).toarray()
+        condensed = trace @ factor.solve(rhs)  # C_E = T S⁻¹ Tᵀ M0, dense
+        if basis_rows is None:
+            return SubstructureOperators(key, factor, condensed, None, None)
+        k_basis = (sp.diags(k) @ basis_rows).toarray()
+        response = condensed @ k_basis  # Q_E = C_E k Ẽ_E
+        mk_basis = m0[:, None] * k_basis
+        homogenised = (basis_rows.T @ mk_basis) - mk_basis.T @ response
+        return SubstructureOperators(key, factor, condensed, response, np.asarray(homogenised))
 
     def _search_direction(self) -> FloatArray:
         """k per interface point and component: κ E / L (stiffer on prescribed displacements)."""

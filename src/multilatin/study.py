@@ -185,7 +185,9 @@ def _operators(assembly: Any, options: LatinOptions) -> tuple[LatinOperators, bo
     if signature in _OPERATORS:
         _OPERATORS.move_to_end(signature)
         return _OPERATORS[signature], False
-    ops = LatinOperators(assembly, options)
+    # a new geometry: substructures unchanged since the latest operators are reused
+    latest = next(reversed(_OPERATORS.values())) if _OPERATORS else None
+    ops = LatinOperators(assembly, options, reuse=latest)
     _OPERATORS[signature] = ops
     while len(_OPERATORS) > _OPERATOR_CACHE_SIZE:
         _OPERATORS.popitem(last=False)

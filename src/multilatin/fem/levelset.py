@@ -131,9 +131,15 @@ def _material_triangles(vertices: FloatArray, phi: FloatArray) -> tuple[FloatArr
     return pieces, np.where(used, area, 0.0)
 
 
-def cut_cells(mesh: RectMesh, level_set: LevelSet, subdivisions: int = 4) -> CutCells:
+def cut_cells(mesh: RectMesh, level_set: LevelSet, subdivisions: int = 4,
+              min_fraction: float = 1e-6) -> CutCells:
     """Classify the cells of ``mesh`` against ``level_set`` and integrate the cut ones on
-    their material part (see the module docstring); vectorised over the cut cells."""
+    their material part (see the module docstring); vectorised over the cut cells.
+
+    A cell with less than ``min_fraction`` of material (a hole through a node leaves slivers
+    of 1e-30) counts as void: its stiffness would be of that order, and its nodes could be
+    left with no stiffness at all.
+    """
     if subdivisions < 1:
         raise ValueError(f"subdivisions must be >= 1, got {subdivisions}")
     corners = mesh.nodes[mesh.cells]  # (c, 4, 2)
@@ -162,13 +168,15 @@ def cut_cells(mesh: RectMesh, level_set: LevelSet, subdivisions: int = 4) -> Cut
     pieces, area = _material_triangles(
         np.broadcast_to(vertices, phi_tri.shape + (2,)), phi_tri)
     material_area = area.sum(axis=(1, 2))  # reference area, 4 for a full cell
+    material_area = np.where(material_area < 4.0 * min_fraction, 0.0, material_area)
     fraction[candidates] = material_area / 4.0
     cut_mask = (material_area > 0.0) & (material_area < 4.0 * (1.0 - 1e-12))
     cut = candidates[cut_mask]
     points = np.einsum("qv,ctpvd->ctpqd", _TRIANGLE_POINTS, pieces[cut_mask])
     weights = area[cut_mask][..., None] * _TRIANGLE_WEIGHTS
     n_cut = cut.size
-    quadrature = Quadrature(points.reshape(n_cut, -1, 2), weights.reshape(n_cut, -1))
+    per_cell = max(points[0].size // 2, 1) if n_cut else 1
+    quadrature = Quadrature(points.reshape(n_cut, per_cell, 2), weights.reshape(n_cut, per_cell))
 
     fraction = np.where(np.isin(np.arange(mesh.n_cells), cut), fraction, np.round(fraction))
     material = np.flatnonzero(fraction == 1.0).astype(np.int64)
