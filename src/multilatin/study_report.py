@@ -143,23 +143,37 @@ def plot_response(dataset: xr.Dataset, folder: Path, mode: str) -> list[Path]:
             ax.set_xlabel(varied[0])
             ax.set_ylabel(varied[1])
         else:
-            inner, outer = varied[-2:], varied[:-2]
+            # maps over the two parameters with the most values, one panel per value of
+            # the others (B2: u_A over the hole position, one map per radius, paper fig. 13)
+            by_size = sorted(varied, key=lambda d: -data.sizes[d])
+            inner = [d for d in varied if d in by_size[:2]]
+            outer = [d for d in varied if d not in inner]
             panels = list(np.ndindex(*[data.sizes[d] for d in outer]))[:25]
             columns = min(5, len(panels))
             rows_n = int(np.ceil(len(panels) / columns))
-            fig, axes = plt.subplots(rows_n, columns, figsize=(3 * columns, 2.6 * rows_n),
+            fig, axes = plt.subplots(rows_n, columns, figsize=(3.6 * columns + 1, 3.2 * rows_n),
                                      squeeze=False, sharex=True, sharey=True)
+            levels = np.linspace(float(values.min()), float(values.max()), 13)
+            if not levels[-1] > levels[0]:
+                levels = np.linspace(levels[0] - 0.5, levels[0] + 0.5, 13)
+            contour = None
             for ax, where in zip(axes.ravel(), panels, strict=False):
                 panel = values.isel({d: i for d, i in zip(outer, where, strict=True)})
                 panel = panel.squeeze(drop=True).transpose(*inner)
-                ax.contourf(panel[inner[0]], panel[inner[1]], panel.values.T, levels=12,
-                            cmap="viridis")
+                contour = ax.contourf(panel[inner[0]], panel[inner[1]], panel.values.T,
+                                      levels=levels, cmap="viridis")
                 ax.set_title(", ".join(f"{d}={float(data[d][i]):g}"
-                                       for d, i in zip(outer, where, strict=True)), fontsize=8)
+                                       for d, i in zip(outer, where, strict=True)), fontsize=9)
+                ax.set_aspect("equal", adjustable="box")
+            for ax in axes.ravel()[len(panels):]:
+                ax.set_visible(False)
+            if contour is not None:
+                fig.colorbar(contour, ax=axes.ravel().tolist(), label=name)
             fig.supxlabel(inner[0])
             fig.supylabel(inner[1])
         fig.suptitle(f"{dataset.attrs.get('model', '')}: {name}")
-        fig.tight_layout()
+        if len(varied) <= 2:
+            fig.tight_layout()
         fig.savefig(path, dpi=110)
         plt.close(fig)
         paths.append(path)
