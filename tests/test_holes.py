@@ -110,3 +110,13 @@ def test_hole_outside_its_substructure_and_negative_radius_in_a_model_file():
                                "component": "x"}])
     with pytest.raises(ModelError, match=r"qoi\[0\] \('u'\).point: .* lies in a hole"):
         ModelSpec.from_dict(in_hole)
+
+
+def test_a_study_with_a_bad_hole_fails_before_any_work(tmp_path, capsys):
+    out = tmp_path / "study"
+    argv = ["study", "b3", "--grid", "rc=1:9:3", "--grid", "mu1=0:0.6:13", "--out", str(out),
+            "--no-progress"]
+    assert main(argv) == 2
+    err = capsys.readouterr().err
+    assert "rc=9" in err and "crosses the boundary of substructure 'centre[1,1]'" in err
+    assert not out.exists()
