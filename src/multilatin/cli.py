@@ -160,6 +160,10 @@ def _show(model: Model) -> None:
     for itf in assembly.interfaces:
         kinds[itf.kind] = kinds.get(itf.kind, 0) + 1
     print("interfaces: " + ", ".join(f"{n} {k}" for k, n in sorted(kinds.items())))
+    for sub in assembly.substructures:
+        if sub.cut is not None:
+            print(f"hole in {sub.name}: {sub.hole!r} ({sub.cut.cut.size} cut cells, "
+                  f"{sub.cut.void.size} void cells, {sub.cut.inactive_nodes.size} nodes removed)")
     print("quantities of interest: " + ", ".join(q.name for q in assembly.qois))
 
 
