@@ -22,7 +22,6 @@ from .assembly import Assembly
 from .errors import ModelError
 from .fem.levelset import Circle, LevelSet, Union
 from .fem.mesh import RectMesh, UnstructuredMesh
-from .parameters import Mu
 from .spec import ModelSpec
 
 log = logging.getLogger(__name__)
@@ -113,15 +112,14 @@ def mesh_holed_rectangle(box: tuple[float, float, float, float], holes: Sequence
     return UnstructuredMesh(x0, x1, y0, y1, nodes, cells)
 
 
-def conforming_assembly(spec: ModelSpec, mu: Mu | None = None, refine: int = 1,
+def conforming_assembly(spec: ModelSpec, assembly: Assembly, refine: int = 1,
                         hole_size: float | None = None) -> Assembly:
-    """The assembly of ``spec`` with one substructure per body (the monolithic solver merges
-    them anyway; macro-only interfaces disappear), in which every body holding a hole gets a
-    conforming gmsh mesh: its outer sides meshed as the body's structured mesh (uniform, the
-    same element counts), the hole cut out."""
-    assembly = spec.build(mu, refine=refine)
+    """The conforming counterpart of ``assembly`` (built from ``spec`` with ``refine``): one
+    substructure per body (the monolithic solver merges them anyway; macro-only interfaces
+    disappear), every body holding a hole meshed by gmsh: its outer sides as the body's
+    structured mesh (uniform, the same element counts), the hole cut out."""
     bodies = {s.body for s in assembly.substructures}
-    whole = spec.build(mu, refine=refine, split={body: (1, 1) for body in bodies})
+    whole = spec.build(assembly.mu, refine=refine, split={body: (1, 1) for body in bodies})
     subs = list(whole.substructures)
     for i, sub in enumerate(subs):
         if sub.hole is None:

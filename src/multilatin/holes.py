@@ -93,6 +93,7 @@ def place_holes(tables: Sequence[Mapping[str, Any]], subs: list[Substructure], m
                 ) -> list[Substructure]:
     """The substructures with their holes (several holes in one substructure: their union)."""
     holes: dict[int, list[LevelSet]] = {}
+    single: dict[int, Substructure] = {}  # a substructure with its one hole, cut cells cached
     for h, table in enumerate(tables):
         where = f"holes[{h}]"
         if not isinstance(table, Mapping):
@@ -105,9 +106,9 @@ def place_holes(tables: Sequence[Mapping[str, Any]], subs: list[Substructure], m
         if level_set is None:
             continue
         sub = subs[index]
-        alone = dataclasses.replace(sub, hole=level_set).cut
-        assert alone is not None
-        if not np.any(alone.material_fraction > 0.0):
+        holed = dataclasses.replace(sub, hole=level_set)
+        assert holed.cut is not None
+        if not np.any(holed.cut.material_fraction > 0.0):
             raise ModelError(f"{where}: the hole leaves substructure {sub.name!r} {_box(sub)} "
                              f"with no material{params}")
         x0, x1, y0, y1 = level_set.bounding_box()
@@ -119,10 +120,11 @@ def place_holes(tables: Sequence[Mapping[str, Any]], subs: list[Substructure], m
                 f"{_box(sub)} (hole extent [{x0:g}, {x1:g}] x [{y0:g}, {y1:g}]){params}; a hole "
                 "must lie strictly inside one substructure")
         holes.setdefault(index, []).append(level_set)
+        single[index] = holed
     out = list(subs)
     for index, parts in holes.items():
-        hole = parts[0] if len(parts) == 1 else Union(tuple(parts))
-        sub = dataclasses.replace(subs[index], hole=hole)
+        sub = (single[index] if len(parts) == 1
+               else dataclasses.replace(subs[index], hole=Union(tuple(parts))))
         cut = sub.cut
         assert cut is not None
         boundary = np.concatenate([sub.mesh.side_nodes(s) for s in

@@ -198,11 +198,10 @@ def macro_only_map(points: InterfacePoints, k: FloatArray) -> tuple[IntArray, sp
             total = sla.inv(sum(ks * gm for ks, gm in zip(k_side, gram, strict=True)))
             to_a = np.hstack([ks * wg for ks, wg in zip(k_side, weighted, strict=True)])
             columns = np.concatenate(local)
-            for side in range(2):
+            for side, start in enumerate((0, sides[0].size)):
                 g = functions[side]
                 block = g @ total @ to_a
-                own = slice(0 if side == 0 else sides[0].size, None if side == 1 else
-                            sides[0].size)
+                own = slice(start, start + sides[side].size)
                 block[:, own] -= g @ sla.solve(gram[side], weighted[side])
                 blocks.append((2 * local[side] + comp, 2 * columns + comp, block))
     size = 2 * offset

@@ -8,6 +8,7 @@ from importlib import resources
 from pathlib import Path
 
 from .assembly import Assembly
+from .conforming import conforming_assembly
 from .errors import ModelError
 from .latin import LatinOptions, solve_latin
 from .monolithic import solve_monolithic
@@ -75,9 +76,7 @@ class Model:
                 itf.kind == "macro" for itf in assembly.interfaces)
             mesh = "conforming" if special else "same"
         if mesh == "conforming":
-            from .conforming import conforming_assembly
-
-            assembly = conforming_assembly(self.spec, assembly.mu, refine=refine)
+            assembly = conforming_assembly(self.spec, assembly, refine=refine)
         return solve_monolithic(assembly)
 
 

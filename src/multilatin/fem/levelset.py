@@ -169,16 +169,16 @@ def cut_cells(mesh: RectMesh, level_set: LevelSet, subdivisions: int = 4,
         np.broadcast_to(vertices, phi_tri.shape + (2,)), phi_tri)
     material_area = area.sum(axis=(1, 2))  # reference area, 4 for a full cell
     material_area = np.where(material_area < 4.0 * min_fraction, 0.0, material_area)
-    fraction[candidates] = material_area / 4.0
-    cut_mask = (material_area > 0.0) & (material_area < 4.0 * (1.0 - 1e-12))
+    full = material_area >= 4.0 * (1.0 - 1e-12)
+    fraction[candidates] = np.where(full, 1.0, material_area / 4.0)
+    cut_mask = (material_area > 0.0) & ~full
     cut = candidates[cut_mask]
     points = np.einsum("qv,ctpvd->ctpqd", _TRIANGLE_POINTS, pieces[cut_mask])
     weights = area[cut_mask][..., None] * _TRIANGLE_WEIGHTS
-    n_cut = cut.size
-    per_cell = max(points[0].size // 2, 1) if n_cut else 1
-    quadrature = Quadrature(points.reshape(n_cut, per_cell, 2), weights.reshape(n_cut, per_cell))
+    per_cell = tri_i.shape[0] * 2 * _TRIANGLE_WEIGHTS.size  # triangles x pieces x points
+    quadrature = Quadrature(points.reshape(cut.size, per_cell, 2),
+                            weights.reshape(cut.size, per_cell))
 
-    fraction = np.where(np.isin(np.arange(mesh.n_cells), cut), fraction, np.round(fraction))
     material = np.flatnonzero(fraction == 1.0).astype(np.int64)
     void = np.flatnonzero(fraction == 0.0).astype(np.int64)
     active = np.zeros(mesh.n_nodes, dtype=bool)
