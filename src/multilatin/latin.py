@@ -15,6 +15,7 @@ import time
 from dataclasses import asdict, dataclass
 
 import numpy as np
+import numpy.typing as npt
 import scipy.linalg as sla
 import scipy.sparse as sp
 import scipy.sparse.linalg as spla
@@ -115,8 +116,9 @@ class SubstructureOperators:
     key: str
     factor: spla.SuperLU
     condensed: FloatArray
-    macro_response: FloatArray | None
-    homogenised: FloatArray | None
+    macro_columns: npt.NDArray[np.int64]  # the macro unknowns of E's interfaces
+    macro_response: FloatArray  # Q_E on those columns (2 P_E × n_E)
+    homogenised: FloatArray  # L_E on those columns (n_E × n_E)
 
 
 def _digest(*parts: object) -> str:
@@ -182,11 +184,15 @@ class LatinOperators:
 
         self.macro_basis = basis
         if basis is not None:
-            macro_response = np.vstack([b.macro_response for b in self.substructure_operators
-                                        if b.macro_response is not None])
-            # L = Σ_E L_E, the assembled homogenised operator (eq. [14]–[15])
-            homogenised = np.sum([b.homogenised for b in self.substructure_operators
-                                  if b.homogenised is not None], axis=0)
+            n_macro = basis.shape[1]
+            macro_response = np.zeros((k_flat.size, n_macro))
+            homogenised = np.zeros((n_macro, n_macro))
+            for s, block in enumerate(self.substructure_operators):
+                lo, hi = 2 * pts.offsets[s], 2 * pts.offsets[s + 1]
+                columns = block.macro_columns
+                macro_response[lo:hi, columns] = block.macro_response
+                # L = Σ_E L_E, the assembled homogenised operator (eq. [14]–[15])
+                homogenised[np.ix_(columns, columns)] += block.homogenised
             homogenised = 0.5 * (homogenised + homogenised.T)
             factor = self._factorise_macro(homogenised)
             inverse = sla.cho_solve(factor, np.eye(homogenised.shape[0]))
@@ -205,12 +211,17 @@ class LatinOperators:
         rhs = (trace.T @ sp.diags(m0)).toarray()
         condensed = trace @ factor.solve(rhs)  # C_E = T S⁻¹ Tᵀ M0, dense
         if basis_rows is None:
-            return SubstructureOperators(key, factor, condensed, None, None)
-        k_basis = (sp.diags(k) @ basis_rows).toarray()
+            empty = np.zeros((0, 0))
+            return SubstructureOperators(key, factor, condensed, np.zeros(0, dtype=np.int64),
+                                         np.zeros((condensed.shape[0], 0)), empty)
+        columns = np.unique(basis_rows.indices).astype(np.int64)  # E's own macro unknowns
+        own_basis = basis_rows[:, columns]
+        k_basis = (sp.diags(k) @ own_basis).toarray()
         response = condensed @ k_basis  # Q_E = C_E k Ẽ_E
         mk_basis = m0[:, None] * k_basis
-        homogenised = (basis_rows.T @ mk_basis) - mk_basis.T @ response
-        return SubstructureOperators(key, factor, condensed, response, np.asarray(homogenised))
+        homogenised = (own_basis.T @ mk_basis) - mk_basis.T @ response
+        return SubstructureOperators(key, factor, condensed, columns, response,
+                                     np.asarray(homogenised))
 
     def _search_direction(self) -> FloatArray:
         """k per interface point and component: κ E / L (stiffer on prescribed displacements)."""
