@@ -79,10 +79,10 @@ def test_local_stage_of_macro_only_interfaces():
     assembly = bar(7, 5)
     ops = LatinOperators(assembly, LatinOptions())
     pts, k = ops.points, ops.search_direction
-    local = LocalStage(assembly, pts, k)
+    local = LocalStage([assembly], [pts], k)
     rng = np.random.default_rng(0)
     w, f = rng.normal(size=(2, 2, pts.n_points, 2))
-    w_hat, f_hat = local(w, f)
+    w_hat, f_hat = (field[0] for field in local(w[None], f[None]))
     for i in pts.macro_only:
         functions = interface_functions(pts, i, 2)
         sides = [pts.side_points[(i, s)] for s in range(2)]
@@ -99,7 +99,7 @@ def test_local_stage_of_macro_only_interfaces():
         for p in sides:
             np.testing.assert_allclose(f_hat[:, p] - f[:, p], k[p] * (w_hat[:, p] - w[:, p]),
                                        atol=1e-10)
-    again = local(w_hat, f_hat)
+    again = [field[0] for field in local(w_hat[None], f_hat[None])]
     m = local.macro_points
     np.testing.assert_allclose(again[0][:, m], w_hat[:, m], atol=1e-12)
     np.testing.assert_allclose(again[1][:, m], f_hat[:, m], atol=1e-10)

@@ -82,7 +82,7 @@ def test_multiresolution_changes_no_answer(b1: ml.Model, tmp_path: Path) -> None
     options = LatinOptions(tol=1e-7, max_iter=3000)
     clear_operator_cache()
     result = run_study(b1, MU2_LINE, options=options, modes=("multiresolution", "cold"),
-                       out=tmp_path, progress=False)
+                       out=tmp_path, progress=False, batch=1)
     warm, cold = result.mode_records("multiresolution"), result.mode_records("cold")
     assert [r["start"] for r in warm[1:]] == ["mu1=0.3, mu2=0", "mu1=0.3, mu2=0.1",
                                              "mu1=0.3, mu2=0.2"]
@@ -98,6 +98,34 @@ def test_multiresolution_changes_no_answer(b1: ml.Model, tmp_path: Path) -> None
     assert dataset["R_stop"].dims == ("mode", "mu1", "mu2")
     assert dataset["u_A"].dims == ("mode", "mu1", "mu2", "step")
     assert bool(dataset["finished"].all())
+
+
+def test_batched_multiresolution_changes_no_answer(b1: ml.Model, tmp_path: Path) -> None:
+    """Grid lines solved as batches: the first case alone, the rest of its line from it, each
+    next line from the previous line's converged cases (one grid step away); tightly
+    converged QoIs equal the cold ones. (μ1 + μ2 is kept off the multiples of 0.06, where a
+    push step of 150 N x n equals the friction capacity 2500 (μ1 + μ2) and the centre block's
+    position at that step is not unique.)"""
+    options = LatinOptions(tol=1e-7, max_iter=3000)
+    clear_operator_cache()
+    grid = Grid({"mu1": [0.25, 0.35], "mu2": [0.0, 0.1, 0.2]})
+    result = run_study(b1, grid, options=options, modes=("multiresolution", "cold"),
+                       out=tmp_path, progress=False, batch=8)
+    warm, cold = result.mode_records("multiresolution"), result.mode_records("cold")
+    assert [r["batch"] for r in warm] == [1, 2, 2, 3, 3, 3]
+    assert [r["start"] for r in warm] == [
+        "zero", "mu1=0.25, mu2=0", "mu1=0.25, mu2=0",
+        "mu1=0.25, mu2=0.2", "mu1=0.25, mu2=0.1", "mu1=0.25, mu2=0"]
+    assert [r["params"]["mu2"] for r in warm] == [0.0, 0.1, 0.2, 0.2, 0.1, 0.0]
+    assert [r["operators_built"] for r in warm] == [True] + [False] * 5
+    assert all(r["batch"] == 1 for r in cold)
+    for w in warm:
+        c = next(r for r in cold if r["params"] == w["params"])
+        assert w["converged"] and c["converged"]
+        assert w["qoi"]["R_stop"] == pytest.approx(c["qoi"]["R_stop"], rel=2e-5, abs=1e-3)
+        np.testing.assert_allclose(w["qoi"]["u_A"], c["qoi"]["u_A"], rtol=1e-4, atol=1e-7)
+    assert result.elapsed_s["multiresolution"] > 0
+    assert sum(r["wall_s"] for r in warm) <= result.elapsed_s["multiresolution"]
 
 
 def test_a_case_that_does_not_converge_is_recorded_and_the_study_goes_on(
@@ -125,7 +153,8 @@ def test_a_killed_study_resumes_without_loss_or_recomputation(tmp_path: Path) ->
     recomputed (the first run's records are kept as they were), and the store equals an
     uninterrupted run's."""
     command = [sys.executable, "-m", "multilatin.cli", "study", "b1", "--grid", "mu1=0.3",
-               "--grid", "mu2=0:0.6:9", "--tol", "1e-6", "--no-progress", "--json"]
+               "--grid", "mu2=0:0.6:9", "--tol", "1e-6", "--no-progress", "--json",
+               "--batch", "1"]
     killed = tmp_path / "killed"
     process = subprocess.Popen([*command, "--out", str(killed)], stdout=subprocess.DEVNULL,
                                stderr=subprocess.DEVNULL)
@@ -152,6 +181,26 @@ def test_a_killed_study_resumes_without_loss_or_recomputation(tmp_path: Path) ->
     subprocess.run([*command, "--out", str(straight)], capture_output=True, check=True)
     xr.testing.assert_identical(_comparable(load_study(killed)),
                                 _comparable(load_study(straight)))
+
+
+def test_a_batched_study_cut_short_resumes_the_missing_cases_only(b1: ml.Model,
+                                                                   tmp_path: Path) -> None:
+    """A batched study whose journal lost its last records (a crash between the records of a
+    batch): the same study again computes the missing cases only, in smaller batches."""
+    grid = Grid({"mu1": [0.25, 0.35], "mu2": [0.0, 0.15, 0.3, 0.45]})
+    options = LatinOptions(tol=1e-6)
+    run_study(b1, grid, options=options, out=tmp_path, progress=False, batch=4)
+    journal = tmp_path / "cases.jsonl"
+    lines = journal.read_text().splitlines()
+    assert len(lines) == 8
+    journal.write_text("\n".join(lines[:5]) + "\n")
+    kept = [json.loads(line) for line in lines[:5]]
+    result = run_study(b1, grid, options=options, out=tmp_path, progress=False, batch=4)
+    after = [json.loads(line) for line in journal.read_text().splitlines()]
+    assert after[:5] == kept
+    assert sorted(r["number"] for r in after) == list(range(8))
+    assert [r["batch"] for r in after[5:]] == [3, 3, 3]
+    assert all(r["converged"] for r in result.records)
 
 
 def test_dask_cluster_gives_the_serial_results(b1: ml.Model, tmp_path: Path) -> None:

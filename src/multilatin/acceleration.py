@@ -4,28 +4,38 @@ from __future__ import annotations
 
 import numpy as np
 
-from .fem.elasticity import FloatArray
+from .fem.elasticity import FloatArray, IntArray
 
 
 class Anderson:
     """Anderson mixing (type II) of the LATIN fixed point x ↦ G(x) = linear(local(x)),
-    in the norm of the indicator; damped by ω. Affine combinations of admissible fields are
-    admissible, so s stays in A_d."""
+    in the norm of the indicator, damped by ω; one independent history per case of a batch
+    (fields of shape ``(n_cases, n_steps, n_points, 2)``). Affine combinations of admissible
+    fields are admissible, so s stays in A_d."""
 
     def __init__(self, depth: int, damping: float, w_scale: FloatArray,
                  f_scale: FloatArray) -> None:
         self.depth = depth
         self.damping = damping
-        self.scale = np.concatenate([w_scale.ravel(), f_scale.ravel()])
-        self.scale_all_steps: FloatArray | None = None
-        self.xs: list[FloatArray] = []
-        self.rs: list[FloatArray] = []
+        self.w_scale = w_scale
+        self.f_scale = f_scale
+        self.scale: FloatArray | None = None  # the indicator's norm on flattened fields
+        self.xs: list[FloatArray] = []  # (n_cases, n) iterates
+        self.rs: list[FloatArray] = []  # (n_cases, n) residuals G(x) − x
+
+    def subset(self, cases: IntArray) -> None:
+        """Keep the histories of ``cases`` only (the others left the batch)."""
+        self.xs = [x[cases] for x in self.xs]
+        self.rs = [r[cases] for r in self.rs]
 
     def __call__(self, w: FloatArray, f: FloatArray, w_new: FloatArray,
                  f_new: FloatArray) -> tuple[FloatArray, FloatArray]:
-        shape = w.shape
-        x = np.concatenate([w.reshape(shape[0], -1), f.reshape(shape[0], -1)], axis=1)
-        g = np.concatenate([w_new.reshape(shape[0], -1), f_new.reshape(shape[0], -1)], axis=1)
+        n_cases = w.shape[0]
+        if self.scale is None:
+            self.scale = np.concatenate([np.broadcast_to(self.w_scale, w.shape[1:]).ravel(),
+                                         np.broadcast_to(self.f_scale, f.shape[1:]).ravel()])
+        x = np.concatenate([w.reshape(n_cases, -1), f.reshape(n_cases, -1)], axis=1)
+        g = np.concatenate([w_new.reshape(n_cases, -1), f_new.reshape(n_cases, -1)], axis=1)
         r = g - x
         self.xs.append(x)
         self.rs.append(r)
@@ -34,16 +44,19 @@ class Anderson:
             self.rs.pop(0)
         x_mix, r_mix = x, r
         if len(self.xs) > 1:
-            d_r = np.stack([(b - a).ravel() for a, b in zip(self.rs[:-1], self.rs[1:],
-                                                          strict=True)], axis=1)
-            d_x = np.stack([(b - a).ravel() for a, b in zip(self.xs[:-1], self.xs[1:],
-                                                          strict=True)], axis=1)
-            if self.scale_all_steps is None:
-                self.scale_all_steps = np.tile(self.scale, shape[0])
-            scale = self.scale_all_steps
-            gamma, *_ = np.linalg.lstsq(d_r * scale[:, None], r.ravel() * scale, rcond=1e-10)
-            x_mix = x - (d_x @ gamma).reshape(x.shape)
-            r_mix = r - (d_r @ gamma).reshape(r.shape)
+            d_r = np.stack([b - a for a, b in zip(self.rs[:-1], self.rs[1:], strict=True)],
+                           axis=1)  # (n_cases, m, n)
+            d_x = np.stack([b - a for a, b in zip(self.xs[:-1], self.xs[1:], strict=True)],
+                           axis=1)
+            scaled = d_r * self.scale
+            gram = scaled @ scaled.transpose(0, 2, 1)
+            # least squares min ‖r − ΔRᵀ γ‖ per case, by its (lightly regularised) normal
+            # equations: the histories are short (depth ≤ 10)
+            trace = np.trace(gram, axis1=1, axis2=2)[:, None, None]
+            gram = gram + 1e-12 * trace * np.eye(gram.shape[1]) + 1e-300
+            gamma = np.linalg.solve(gram, scaled @ (r * self.scale)[:, :, None])[:, :, 0]
+            x_mix = x - np.einsum("cm,cmn->cn", gamma, d_x)
+            r_mix = r - np.einsum("cm,cmn->cn", gamma, d_r)
         out = x_mix + self.damping * r_mix
-        half = w.reshape(shape[0], -1).shape[1]
-        return out[:, :half].reshape(shape), out[:, half:].reshape(shape)
+        half = out.shape[1] // 2
+        return out[:, :half].reshape(w.shape), out[:, half:].reshape(f.shape)

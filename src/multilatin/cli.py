@@ -107,6 +107,9 @@ def build_parser() -> argparse.ArgumentParser:
     study.add_argument("--scheduler", help="run on the Dask cluster at this address")
     study.add_argument("--chains", type=int, default=None,
                        help="independent multiresolution chains (default: workers, or 1)")
+    study.add_argument("--batch", type=int, default=16,
+                       help="multiresolution: solve up to N cases of a grid line together, "
+                            "each from its nearest converged neighbour (1: one by one)")
     study.add_argument("--no-progress", action="store_true", help="no progress bar")
     _add_latin_arguments(study)
     sub.add_parser("models", help="list the bundled models")
@@ -190,7 +193,8 @@ def _study(model: Model, args: argparse.Namespace, argv: list[str] | None) -> in
     out = args.out or Path(f"study-{model.name}")
     command = "multilatin " + " ".join(argv if argv is not None else sys.argv[1:])
     result = run_study(model, grid, options=_latin_options(args), modes=modes, out=out,
-                       chains=args.chains, workers=args.workers, scheduler=args.scheduler,
+                       chains=args.chains, batch=args.batch, workers=args.workers,
+                       scheduler=args.scheduler,
                        progress=not args.no_progress and not args.json, command=command)
     written = write_study_outputs(result, out)
     if args.json:

@@ -24,7 +24,9 @@ Choice of interface elements (``interface_elements``), decided by test
 
 from __future__ import annotations
 
+import dataclasses
 from dataclasses import dataclass
+from typing import Any
 
 import numpy as np
 import numpy.typing as npt
@@ -165,8 +167,7 @@ def build_points(assembly: Assembly, kind: str = "nodal") -> InterfacePoints:
 
     all_coords = np.concatenate(coords) if coords else np.zeros((0, 2))
     pairs_a, pairs_b, bnd, bnd_disp = [], [], [], []
-    contact_a, contact_b, contact_mu, contact_gap = [], [], [], []
-    stop, stop_mu, stop_gap = [], [], []
+    contact_a, contact_b, stop = [], [], []
     macro_only: list[int] = []
     for i, itf in enumerate(assembly.interfaces):
         pa = side_points[(i, 0)]
@@ -181,13 +182,8 @@ def build_points(assembly: Assembly, kind: str = "nodal") -> InterfacePoints:
                 assert itf.contact is not None
                 contact_a.append(pa)
                 contact_b.append(pb)
-                contact_mu.append(np.full(pa.size, itf.contact.friction))
-                contact_gap.append(np.full(pa.size, itf.contact.gap))
         elif itf.is_stop:
-            assert itf.contact is not None
             stop.append(pa)
-            stop_mu.append(np.full(pa.size, itf.contact.friction))
-            stop_gap.append(np.full(pa.size, itf.contact.gap))
         else:
             assert itf.condition is not None
             bnd.append(pa)
@@ -216,17 +212,41 @@ def build_points(assembly: Assembly, kind: str = "nodal") -> InterfacePoints:
         pairs=(cat(pairs_a), cat(pairs_b)),
         macro_only=tuple(macro_only),
         contact_pairs=contact_pairs,
-        contact_friction=cat(contact_mu, np.float64),
-        contact_gap=cat(contact_gap, np.float64),
         stops=stops,
-        stop_friction=cat(stop_mu, np.float64),
-        stop_gap=cat(stop_gap, np.float64),
         boundary=boundary,
         boundary_is_displacement=is_displacement,
+        **_contact_data(assembly, side_points),
         side_points=side_points,
         corner=corner,
         corner_stops=corner_stops,
     )
+
+
+def _contact_data(assembly: Assembly, side_points: dict[tuple[int, int], IntArray]
+                  ) -> dict[str, Any]:
+    """Friction coefficients and initial gaps per contact pair and per stop point, in the
+    order of ``InterfacePoints.contact_pairs`` and ``stops``."""
+    parts: dict[str, list[FloatArray]] = {"contact_friction": [], "contact_gap": [],
+                                          "stop_friction": [], "stop_gap": []}
+    for i, itf in enumerate(assembly.interfaces):
+        if itf.kind != "contact" and not itf.is_stop:
+            continue
+        assert itf.contact is not None
+        n = side_points[(i, 0)].size
+        prefix = "stop" if itf.is_stop else "contact"
+        parts[f"{prefix}_friction"].append(np.full(n, itf.contact.friction))
+        parts[f"{prefix}_gap"].append(np.full(n, itf.contact.gap))
+    return {name: np.concatenate(values) if values else np.zeros(0)
+            for name, values in parts.items()}
+
+
+def with_contact_data(points: InterfacePoints, assembly: Assembly) -> InterfacePoints:
+    """``points`` (built for an assembly of the same geometry) with the friction
+    coefficients and gaps of ``assembly``: what changes between the cases of a batch."""
+    data = _contact_data(assembly, points.side_points)
+    return dataclasses.replace(points, contact_friction=data["contact_friction"],
+                               contact_gap=data["contact_gap"],
+                               stop_friction=data["stop_friction"], stop_gap=data["stop_gap"])
 
 
 def _held_corners(substructure: IntArray, coords: FloatArray,

@@ -9,9 +9,11 @@ Interior displacements are recovered once, at the end.
 
 from __future__ import annotations
 
+import functools
 import hashlib
 import logging
 import time
+from collections.abc import Sequence
 from dataclasses import asdict, dataclass
 
 import numpy as np
@@ -26,7 +28,13 @@ from .assembly import DISPLACEMENT, Assembly
 from .errors import ModelError, NotConvergedError
 from .fem.elasticity import FloatArray
 from .fem.mesh import normal_axis
-from .interfaces import INTERFACE_ELEMENTS, InterfacePoints, build_points, macro_basis
+from .interfaces import (
+    INTERFACE_ELEMENTS,
+    InterfacePoints,
+    build_points,
+    macro_basis,
+    with_contact_data,
+)
 from .local_stage import LocalStage
 from .qoi import ContactPressures, evaluate_qois
 from .result import InterfaceFields, SolveResult
@@ -120,6 +128,11 @@ class SubstructureOperators:
     macro_response: FloatArray  # Q_E on those columns (2 P_E × n_E)
     homogenised: FloatArray  # L_E on those columns (n_E × n_E)
 
+    @functools.cached_property
+    def condensed_transposed(self) -> FloatArray:
+        """C_Eᵀ, contiguous: the linear stage multiplies rows of right-hand sides by it."""
+        return np.ascontiguousarray(self.condensed.T)
+
 
 def _digest(*parts: object) -> str:
     hasher = hashlib.sha1()
@@ -181,6 +194,8 @@ class LatinOperators:
         self.factors = [b.factor for b in self.substructure_operators]
         self.condensed = sp.block_diag([b.condensed for b in self.substructure_operators],
                                        format="csr")
+        self.flat_ranges = [(2 * pts.offsets[s], 2 * pts.offsets[s + 1])
+                            for s in range(len(assembly.substructures))]
 
         self.macro_basis = basis
         if basis is not None:
@@ -201,6 +216,11 @@ class LatinOperators:
             self.macro_to_force = k_flat[:, None] * (
                 np.asarray(basis @ inverse) - self.macro_to_displacement)
             self.project = (basis.T @ sp.diags(self.m0)).tocsr()
+            # the same maps transposed and dense, for the row layout of the linear stage
+            self.project_transposed = np.ascontiguousarray(self.project.toarray().T)
+            self.macro_to_displacement_transposed = np.ascontiguousarray(
+                self.macro_to_displacement.T)
+            self.macro_to_force_transposed = np.ascontiguousarray(self.macro_to_force.T)
 
     @staticmethod
     def _substructure(stiffness: sp.csr_matrix, trace: sp.csr_matrix, m0: FloatArray,
@@ -263,18 +283,24 @@ class LatinOperators:
     def linear_stage(
         self, displacement_hat: FloatArray, force_hat: FloatArray, macro_force_data: FloatArray
     ) -> tuple[FloatArray, FloatArray]:
-        """s = (W, F) in A_d from ŝ, for all steps at once (eq. [12]–[15])."""
-        n_steps = displacement_hat.shape[0]
+        """s = (W, F) in A_d from ŝ, for all columns (steps, and cases of a batch) at once
+        (eq. [12]–[15]); fields ``(n_columns, n_points, 2)``, macro data ``(n_columns,
+        n_macro)``. Dense products per substructure: rows are columns of the right-hand side,
+        so no transposition is needed."""
+        shape = displacement_hat.shape
         k = self.search_direction
-        rhs = (force_hat + k * displacement_hat).reshape(n_steps, -1).T
-        displacement = np.asarray(self.condensed @ rhs).T.reshape(displacement_hat.shape)
+        rhs = (force_hat + k * displacement_hat).reshape(shape[0], -1)
+        flat_displacement = np.empty_like(rhs)
+        for (lo, hi), block in zip(self.flat_ranges, self.substructure_operators, strict=True):
+            np.matmul(rhs[:, lo:hi], block.condensed_transposed,
+                      out=flat_displacement[:, lo:hi])
+        displacement: FloatArray = flat_displacement.reshape(shape)
         force = force_hat + k * (displacement_hat - displacement)
         if self.macro_basis is not None:
             # W̃ᴹ = L⁻¹ (F_dᴹ − Π F) (eq. [15]); its effect on W and F, precomputed as maps
-            residual = macro_force_data - self.project @ force.reshape(n_steps, -1).T
-            displacement = displacement + (self.macro_to_displacement @ residual).T.reshape(
-                force.shape)
-            force = force + (self.macro_to_force @ residual).T.reshape(force.shape)
+            residual = macro_force_data - force.reshape(shape[0], -1) @ self.project_transposed
+            displacement += (residual @ self.macro_to_displacement_transposed).reshape(shape)
+            force += (residual @ self.macro_to_force_transposed).reshape(shape)
         return displacement, force
 
     def recover(self, displacement: FloatArray, force: FloatArray) -> dict[str, FloatArray]:
@@ -288,11 +314,6 @@ class LatinOperators:
             u = self.factors[s].solve(np.ascontiguousarray(self.points.traces[s].T @ g[lo:hi]))
             out[sub.name] = u.T.reshape(n_steps, -1, 2)
         return out
-
-
-def _norm(weights: FloatArray, k: FloatArray, displacement: FloatArray, force: FloatArray) -> float:
-    """‖s‖² = Σ_t Σ_points ∫ (k⁻¹ F·F + k W·W) dΓ (paper §4.3)."""
-    return float(np.sqrt(np.sum(weights[:, None] * (force**2 / k + k * displacement**2))))
 
 
 def solve_latin(assembly: Assembly, options: LatinOptions | None = None,
@@ -309,113 +330,171 @@ def solve_latin(assembly: Assembly, options: LatinOptions | None = None,
     Raises ``NotConvergedError`` (with the unconverged result attached) when η ≥ tol after
     ``max_iter`` iterations, unless ``check`` is False.
     """
+    return solve_latin_batch([assembly], options, operators, check, [initial])[0]
+
+
+def solve_latin_batch(
+    assemblies: Sequence[Assembly],
+    options: LatinOptions | None = None,
+    operators: LatinOperators | None = None,
+    check: bool = True,
+    initial: Sequence[tuple[FloatArray, FloatArray] | None] | None = None,
+) -> list[SolveResult]:
+    """Solve cases that share their operators (same geometry and search direction; friction
+    coefficients, gaps and loads may differ) together, as one batched LATIN iteration
+    (method.md §7): the linear stage sees the steps of every case as more right-hand-side
+    columns of the same condensed operators, the local stage is vectorised over the cases,
+    and each case leaves the batch as soon as its own η < tol. The answers are those of
+    ``solve_latin`` case by case; a batch is faster because it replaces many small products
+    by few large ones.
+
+    initial: per case, the interface fields to start from (see ``solve_latin``) or None.
+    Results carry the batch's timings (``timings["batch_size"]``).
+    """
+    if not assemblies:
+        raise ModelError("a batch needs at least one case")
+    first = assemblies[0]
     if operators is not None:
         options = options or operators.options
-        if operators.signature != operator_signature(assembly, options):
-            raise ModelError("operators: they were built for another geometry or search "
-                             "direction than this assembly's")
     options = options or LatinOptions()
+    signature = operators.signature if operators is not None else operator_signature(
+        first, options)
+    for assembly in assemblies:
+        if operator_signature(assembly, options) != signature:
+            raise ModelError("operators: they were built for another geometry or search "
+                             "direction than this assembly's" if operators is not None else
+                             "a batch of cases must share the geometry and search direction")
     t0 = time.perf_counter()
-    ops = operators or LatinOperators(assembly, options)
+    ops = operators or LatinOperators(first, options)
     t_setup = time.perf_counter() - t0
-    # friction and gaps live on the points: take them from this assembly
-    pts = ops.points if ops.assembly is assembly else build_points(
-        assembly, options.interface_elements)
-    if initial is not None:
-        expected = (assembly.n_steps, pts.n_points, 2)
-        if any(np.shape(field) != expected for field in initial):
-            raise ModelError(f"initial: interface fields must have shape {expected}, got "
-                             f"{[np.shape(field) for field in initial]}")
-    k = ops.search_direction
-    local = LocalStage(assembly, pts, k)
-    n_steps = assembly.n_steps
-    macro_data = (ops.project @ local.prescribed_force_field(pts.n_points)
-                  .reshape(n_steps, -1).T) if ops.macro_basis is not None else None
+    # friction, gaps and loads live on the points and the local stage: per case
+    points = [ops.points if ops.assembly is assembly else
+              with_contact_data(ops.points, assembly) for assembly in assemblies]
+    n_cases, n_steps = len(assemblies), first.n_steps
+    if any(assembly.n_steps != n_steps for assembly in assemblies):
+        raise ModelError("a batch of cases must share the number of load steps")
+    shape = (n_steps, ops.points.n_points, 2)
+    starts = list(initial) if initial is not None else [None] * n_cases
+    if len(starts) != n_cases:
+        raise ModelError(f"initial: expected {n_cases} entries (one per case), got "
+                         f"{len(starts)}")
+    w_hat = np.zeros((n_cases, *shape))
+    f_hat = np.zeros((n_cases, *shape))
+    for c, start in enumerate(starts):
+        if start is None:
+            continue
+        if any(np.shape(field) != shape for field in start):
+            raise ModelError(f"initial: interface fields must have shape {shape}, got "
+                             f"{[np.shape(field) for field in start]}")
+        w_hat[c], f_hat[c] = start
+    local = LocalStage(assemblies, points, ops.search_direction)
 
-    history: list[float] = []
     t1 = time.perf_counter()
     # the iteration is many small dense products: BLAS threads cost more than they give
     # (measured 3x slower per iteration with 2 OpenBLAS threads on b1-9)
     with threadpool_limits(limits=1, user_api="blas"):
-        w, f, w_hat, f_hat, t_linear, t_local = _iterate(ops, local, options, macro_data,
-                                                         history, initial)
+        state = _iterate(ops, local, options, w_hat, f_hat)
     t_iter = time.perf_counter() - t1
-    converged = history[-1] < options.tol
 
     t2 = time.perf_counter()
-    displacements = ops.recover(w, f)
-    reactions = _reactions(assembly, pts, f_hat)
-    a = pts.contact_pairs[0]
-    pressures = ContactPressures(
-        bodies=[_body_pair(assembly, pts, i) for i in pts.interface[a]],
-        extents=pts.extents[a],
-        pressure=-np.sum(f_hat[:, a] * pts.normals[a], axis=2),
-    )
-    qoi = evaluate_qois(assembly, displacements, reactions, pressures)
+    displacements = ops.recover(state.w.reshape(-1, *shape[1:]),
+                                state.f.reshape(-1, *shape[1:]))
+    results = []
+    for c, (assembly, pts) in enumerate(zip(assemblies, points, strict=True)):
+        history = np.array(state.histories[c])
+        fields = {name: u.reshape(n_cases, n_steps, -1, 2)[c]
+                  for name, u in displacements.items()}
+        reactions = _reactions(assembly, pts, state.f_hat[c])
+        a = pts.contact_pairs[0]
+        pressures = ContactPressures(
+            bodies=[_body_pair(assembly, pts, i) for i in pts.interface[a]],
+            extents=pts.extents[a],
+            pressure=-np.sum(state.f_hat[c][:, a] * pts.normals[a], axis=2),
+        )
+        qoi = evaluate_qois(assembly, fields, reactions, pressures)
+        results.append(SolveResult(
+            method="latin",
+            assembly=assembly,
+            converged=bool(history[-1] < options.tol),
+            iterations=history.size,
+            indicator=float(history[-1]),
+            history=history,
+            timings={},
+            displacements=fields,
+            reactions=reactions,
+            qoi=qoi,
+            interface=InterfaceFields(pts.coords, pts.weights, pts.interface, pts.substructure,
+                                      state.w[c], state.f[c], state.w_hat[c], state.f_hat[c]),
+            options=asdict(options),
+        ))
     t_post = time.perf_counter() - t2
     timings = {
         "setup": t_setup,
         "iterations": t_iter,
-        "linear_stage": t_linear,
-        "local_stage": t_local,
-        "per_iteration": t_iter / len(history),
+        "linear_stage": state.t_linear,
+        "local_stage": state.t_local,
+        "per_iteration": t_iter / max(len(h) for h in state.histories),
         "postprocess": t_post,
         "total": time.perf_counter() - t0,
+        "batch_size": float(n_cases),
     }
-    result = SolveResult(
-        method="latin",
-        assembly=assembly,
-        converged=converged,
-        iterations=len(history),
-        indicator=history[-1],
-        history=np.array(history),
-        timings=timings,
-        displacements=displacements,
-        reactions=reactions,
-        qoi=qoi,
-        interface=InterfaceFields(pts.coords, pts.weights, pts.interface, pts.substructure,
-                                  w, f, w_hat, f_hat),
-        options=asdict(options),
-    )
-    log.info("%s: %s after %d iterations, eta = %.2e, %.3f s", assembly.name,
-             "converged" if converged else "NOT converged", len(history), history[-1],
-             timings["total"])
-    if check and not converged:
-        raise NotConvergedError(
-            f"LATIN did not converge: eta = {history[-1]:.3e} >= tol = {options.tol:g} after "
-            f"{len(history)} iterations (max_iter)", result)
-    return result
+    for result in results:
+        result.timings.update(timings)
+        log.info("%s: %s after %d iterations, eta = %.2e, %.3f s%s", result.assembly.name,
+                 "converged" if result.converged else "NOT converged", result.iterations,
+                 result.indicator, timings["total"],
+                 f" (batch of {n_cases})" if n_cases > 1 else "")
+    if check:
+        for result in results:
+            if not result.converged:
+                raise NotConvergedError(
+                    f"LATIN did not converge: eta = {result.indicator:.3e} >= tol = "
+                    f"{options.tol:g} after {result.iterations} iterations (max_iter)", result)
+    return results
 
 
-def _iterate(
-    ops: LatinOperators,
-    local: LocalStage,
-    options: LatinOptions,
-    macro_data: FloatArray | None,
-    history: list[float],
-    initial: tuple[FloatArray, FloatArray] | None = None,
-) -> tuple[FloatArray, FloatArray, FloatArray, FloatArray, float, float]:
-    """LATIN iterations from ŝ = ``initial`` (or 0) until η < tol or the cap; η is appended
-    to ``history``.
+@dataclass
+class _IterationState:
+    """Per case: s = (W, F), ŝ = (Ŵ, F̂) at exit and the history of η; batch timings."""
 
-    Returns s = (W, F), ŝ = (Ŵ, F̂) and the time spent in the linear and local stages.
-    """
+    w: FloatArray
+    f: FloatArray
+    w_hat: FloatArray
+    f_hat: FloatArray
+    histories: list[list[float]]
+    t_linear: float = 0.0
+    t_local: float = 0.0
+
+
+def _iterate(ops: LatinOperators, local: LocalStage, options: LatinOptions,
+             w_hat: FloatArray, f_hat: FloatArray) -> _IterationState:
+    """Batched LATIN iterations from ŝ = (``w_hat``, ``f_hat``), shapes ``(n_cases, n_steps,
+    n_points, 2)``, each case until its η < tol or the cap."""
     pts = ops.points
     k = ops.search_direction
-    n_steps = local.prescribed.shape[0]
-    if initial is None:
-        w_hat = np.zeros((n_steps, pts.n_points, 2))
-        f_hat = np.zeros_like(w_hat)
-    else:
-        w_hat, f_hat = (np.array(field, dtype=np.float64) for field in initial)
-    w = f = None
-    t_linear = t_local = 0.0
+    n_cases, n_steps = w_hat.shape[:2]
+    out = _IterationState(np.zeros_like(w_hat), np.zeros_like(w_hat), np.zeros_like(w_hat),
+                          np.zeros_like(w_hat), [[] for _ in range(n_cases)])
+    active = np.arange(n_cases)
+    macro_data = None
+    if ops.macro_basis is not None:  # F_dᴹ per case and step: (n_cases, n_steps, n_macro)
+        prescribed = local.prescribed_force_field(pts.n_points)
+        macro_data = (prescribed.reshape(n_cases * n_steps, -1) @ ops.project_transposed
+                      ).reshape(n_cases, n_steps, -1)
     mixer = (Anderson(options.anderson_depth, options.relaxation,
-                       np.sqrt(pts.weights[:, None] * k), np.sqrt(pts.weights[:, None] / k))
+                      np.sqrt(pts.weights[:, None] * k), np.sqrt(pts.weights[:, None] / k))
              if options.acceleration == "anderson" else None)
+    displacement_weight = (pts.weights[:, None] * k).ravel()
+    force_weight = (pts.weights[:, None] / k).ravel()
+    w = f = None
     for iteration in range(1, options.max_iter + 1):
         ta = time.perf_counter()
-        w_new, f_new = ops.linear_stage(w_hat, f_hat, macro_data)  # type: ignore[arg-type]
+        flat = (-1, pts.n_points, 2)
+        data = (macro_data[active].reshape(-1, macro_data.shape[2])
+                if macro_data is not None else None)
+        w_new, f_new = ops.linear_stage(w_hat.reshape(flat), f_hat.reshape(flat),
+                                        data)  # type: ignore[arg-type]
+        w_new, f_new = w_new.reshape(w_hat.shape), f_new.reshape(w_hat.shape)
         if w is None or f is None or options.relaxation == 1.0 and mixer is None:
             w, f = w_new, f_new
         elif mixer is not None:
@@ -426,18 +505,45 @@ def _iterate(
             f = omega * f_new + (1.0 - omega) * f
         tb = time.perf_counter()
         w_hat, f_hat = local(w, f)
-        t_local += time.perf_counter() - tb
-        t_linear += tb - ta
-        gap = _norm(pts.weights, k, w - w_hat, f - f_hat)
-        size = 0.5 * (_norm(pts.weights, k, w, f) + _norm(pts.weights, k, w_hat, f_hat))
-        eta = gap / size if size > 0 else 0.0
-        history.append(eta)
+        out.t_local += time.perf_counter() - tb
+        out.t_linear += tb - ta
+        # η = ‖s − ŝ‖ / ½(‖s‖ + ‖ŝ‖), ‖s‖² = Σ_t Σ_points ∫ (k⁻¹ F·F + k W·W) dΓ (§4.3)
+        gap = _norms(displacement_weight, force_weight, w - w_hat, f - f_hat)
+        size = 0.5 * (_norms(displacement_weight, force_weight, w, f)
+                      + _norms(displacement_weight, force_weight, w_hat, f_hat))
+        eta = np.divide(gap, size, out=np.zeros_like(gap), where=size > 0)
+        for c, value in zip(active, eta, strict=True):
+            out.histories[c].append(float(value))
         if iteration % 50 == 0:
-            log.debug("iteration %d: eta = %.3e", iteration, eta)
-        if eta < options.tol:
-            break
-    assert w is not None and f is not None
-    return w, f, w_hat, f_hat, t_linear, t_local
+            log.debug("iteration %d: eta = %.3e (worst of %d cases)", iteration, eta.max(),
+                      active.size)
+        done = eta < options.tol if iteration < options.max_iter else np.ones_like(eta, bool)
+        if done.any():
+            leaving = active[done]
+            out.w[leaving], out.f[leaving] = w[done], f[done]
+            out.w_hat[leaving], out.f_hat[leaving] = w_hat[done], f_hat[done]
+            if done.all():
+                break
+            keep = np.flatnonzero(~done)
+            active = active[keep]
+            w, f, w_hat, f_hat = w[keep], f[keep], w_hat[keep], f_hat[keep]
+            local = local.subset(keep)
+            if mixer is not None:
+                mixer.subset(keep)
+    return out
+
+
+def _norms(displacement_weight: FloatArray, force_weight: FloatArray,
+           displacement: FloatArray, force: FloatArray) -> FloatArray:
+    """‖s‖ per case: ‖s‖² = Σ_t Σ_points ∫ (k⁻¹ F·F + k W·W) dΓ (paper §4.3); the weights
+    are ∫ k and ∫ k⁻¹ per flattened (point, component)."""
+    n_cases = displacement.shape[0]
+    squares = (np.square(displacement).reshape(n_cases, -1, displacement_weight.size)
+               .sum(axis=1) @ displacement_weight)
+    squares += (np.square(force).reshape(n_cases, -1, force_weight.size).sum(axis=1)
+                @ force_weight)
+    norms: FloatArray = np.sqrt(squares)
+    return norms
 
 
 def _reactions(assembly: Assembly, pts: InterfacePoints, force_hat: FloatArray

@@ -4,61 +4,85 @@
 
 from __future__ import annotations
 
+import copy
+from collections.abc import Sequence
+
 import numpy as np
 import scipy.linalg as sla
 import scipy.sparse as sp
 
+from . import contact_kernel
 from .assembly import Assembly
+from .errors import ModelError
 from .fem.elasticity import FloatArray, IntArray
 from .interfaces import InterfacePoints, interface_functions
 
 
 class LocalStage:
-    """Closed-form interface behaviours, vectorised over every point (paper §3, §4.2).
+    """Closed-form interface behaviours, vectorised over every point of every case of a batch
+    (paper §3, §4.2). Fields have shape ``(n_cases, n_steps, n_points, 2)``.
 
-    Perfect and prescribed interfaces act on all steps at once; contact and stops go through
-    the steps in order, since Coulomb's law acts on increments (method.md §4).
+    The cases share the geometry and the search direction; each has its own friction
+    coefficients, gaps and prescribed data. Perfect and prescribed interfaces act on all
+    steps at once; contact and stops go through the steps in order, since Coulomb's law acts
+    on increments (method.md §4).
     """
 
-    def __init__(self, assembly: Assembly, points: InterfacePoints, k: FloatArray) -> None:
-        self.pairs = points.pairs
-        self.macro_points, self.macro_map = macro_only_map(points, k)
+    def __init__(self, assemblies: Sequence[Assembly], points: Sequence[InterfacePoints],
+                 k: FloatArray, compiled: bool | None = None) -> None:
+        """compiled: contact and stops by the Numba kernel (``contact_kernel``); None: when
+        Numba is installed."""
+        first = points[0]
+        for other in points[1:]:
+            if other.n_points != first.n_points or not np.array_equal(other.pairs, first.pairs):
+                raise ModelError("a batch of cases must share the interface discretisation")
+        self.pairs = first.pairs
+        self.macro_points, self.macro_map = macro_only_map(first, k)
         self.k_macro = k[self.macro_points]
-        self.k_pair = k[points.pairs[0]]
-        self.boundary = points.boundary
-        self.k_boundary = k[points.boundary]
-        self.is_displacement = points.boundary_is_displacement
-        self.contact_pairs = points.contact_pairs
-        a = points.contact_pairs[0]
+        self.k_pair = k[first.pairs[0]]
+        self.boundary = first.boundary
+        self.k_boundary = k[first.boundary]
+        self.is_displacement = first.boundary_is_displacement
+        self.contact_pairs = first.contact_pairs
+        a = first.contact_pairs[0]
         self.k_contact = k[a]  # diagonal in the interface's (axis-aligned) frame
-        self.n_contact = points.normals[a]
-        self.mu_contact = points.contact_friction
-        self.gap_contact = points.contact_gap
-        self.stops = points.stops
-        self.k_stop = k[points.stops]
-        self.n_stop = points.normals[points.stops]
-        self.mu_stop = points.stop_friction
-        self.gap_stop = points.stop_gap
-        self.corner = points.corner
-        self.corner_stops = points.corner_stops
-        n_steps = assembly.n_steps
-        prescribed = np.zeros((n_steps, points.boundary.size, 2))
-        offset = 0
-        for i, itf in enumerate(assembly.interfaces):
-            if itf.kind != "boundary" or itf.is_stop:
-                continue
-            assert itf.condition is not None
-            n = points.side_points[(i, 0)].size
-            factor = assembly.history.factor(itf.condition.factor)
-            prescribed[:, offset:offset + n] = (factor[:, None] *
-                                                np.asarray(itf.condition.value))[:, None, :]
-            offset += n
-        self.prescribed = prescribed  # W_d on displacement components, F_d on force ones
+        self.n_contact = first.normals[a]
+        self.stops = first.stops
+        self.k_stop = k[first.stops]
+        self.n_stop = first.normals[first.stops]
+        self.corner = first.corner
+        self.corner_stops = first.corner_stops
+        self.corner_of_pair = np.full(a.size, -1, dtype=np.int64)
+        self.corner_of_pair[first.corner] = np.arange(first.corner.size)
+        if compiled and contact_kernel.contact_and_stops is None:
+            raise ModelError("compiled local stage: Numba is not installed "
+                             "(pip install 'multilatin[fast]')")
+        self.compiled = (contact_kernel.contact_and_stops is not None if compiled is None
+                         else compiled)
+        # per case: (n_cases, n) friction and gaps, (n_cases, n_steps, P_b, 2) W_d / F_d
+        self.mu_contact = np.stack([p.contact_friction for p in points])
+        self.gap_contact = np.stack([p.contact_gap for p in points])
+        self.mu_stop = np.stack([p.stop_friction for p in points])
+        self.gap_stop = np.stack([p.stop_gap for p in points])
+        self.prescribed = np.stack([_prescribed(assembly, p)
+                                    for assembly, p in zip(assemblies, points, strict=True)])
+
+    @property
+    def n_cases(self) -> int:
+        return int(self.prescribed.shape[0])
+
+    def subset(self, cases: IntArray) -> LocalStage:
+        """The same local stage restricted to ``cases`` (cases leave a batch as they
+        converge)."""
+        out = copy.copy(self)
+        for name in ("mu_contact", "gap_contact", "mu_stop", "gap_stop", "prescribed"):
+            setattr(out, name, getattr(self, name)[cases])
+        return out
 
     def prescribed_force_field(self, n_points: int) -> FloatArray:
-        """F_d at every interface point (zero where no force is prescribed)."""
-        field = np.zeros((self.prescribed.shape[0], n_points, 2))
-        field[:, self.boundary] = np.where(self.is_displacement, 0.0, self.prescribed)
+        """F_d at every interface point (zero where no force is prescribed), per case."""
+        field = np.zeros((*self.prescribed.shape[:2], n_points, 2))
+        field[:, :, self.boundary] = np.where(self.is_displacement, 0.0, self.prescribed)
         return field
 
     def __call__(self, displacement: FloatArray, force: FloatArray) -> tuple[FloatArray,
@@ -67,25 +91,35 @@ class LocalStage:
         f_hat = np.empty_like(force)
         a, b = self.pairs
         k = self.k_pair
-        wa, wb, fa, fb = displacement[:, a], displacement[:, b], force[:, a], force[:, b]
+        wa, wb = displacement[:, :, a], displacement[:, :, b]
+        fa, fb = force[:, :, a], force[:, :, b]
         # perfect interface: Ŵ_E = Ŵ_E', F̂_E + F̂_E' = 0 on the search direction E+ (eq. [8])
-        w_hat[:, a] = w_hat[:, b] = 0.5 * (wa + wb) - (fa + fb) / (2.0 * k)
-        f_hat[:, a] = 0.5 * (fa - fb) - 0.5 * k * (wa - wb)
-        f_hat[:, b] = -f_hat[:, a]
+        w_hat[:, :, a] = w_hat[:, :, b] = 0.5 * (wa + wb) - (fa + fb) / (2.0 * k)
+        f_hat[:, :, a] = 0.5 * (fa - fb) - 0.5 * k * (wa - wb)
+        f_hat[:, :, b] = -f_hat[:, :, a]
         m = self.macro_points
         if m.size:  # macro-only interface (eq. [20]), see ``macro_only_map``
             k = self.k_macro
-            x = displacement[:, m] - force[:, m] / k
-            flat = x.reshape(x.shape[0], -1)
+            x = displacement[:, :, m] - force[:, :, m] / k
+            flat = x.reshape(-1, m.size * 2)
             w_m = x + np.asarray(self.macro_map @ flat.T).T.reshape(x.shape)
-            w_hat[:, m] = w_m
-            f_hat[:, m] = force[:, m] + k * (w_m - displacement[:, m])
+            w_hat[:, :, m] = w_m
+            f_hat[:, :, m] = force[:, :, m] + k * (w_m - displacement[:, :, m])
         # prescribed displacement / force, component-wise
         bd, k = self.boundary, self.k_boundary
-        w, f, data = displacement[:, bd], force[:, bd], self.prescribed
-        w_hat[:, bd] = np.where(self.is_displacement, data, w + (data - f) / k)
-        f_hat[:, bd] = np.where(self.is_displacement, f + k * (data - w), data)
-        if self.contact_pairs[0].size or self.stops.size:
+        w, f, data = displacement[:, :, bd], force[:, :, bd], self.prescribed
+        w_hat[:, :, bd] = np.where(self.is_displacement, data, w + (data - f) / k)
+        f_hat[:, :, bd] = np.where(self.is_displacement, f + k * (data - w), data)
+        if not (self.contact_pairs[0].size or self.stops.size):
+            return w_hat, f_hat
+        if self.compiled:
+            assert contact_kernel.contact_and_stops is not None
+            contact_kernel.contact_and_stops(
+                np.ascontiguousarray(displacement), np.ascontiguousarray(force), w_hat, f_hat,
+                self.contact_pairs[0], self.contact_pairs[1], self.k_contact, self.n_contact,
+                self.mu_contact, self.gap_contact, self.stops, self.k_stop, self.n_stop,
+                self.mu_stop, self.gap_stop, self.corner_of_pair, self.corner_stops)
+        else:
             self._contact_and_stops(displacement, force, w_hat, f_hat)
         return w_hat, f_hat
 
@@ -94,18 +128,18 @@ class LocalStage:
                  friction: FloatArray) -> FloatArray:
         """F̂ on side E from the trial force: contact where N ≤ 0, then stick or slip."""
         contact_force = LocalStage._in_cone(trial, normal_force, normal, friction)
-        return np.where((normal_force <= 0.0)[:, None], contact_force, 0.0)
+        return np.where((normal_force <= 0.0)[..., None], contact_force, 0.0)
 
     @staticmethod
     def _in_cone(tangential_source: FloatArray, normal_force: FloatArray, normal: FloatArray,
                  friction: FloatArray) -> FloatArray:
         """N n plus the tangential part of ``tangential_source``, limited to μ |N|."""
         tangential = (tangential_source
-                      - np.sum(tangential_source * normal, axis=1)[:, None] * normal)
-        size = np.linalg.norm(tangential, axis=1)
+                      - np.sum(tangential_source * normal, axis=-1)[..., None] * normal)
+        size = np.sqrt(np.sum(tangential**2, axis=-1))
         limit = friction * np.abs(normal_force)
         scale = np.where(size > limit, limit / np.maximum(size, 1e-300), 1.0)
-        force: FloatArray = normal_force[:, None] * normal + scale[:, None] * tangential
+        force: FloatArray = normal_force[..., None] * normal + scale[..., None] * tangential
         return force
 
     def _contact_and_stops(self, displacement: FloatArray, force: FloatArray,
@@ -119,50 +153,67 @@ class LocalStage:
         indeterminate; it keeps its previous value, limited to the cone — the limit of any
         tangential compliance, and what incremental penalty codes compute.
         """
+        n_cases = displacement.shape[0]
         a, b = self.contact_pairs
         k, n = self.k_contact, self.n_contact
         k_normal = np.sum(np.abs(n) * k, axis=1)
-        prev_a = np.zeros((a.size, 2))
-        prev_b = np.zeros((a.size, 2))
+        prev_a = np.zeros((n_cases, a.size, 2))
+        prev_b = np.zeros((n_cases, a.size, 2))
         p = self.stops
         k_stop, n_stop = self.k_stop, self.n_stop
         k_stop_normal = np.sum(np.abs(n_stop) * k_stop, axis=1)
-        prev_stop = np.zeros((p.size, 2))
+        prev_stop = np.zeros((n_cases, p.size, 2))
         corner, corner_stops = self.corner, self.corner_stops
-        previous_corner_force = np.zeros((corner.size, 2))
-        stop_closed = np.zeros(p.size, dtype=bool)
-        for t in range(displacement.shape[0]):
+        previous_corner_force = np.zeros((n_cases, corner.size, 2))
+        stop_closed = np.zeros((n_cases, p.size), dtype=bool)
+        for t in range(displacement.shape[1]):
             if p.size:
-                dw = displacement[t, p] - prev_stop
-                trial = force[t, p] - k_stop * dw
-                closing = self.gap_stop - np.sum(n_stop * prev_stop, axis=1)
-                normal_force = np.sum(n_stop * trial, axis=1) + k_stop_normal * closing
+                dw = displacement[:, t, p] - prev_stop
+                trial = force[:, t, p] - k_stop * dw
+                closing = self.gap_stop - np.sum(n_stop * prev_stop, axis=-1)
+                normal_force = np.sum(n_stop * trial, axis=-1) + k_stop_normal * closing
                 fp = self._coulomb(trial, normal_force, n_stop, self.mu_stop)
                 stop_closed = normal_force < 0.0
-                prev_stop = prev_stop + dw + (fp - force[t, p]) / k_stop
-                f_hat[t, p] = fp
-                w_hat[t, p] = prev_stop
+                prev_stop = prev_stop + dw + (fp - force[:, t, p]) / k_stop
+                f_hat[:, t, p] = fp
+                w_hat[:, t, p] = prev_stop
             if not a.size:
                 continue
-            dwa = displacement[t, a] - prev_a  # increments from the local-stage history
-            dwb = displacement[t, b] - prev_b
-            trial = 0.5 * (force[t, a] - force[t, b]) + 0.5 * k * (dwb - dwa)
-            closing = self.gap_contact + np.sum(n * (prev_b - prev_a), axis=1)
-            normal_force = np.sum(n * trial, axis=1) + 0.5 * k_normal * closing
+            dwa = displacement[:, t, a] - prev_a  # increments from the local-stage history
+            dwb = displacement[:, t, b] - prev_b
+            trial = 0.5 * (force[:, t, a] - force[:, t, b]) + 0.5 * k * (dwb - dwa)
+            closing = self.gap_contact + np.sum(n * (prev_b - prev_a), axis=-1)
+            normal_force = np.sum(n * trial, axis=-1) + 0.5 * k_normal * closing
             fa = self._coulomb(trial, normal_force, n, self.mu_contact)
             if corner.size:
                 held = np.all((corner_stops < 0)
-                              | stop_closed[np.maximum(corner_stops, 0)], axis=1)
-                current = fa[corner]
+                              | stop_closed[:, np.maximum(corner_stops, 0)], axis=-1)
+                current = fa[:, corner]
                 frozen = self._in_cone(previous_corner_force,
-                                       np.sum(current * n[corner], axis=1), n[corner],
-                                       self.mu_contact[corner])
-                fa[corner] = np.where(held[:, None], frozen, current)
-                previous_corner_force = fa[corner]
-            prev_a = prev_a + dwa + (fa - force[t, a]) / k
-            prev_b = prev_b + dwb + (-fa - force[t, b]) / k
-            f_hat[t, a], f_hat[t, b] = fa, -fa
-            w_hat[t, a], w_hat[t, b] = prev_a, prev_b
+                                       np.sum(current * n[corner], axis=-1), n[corner],
+                                       self.mu_contact[:, corner])
+                fa[:, corner] = np.where(held[..., None], frozen, current)
+                previous_corner_force = fa[:, corner]
+            prev_a = prev_a + dwa + (fa - force[:, t, a]) / k
+            prev_b = prev_b + dwb + (-fa - force[:, t, b]) / k
+            f_hat[:, t, a], f_hat[:, t, b] = fa, -fa
+            w_hat[:, t, a], w_hat[:, t, b] = prev_a, prev_b
+
+
+def _prescribed(assembly: Assembly, points: InterfacePoints) -> FloatArray:
+    """W_d on displacement components, F_d on force ones, at the boundary points, per step."""
+    prescribed = np.zeros((assembly.n_steps, points.boundary.size, 2))
+    offset = 0
+    for i, itf in enumerate(assembly.interfaces):
+        if itf.kind != "boundary" or itf.is_stop:
+            continue
+        assert itf.condition is not None
+        n = points.side_points[(i, 0)].size
+        factor = assembly.history.factor(itf.condition.factor)
+        prescribed[:, offset:offset + n] = (factor[:, None] *
+                                            np.asarray(itf.condition.value))[:, None, :]
+        offset += n
+    return prescribed
 
 
 def macro_only_map(points: InterfacePoints, k: FloatArray) -> tuple[IntArray, sp.csr_matrix]:

@@ -93,6 +93,7 @@ def run_study(
     modes: Sequence[str] = ("multiresolution",),
     out: str | Path | None = None,
     chains: int | None = None,
+    batch: int = 16,
     workers: int = 0,
     scheduler: str | None = None,
     progress: bool = True,
@@ -105,6 +106,9 @@ def run_study(
     out: the results folder (a temporary one when None); a folder holding the same study
         resumes it: finished cases are kept, not recomputed.
     chains: independent multiresolution chains (default: the number of workers, or 1).
+    batch: multiresolution solves up to ``batch`` cases of a grid line (one geometry)
+        together, each from its nearest converged neighbour (``study.run_batch``); 1 solves
+        case after case.
     workers / scheduler: run the chains' cases as tasks on a local Dask cluster of
         ``workers`` processes, or on the cluster at ``scheduler``; 0 and None: serial.
     """
@@ -114,6 +118,8 @@ def run_study(
             raise ModelError(f"mode: expected one of {MODES}, got {mode!r}")
     if workers < 0:
         raise ModelError(f"--workers: must be >= 0, got {workers}")
+    if batch < 1:
+        raise ModelError(f"--batch: must be >= 1, got {batch}")
     n_chains = chains if chains is not None else max(workers, 1)
     plan = plan_study(model, grid, options, n_chains)
     identity = {
@@ -155,7 +161,8 @@ def run_study(
                 if on_case is not None:
                     on_case(record)
 
-            runner(model, grid, plan, mode, options, store, finished, workers, scheduler)
+            runner(model, grid, plan, mode, options, store, finished, batch, workers,
+                   scheduler)
             if bar is not None:
                 bar.close()
             elapsed[mode] = _elapsed(store, mode)
@@ -181,23 +188,36 @@ def _progress_bar(total: int, done: int, mode: str, enabled: bool) -> Any:
                 dynamic_ncols=True, disable=None)
 
 
+def _pending_batches(plan: StudyPlan, chain: tuple[Case, ...], mode: str, store: StudyStore,
+                     size: int) -> list[tuple[Case, ...]]:
+    """The batches of ``chain`` still to compute, finished cases left out."""
+    batches = [tuple(c for c in batch if not store.finished(mode, c.number))
+               for batch in plan.batches(chain, size)]
+    return [batch for batch in batches if batch]
+
+
+def _finish_batch(records: list[dict[str, Any]], state: ChainState | None,
+                  finished: Callable[[dict[str, Any], ChainState | None], None]) -> None:
+    # the chain's state (it holds the whole batch) is written with the first record
+    for n, record in enumerate(records):
+        finished(record, state if n == 0 else None)
+
+
 def _run_serial(model: Model, grid: Grid, plan: StudyPlan, mode: str, options: LatinOptions,
                 store: StudyStore, finished: Callable[[dict[str, Any], ChainState | None], None],
-                workers: int, scheduler: str | None) -> None:
+                batch: int, workers: int, scheduler: str | None) -> None:
     for chain_number, chain in enumerate(plan.chains):
         state = store.chain_state(mode, chain_number) if mode != "cold" else None
-        for case in chain:
-            if store.finished(mode, case.number):
-                continue
-            record, state = run_chain_step(model, grid, case, mode, options, state)
-            finished(record, state)
+        for cases in _pending_batches(plan, chain, mode, store, batch):
+            records, state = run_chain_step(model, grid, cases, mode, options, state)
+            _finish_batch(records, state, finished)
 
 
 def _run_dask(model: Model, grid: Grid, plan: StudyPlan, mode: str, options: LatinOptions,
               store: StudyStore, finished: Callable[[dict[str, Any], ChainState | None], None],
-              workers: int, scheduler: str | None) -> None:
-    """Each case a task; within a chain each task takes the previous one's output (its
-    warm-start state), chains run in parallel. The client alone writes the store."""
+              batch: int, workers: int, scheduler: str | None) -> None:
+    """Each batch of cases a task; within a chain each task takes the previous one's output
+    (its warm-start state), chains run in parallel. The client alone writes the store."""
     try:
         from dask.distributed import Client, LocalCluster, as_completed
     except ImportError:
@@ -215,15 +235,14 @@ def _run_dask(model: Model, grid: Grid, plan: StudyPlan, mode: str, options: Lat
         futures = []
         for chain_number, chain in enumerate(plan.chains):
             previous: Any = store.chain_state(mode, chain_number) if mode != "cold" else None
-            todo: list[Case] = [c for c in chain if not store.finished(mode, c.number)]
-            for case in todo:
-                previous = client.submit(run_chain_step, model_future, grid, case, mode,
+            for cases in _pending_batches(plan, chain, mode, store, batch):
+                previous = client.submit(run_chain_step, model_future, grid, cases, mode,
                                          options, previous, pure=False,
-                                         key=f"{mode}-case-{case.number}-{id(store)}")
+                                         key=f"{mode}-batch-{cases[0].number}-{id(store)}")
                 futures.append(previous)
         for future in as_completed(futures):
-            record, state = future.result()
-            finished(record, state)
+            records, state = future.result()
+            _finish_batch(records, state, finished)
     finally:
         client.close()
         if cluster is not None:

@@ -22,9 +22,10 @@ import numpy as np
 
 from .errors import ModelError
 from .fem.elasticity import FloatArray
-from .latin import LatinOperators, LatinOptions, operator_signature, solve_latin
+from .latin import LatinOperators, LatinOptions, operator_signature, solve_latin, solve_latin_batch
 from .model import Model
 from .parameters import Grid, Mu
+from .result import SolveResult
 
 log = logging.getLogger(__name__)
 
@@ -48,6 +49,24 @@ class StudyPlan:
     grid: Grid
     chains: tuple[tuple[Case, ...], ...]
     geometric: tuple[str, ...]  # grid parameters that change an operator (outer loops)
+    inner: int | None = None  # the innermost traversal dimension, when it changes no operator
+
+    def batches(self, chain: tuple[Case, ...], size: int) -> list[tuple[Case, ...]]:
+        """Consecutive cases of ``chain`` along the innermost non-geometric dimension (a
+        line of the grid, one geometry), in pieces of at most ``size``: the cases a batched
+        multiresolution step solves together."""
+        out: list[list[Case]] = []
+        for case in chain:
+            line = (None if self.inner is None else
+                    tuple(i for d, i in enumerate(case.index) if d != self.inner))
+            last = out[-1] if out else None
+            if (last is not None and line is not None and len(last) < size
+                    and tuple(i for d, i in enumerate(last[-1].index) if d != self.inner)
+                    == line):
+                last.append(case)
+            else:
+                out.append([case])
+        return [tuple(batch) for batch in out]
 
     @property
     def cases(self) -> list[Case]:
@@ -108,7 +127,8 @@ def plan_study(model: Model, grid: Grid, options: LatinOptions | None = None,
         tuple(Case(number, ordered[number], grid.mu(ordered[number], model.parameters), c)
               for number in range(bounds[c], bounds[c + 1]))
         for c in range(n_chains))
-    return StudyPlan(grid, chain_cases, tuple(geometric))
+    inner = order[-1] if order and order[-1] not in geometric_dims else None
+    return StudyPlan(grid, chain_cases, tuple(geometric), inner)
 
 
 def _assemble(model: Model, grid: Grid, index: tuple[int, ...]) -> Any:
@@ -210,14 +230,63 @@ def run_case(model: Model, grid: Grid, case: Case, mode: str, options: LatinOpti
     result = solve_latin(assembly, options, operators=ops, initial=initial, check=False)
     wall_s = time.perf_counter() - t0
     if mode != "cold" and result.converged and state is not None:
-        assert result.interface is not None
-        state = state.added(case.index, (result.interface.displacement_hat,
-                                         result.interface.force_hat))
+        state = _retain(state, case, result)
+    return _record(grid, case, mode, result, wall_s, setup_s, built, start_index, 1), state
+
+
+def run_batch(model: Model, grid: Grid, cases: tuple[Case, ...], mode: str,
+              options: LatinOptions, state: ChainState | None
+              ) -> tuple[list[dict[str, Any]], ChainState | None]:
+    """Solve cases of one geometry together (``solve_latin_batch``), each started from its
+    nearest converged case of the chain (multiresolution); at the start of a chain the
+    first case runs alone first, so that the others start from it. Cold cases and single
+    cases are solved one by one. A batch's wall time is shared among its cases in proportion
+    to their iterations (``record["batch"]`` gives the batch's size)."""
+    if mode == "cold" or len(cases) == 1:
+        records = []
+        for case in cases:
+            record, state = run_case(model, grid, case, mode, options, state)
+            records.append(record)
+        return records, state
+    state = state if state is not None else ChainState(_retained_capacity(grid))
+    records = []
+    if all(state.nearest(case.index)[0] is None for case in cases):
+        record, after = run_case(model, grid, cases[0], mode, options, state)
+        state = after if after is not None else state
+        records.append(record)
+        cases = cases[1:]
+    t0 = time.perf_counter()
+    assemblies = [model.assemble(case.mu) for case in cases]
+    ops, built = _operators(assemblies[0], options)
+    starts = [state.nearest(case.index) for case in cases]
+    setup_s = time.perf_counter() - t0
+    results = solve_latin_batch(assemblies, options, operators=ops,
+                                initial=[fields for _, fields in starts], check=False)
+    wall_s = time.perf_counter() - t0
+    total_iterations = sum(r.iterations for r in results)
+    for case, result, (start_index, _) in zip(cases, results, starts, strict=True):
+        share = result.iterations / total_iterations
+        records.append(_record(grid, case, mode, result, share * wall_s, share * setup_s,
+                               built and case is cases[0], start_index, len(cases)))
+        if result.converged:
+            state = _retain(state, case, result)
+    return records, state
+
+
+def _retain(state: ChainState, case: Case, result: SolveResult) -> ChainState:
+    assert result.interface is not None
+    return state.added(case.index, (result.interface.displacement_hat,
+                                    result.interface.force_hat))
+
+
+def _record(grid: Grid, case: Case, mode: str, result: SolveResult, wall_s: float,
+            setup_s: float, built: bool, start_index: tuple[int, ...] | None, batch: int
+            ) -> dict[str, Any]:
     start = ("zero" if start_index is None else
              ", ".join(f"{n}={grid[n][i]:g}" for n, i in zip(grid, start_index, strict=True)))
     params = {name: case.mu[name] for name in grid}
     text = ", ".join(f"{k}={v:g}" for k, v in params.items())
-    record: dict[str, Any] = {
+    return {
         "mode": mode,
         "number": case.number,
         "chain": case.chain,
@@ -230,14 +299,14 @@ def run_case(model: Model, grid: Grid, case: Case, mode: str, options: LatinOpti
         "setup_s": setup_s,
         "operators_built": built,
         "start": start,
+        "batch": batch,
         "qoi": result.qoi,
         "log": (f"{mode} #{case.number + 1} ({text}): "
                 f"{'converged' if result.converged else 'NOT CONVERGED'} in "
                 f"{result.iterations} iterations, eta={result.indicator:.2e}, "
-                f"{wall_s:.3f} s, start: {start}, operators "
-                f"{'built' if built else 'reused'}"),
+                f"{wall_s:.3f} s{f' (share of a batch of {batch})' if batch > 1 else ''}, "
+                f"start: {start}, operators {'built' if built else 'reused'}"),
     }
-    return record, state
 
 
 def _retained_capacity(grid: Grid) -> int:
@@ -246,10 +315,11 @@ def _retained_capacity(grid: Grid) -> int:
     return int(min(2 * inner + 1, 64))
 
 
-def run_chain_step(model: Model, grid: Grid, case: Case, mode: str, options: LatinOptions,
-                   previous: tuple[dict[str, Any], ChainState | None] | ChainState | None
-                   ) -> tuple[dict[str, Any], ChainState | None]:
-    """A task of a distributed chain: ``previous`` is the previous task's output (or a
-    resumed state, or None at the start of a chain)."""
+def run_chain_step(model: Model, grid: Grid, cases: tuple[Case, ...], mode: str,
+                   options: LatinOptions,
+                   previous: tuple[list[dict[str, Any]], ChainState | None] | ChainState | None
+                   ) -> tuple[list[dict[str, Any]], ChainState | None]:
+    """A task of a distributed chain, one batch of cases: ``previous`` is the previous
+    task's output (or a resumed state, or None at the start of a chain)."""
     state = previous[1] if isinstance(previous, tuple) else previous
-    return run_case(model, grid, case, mode, options, state)
+    return run_batch(model, grid, cases, mode, options, state)
