@@ -133,6 +133,10 @@ class SubstructureOperators:
         """C_Eᵀ, contiguous: the linear stage multiplies rows of right-hand sides by it."""
         return np.ascontiguousarray(self.condensed.T)
 
+    @functools.cached_property
+    def macro_response_transposed(self) -> FloatArray:
+        return np.ascontiguousarray(self.macro_response.T)
+
 
 def _digest(*parts: object) -> str:
     hasher = hashlib.sha1()
@@ -192,35 +196,23 @@ class LatinOperators:
             self.substructure_operators.append(block)
         self.rebuilt = tuple(rebuilt)
         self.factors = [b.factor for b in self.substructure_operators]
-        self.condensed = sp.block_diag([b.condensed for b in self.substructure_operators],
-                                       format="csr")
         self.flat_ranges = [(2 * pts.offsets[s], 2 * pts.offsets[s + 1])
                             for s in range(len(assembly.substructures))]
 
         self.macro_basis = basis
         if basis is not None:
             n_macro = basis.shape[1]
-            macro_response = np.zeros((k_flat.size, n_macro))
             homogenised = np.zeros((n_macro, n_macro))
-            for s, block in enumerate(self.substructure_operators):
-                lo, hi = 2 * pts.offsets[s], 2 * pts.offsets[s + 1]
+            for block in self.substructure_operators:
                 columns = block.macro_columns
-                macro_response[lo:hi, columns] = block.macro_response
                 # L = Σ_E L_E, the assembled homogenised operator (eq. [14]–[15])
                 homogenised[np.ix_(columns, columns)] += block.homogenised
             homogenised = 0.5 * (homogenised + homogenised.T)
             factor = self._factorise_macro(homogenised)
-            inverse = sla.cho_solve(factor, np.eye(homogenised.shape[0]))
-            # residual of macro admissibility -> interface displacement and force corrections
-            self.macro_to_displacement = macro_response @ inverse
-            self.macro_to_force = k_flat[:, None] * (
-                np.asarray(basis @ inverse) - self.macro_to_displacement)
-            self.project = (basis.T @ sp.diags(self.m0)).tocsr()
-            # the same maps transposed and dense, for the row layout of the linear stage
-            self.project_transposed = np.ascontiguousarray(self.project.toarray().T)
-            self.macro_to_displacement_transposed = np.ascontiguousarray(
-                self.macro_to_displacement.T)
-            self.macro_to_force_transposed = np.ascontiguousarray(self.macro_to_force.T)
+            # L⁻¹, dense (n_macro² is small): W̃ᴹ = L⁻¹ (F_dᴹ − Π F) (eq. [15])
+            self.homogenised_inverse = sla.cho_solve(factor, np.eye(homogenised.shape[0]))
+            self.project = (basis.T @ sp.diags(self.m0)).tocsr()  # Π = Ẽᵀ M0
+            self.basis_transposed = sp.csr_matrix(basis.T)
 
     @staticmethod
     def _substructure(stiffness: sp.csr_matrix, trace: sp.csr_matrix, m0: FloatArray,
@@ -285,8 +277,17 @@ class LatinOperators:
     ) -> tuple[FloatArray, FloatArray]:
         """s = (W, F) in A_d from ŝ, for all columns (steps, and cases of a batch) at once
         (eq. [12]–[15]); fields ``(n_columns, n_points, 2)``, macro data ``(n_columns,
-        n_macro)``. Dense products per substructure: rows are columns of the right-hand side,
-        so no transposition is needed."""
+        n_macro)``."""
+        displacement, force = self.micro_stage(displacement_hat, force_hat)
+        if self.macro_basis is not None:
+            self.macro_correction(displacement, force, macro_force_data)
+        return displacement, force
+
+    def micro_stage(self, displacement_hat: FloatArray, force_hat: FloatArray
+                    ) -> tuple[FloatArray, FloatArray]:
+        """The substructure problems with zero macro correction: W = C (F̂ + k Ŵ) and
+        F = F̂ + k (Ŵ − W) (eq. [13]). Dense products per substructure, rows being columns of
+        the right-hand side, so that nothing is transposed."""
         shape = displacement_hat.shape
         k = self.search_direction
         rhs = (force_hat + k * displacement_hat).reshape(shape[0], -1)
@@ -296,12 +297,24 @@ class LatinOperators:
                       out=flat_displacement[:, lo:hi])
         displacement: FloatArray = flat_displacement.reshape(shape)
         force = force_hat + k * (displacement_hat - displacement)
-        if self.macro_basis is not None:
-            # W̃ᴹ = L⁻¹ (F_dᴹ − Π F) (eq. [15]); its effect on W and F, precomputed as maps
-            residual = macro_force_data - force.reshape(shape[0], -1) @ self.project_transposed
-            displacement += (residual @ self.macro_to_displacement_transposed).reshape(shape)
-            force += (residual @ self.macro_to_force_transposed).reshape(shape)
         return displacement, force
+
+    def macro_correction(self, displacement: FloatArray, force: FloatArray,
+                         macro_force_data: FloatArray) -> None:
+        """The macro problem, in place: W̃ᴹ = L⁻¹ (F_dᴹ − Π F) (eq. [14]–[15]), then
+        W += Q W̃ᴹ substructure by substructure (Q_E acts on E's own macro unknowns) and
+        F += k (Ẽ W̃ᴹ − Q W̃ᴹ)."""
+        shape = displacement.shape
+        residual = macro_force_data - (self.project @ force.reshape(shape[0], -1).T).T
+        macro = residual @ self.homogenised_inverse
+        correction = np.empty((shape[0], shape[1] * 2))
+        for (lo, hi), block in zip(self.flat_ranges, self.substructure_operators, strict=True):
+            np.matmul(macro[:, block.macro_columns], block.macro_response_transposed,
+                      out=correction[:, lo:hi])
+        extension = np.asarray((self.basis_transposed.T @ macro.T).T).reshape(shape)
+        correction_field = correction.reshape(shape)
+        displacement += correction_field
+        force += self.search_direction * (extension - correction_field)
 
     def recover(self, displacement: FloatArray, force: FloatArray) -> dict[str, FloatArray]:
         """Interior displacements u_E = S_E⁻¹ T_Eᵀ M0 (F + k W) of every substructure."""
@@ -432,6 +445,7 @@ def solve_latin_batch(
         "setup": t_setup,
         "iterations": t_iter,
         "linear_stage": state.t_linear,
+        "macro_problem": state.t_macro,
         "local_stage": state.t_local,
         "per_iteration": t_iter / max(len(h) for h in state.histories),
         "postprocess": t_post,
@@ -462,8 +476,9 @@ class _IterationState:
     w_hat: FloatArray
     f_hat: FloatArray
     histories: list[list[float]]
-    t_linear: float = 0.0
+    t_linear: float = 0.0  # linear stage, macro problem included
     t_local: float = 0.0
+    t_macro: float = 0.0
 
 
 def _iterate(ops: LatinOperators, local: LocalStage, options: LatinOptions,
@@ -479,8 +494,8 @@ def _iterate(ops: LatinOperators, local: LocalStage, options: LatinOptions,
     macro_data = None
     if ops.macro_basis is not None:  # F_dᴹ per case and step: (n_cases, n_steps, n_macro)
         prescribed = local.prescribed_force_field(pts.n_points)
-        macro_data = (prescribed.reshape(n_cases * n_steps, -1) @ ops.project_transposed
-                      ).reshape(n_cases, n_steps, -1)
+        macro_data = (ops.project @ prescribed.reshape(n_cases * n_steps, -1).T
+                      ).T.reshape(n_cases, n_steps, -1)
     mixer = (Anderson(options.anderson_depth, options.relaxation,
                       np.sqrt(pts.weights[:, None] * k), np.sqrt(pts.weights[:, None] / k))
              if options.acceleration == "anderson" else None)
@@ -492,8 +507,11 @@ def _iterate(ops: LatinOperators, local: LocalStage, options: LatinOptions,
         flat = (-1, pts.n_points, 2)
         data = (macro_data[active].reshape(-1, macro_data.shape[2])
                 if macro_data is not None else None)
-        w_new, f_new = ops.linear_stage(w_hat.reshape(flat), f_hat.reshape(flat),
-                                        data)  # type: ignore[arg-type]
+        w_new, f_new = ops.micro_stage(w_hat.reshape(flat), f_hat.reshape(flat))
+        tm = time.perf_counter()
+        if data is not None:
+            ops.macro_correction(w_new, f_new, data)
+        out.t_macro += time.perf_counter() - tm
         w_new, f_new = w_new.reshape(w_hat.shape), f_new.reshape(w_hat.shape)
         if w is None or f is None or options.relaxation == 1.0 and mixer is None:
             w, f = w_new, f_new

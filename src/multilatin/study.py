@@ -159,6 +159,12 @@ class ChainState:
                 best, best_distance = other, distance
         return (best, self.retained[best]) if best is not None else (None, None)
 
+    def distance(self, index: tuple[int, ...]) -> int | None:
+        """Grid steps (L1) to the nearest retained case; None when none is retained."""
+        nearest, _ = self.nearest(index)
+        return (None if nearest is None else
+                sum(abs(a - b) for a, b in zip(nearest, index, strict=True)))
+
     def added(self, index: tuple[int, ...], fields: tuple[FloatArray, FloatArray]
               ) -> ChainState:
         """A new state with ``fields`` retained (this one is left unchanged: distributed
@@ -238,23 +244,23 @@ def run_batch(model: Model, grid: Grid, cases: tuple[Case, ...], mode: str,
               options: LatinOptions, state: ChainState | None
               ) -> tuple[list[dict[str, Any]], ChainState | None]:
     """Solve cases of one geometry together (``solve_latin_batch``), each started from its
-    nearest converged case of the chain (multiresolution); at the start of a chain the
-    first case runs alone first, so that the others start from it. Cold cases and single
-    cases are solved one by one. A batch's wall time is shared among its cases in proportion
-    to their iterations (``record["batch"]`` gives the batch's size)."""
-    if mode == "cold" or len(cases) == 1:
+    converged neighbour one grid step away (multiresolution: a grid line from the previous
+    line). Where some case has no such neighbour (the first line of a chain), and in cold
+    mode, the cases are solved one by one, each from the previous. A batch's wall time is
+    shared among its cases in proportion to their iterations (``record["batch"]`` gives the
+    batch's size)."""
+    if mode != "cold":
+        state = state if state is not None else ChainState(_retained_capacity(grid))
+    if mode == "cold" or len(cases) == 1 or not all(
+            _has_neighbour(state, case) for case in cases):
         records = []
         for case in cases:
-            record, state = run_case(model, grid, case, mode, options, state)
+            record, after = run_case(model, grid, case, mode, options, state)
+            state = after if after is not None else state
             records.append(record)
         return records, state
-    state = state if state is not None else ChainState(_retained_capacity(grid))
+    assert state is not None
     records = []
-    if all(state.nearest(case.index)[0] is None for case in cases):
-        record, after = run_case(model, grid, cases[0], mode, options, state)
-        state = after if after is not None else state
-        records.append(record)
-        cases = cases[1:]
     t0 = time.perf_counter()
     assemblies = [model.assemble(case.mu) for case in cases]
     ops, built = _operators(assemblies[0], options)
@@ -271,6 +277,13 @@ def run_batch(model: Model, grid: Grid, cases: tuple[Case, ...], mode: str,
         if result.converged:
             state = _retain(state, case, result)
     return records, state
+
+
+def _has_neighbour(state: ChainState | None, case: Case) -> bool:
+    """A converged case at most one grid step from ``case`` is retained (itself included:
+    a resumed study may hold a case converged but not yet journaled)."""
+    distance = state.distance(case.index) if state is not None else None
+    return distance is not None and distance <= 1
 
 
 def _retain(state: ChainState, case: Case, result: SolveResult) -> ChainState:
