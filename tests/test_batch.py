@@ -6,7 +6,7 @@ import numpy as np
 import pytest
 
 import multilatin as ml
-from multilatin import contact_kernel
+from multilatin import kernels
 from multilatin.errors import ModelError
 from multilatin.interfaces import build_points
 from multilatin.latin import LatinOperators, LatinOptions, solve_latin, solve_latin_batch
@@ -15,7 +15,7 @@ from multilatin.local_stage import LocalStage
 FRICTIONS = [(0.3, 0.0), (0.1, 0.3), (0.35, 0.25), (0.0, 0.0)]
 
 
-@pytest.mark.skipif(contact_kernel.contact_and_stops is None, reason="Numba not installed")
+@pytest.mark.skipif(kernels.contact_and_stops is None, reason="Numba not installed")
 @pytest.mark.parametrize("name", ["b1", "b1-9", "b3"])
 def test_compiled_local_stage_equals_the_numpy_one(name: str) -> None:
     """On fields that open, close, stick and slip (random, of the sizes of a solve), at the

@@ -5,6 +5,7 @@ import numpy as np
 import pytest
 
 import multilatin as ml
+from multilatin.latin import solve_latin_batch
 
 TIGHT = ml.LatinOptions(tol=1e-8, max_iter=5000)
 CASES = [(0.0, 0.0), (0.1, 0.3), (0.35, 0.25), (0.6, 0.6)]
@@ -111,11 +112,15 @@ def test_decompositions_of_the_same_mesh_agree(solved, mu):
         assert abs(other.qoi["R_stop"] - base) <= 1e-3 * max(base, 1.0)
 
 
-def test_default_tolerance_gives_r_stop_within_0_1_percent(b1, solved):
-    """The default tolerance was chosen from docs/tolerance.md; check one case."""
-    default = b1.solve({"mu1": 0.1, "mu2": 0.3})
-    assert default.qoi["R_stop"] == pytest.approx(solved[(0.1, 0.3)][0].qoi["R_stop"],
-                                                  rel=1e-3)
+def test_default_tolerance_gives_r_stop_within_0_1_percent(b1):
+    """The default tolerance was chosen from the 13 x 13 grid table of docs/tolerance.md;
+    check the grid line μ1 = 0.3 that holds its worst cases (1e-5 gave 0.19 % at
+    (0.3, 0.2)), against η < 1e-9; where R_stop < 200 N, within 0.2 N."""
+    assemblies = [b1.assemble({"mu1": 0.3, "mu2": 0.05 * i}) for i in range(13)]
+    default = solve_latin_batch(assemblies)
+    tight = solve_latin_batch(assemblies, ml.LatinOptions(tol=1e-9, max_iter=5000))
+    for d, t in zip(default, tight, strict=True):
+        assert abs(d.qoi["R_stop"] - t.qoi["R_stop"]) <= max(1e-3 * t.qoi["R_stop"], 0.2)
 
 
 def test_anderson_mixing_converges_to_the_same_answer(b1, solved):

@@ -11,7 +11,7 @@ import numpy as np
 import scipy.linalg as sla
 import scipy.sparse as sp
 
-from . import contact_kernel
+from . import kernels
 from .assembly import Assembly
 from .errors import ModelError
 from .fem.elasticity import FloatArray, IntArray
@@ -30,8 +30,7 @@ class LocalStage:
 
     def __init__(self, assemblies: Sequence[Assembly], points: Sequence[InterfacePoints],
                  k: FloatArray, compiled: bool | None = None) -> None:
-        """compiled: contact and stops by the Numba kernel (``contact_kernel``); None: when
-        Numba is installed."""
+        """compiled: the Numba kernels (``kernels``); None: when Numba is installed."""
         first = points[0]
         for other in points[1:]:
             if other.n_points != first.n_points or not np.array_equal(other.pairs, first.pairs):
@@ -54,10 +53,10 @@ class LocalStage:
         self.corner_stops = first.corner_stops
         self.corner_of_pair = np.full(a.size, -1, dtype=np.int64)
         self.corner_of_pair[first.corner] = np.arange(first.corner.size)
-        if compiled and contact_kernel.contact_and_stops is None:
+        if compiled and kernels.contact_and_stops is None:
             raise ModelError("compiled local stage: Numba is not installed "
                              "(pip install 'multilatin[fast]')")
-        self.compiled = (contact_kernel.contact_and_stops is not None if compiled is None
+        self.compiled = (kernels.contact_and_stops is not None if compiled is None
                          else compiled)
         # per case: (n_cases, n) friction and gaps, (n_cases, n_steps, P_b, 2) W_d / F_d
         self.mu_contact = np.stack([p.contact_friction for p in points])
@@ -89,14 +88,15 @@ class LocalStage:
                                                                                FloatArray]:
         w_hat = np.empty_like(displacement)
         f_hat = np.empty_like(force)
-        a, b = self.pairs
-        k = self.k_pair
-        wa, wb = displacement[:, :, a], displacement[:, :, b]
-        fa, fb = force[:, :, a], force[:, :, b]
-        # perfect interface: Ŵ_E = Ŵ_E', F̂_E + F̂_E' = 0 on the search direction E+ (eq. [8])
-        w_hat[:, :, a] = w_hat[:, :, b] = 0.5 * (wa + wb) - (fa + fb) / (2.0 * k)
-        f_hat[:, :, a] = 0.5 * (fa - fb) - 0.5 * k * (wa - wb)
-        f_hat[:, :, b] = -f_hat[:, :, a]
+        if self.compiled:
+            displacement = np.ascontiguousarray(displacement)
+            force = np.ascontiguousarray(force)
+            assert kernels.perfect_and_boundary is not None
+            kernels.perfect_and_boundary(
+                displacement, force, w_hat, f_hat, self.pairs[0], self.pairs[1], self.k_pair,
+                self.boundary, self.k_boundary, self.is_displacement, self.prescribed)
+        else:
+            self._perfect_and_boundary(displacement, force, w_hat, f_hat)
         m = self.macro_points
         if m.size:  # macro-only interface (eq. [20]), see ``macro_only_map``
             k = self.k_macro
@@ -105,16 +105,11 @@ class LocalStage:
             w_m = x + np.asarray(self.macro_map @ flat.T).T.reshape(x.shape)
             w_hat[:, :, m] = w_m
             f_hat[:, :, m] = force[:, :, m] + k * (w_m - displacement[:, :, m])
-        # prescribed displacement / force, component-wise
-        bd, k = self.boundary, self.k_boundary
-        w, f, data = displacement[:, :, bd], force[:, :, bd], self.prescribed
-        w_hat[:, :, bd] = np.where(self.is_displacement, data, w + (data - f) / k)
-        f_hat[:, :, bd] = np.where(self.is_displacement, f + k * (data - w), data)
         if not (self.contact_pairs[0].size or self.stops.size):
             return w_hat, f_hat
         if self.compiled:
-            assert contact_kernel.contact_and_stops is not None
-            contact_kernel.contact_and_stops(
+            assert kernels.contact_and_stops is not None
+            kernels.contact_and_stops(
                 np.ascontiguousarray(displacement), np.ascontiguousarray(force), w_hat, f_hat,
                 self.contact_pairs[0], self.contact_pairs[1], self.k_contact, self.n_contact,
                 self.mu_contact, self.gap_contact, self.stops, self.k_stop, self.n_stop,
@@ -122,6 +117,22 @@ class LocalStage:
         else:
             self._contact_and_stops(displacement, force, w_hat, f_hat)
         return w_hat, f_hat
+
+    def _perfect_and_boundary(self, displacement: FloatArray, force: FloatArray,
+                              w_hat: FloatArray, f_hat: FloatArray) -> None:
+        a, b = self.pairs
+        k = self.k_pair
+        wa, wb = displacement[:, :, a], displacement[:, :, b]
+        fa, fb = force[:, :, a], force[:, :, b]
+        # perfect interface: Ŵ_E = Ŵ_E', F̂_E + F̂_E' = 0 on the search direction E+ (eq. [8])
+        w_hat[:, :, a] = w_hat[:, :, b] = 0.5 * (wa + wb) - (fa + fb) / (2.0 * k)
+        f_hat[:, :, a] = 0.5 * (fa - fb) - 0.5 * k * (wa - wb)
+        f_hat[:, :, b] = -f_hat[:, :, a]
+        # prescribed displacement / force, component-wise
+        bd, k = self.boundary, self.k_boundary
+        w, f, data = displacement[:, :, bd], force[:, :, bd], self.prescribed
+        w_hat[:, :, bd] = np.where(self.is_displacement, data, w + (data - f) / k)
+        f_hat[:, :, bd] = np.where(self.is_displacement, f + k * (data - w), data)
 
     @staticmethod
     def _coulomb(trial: FloatArray, normal_force: FloatArray, normal: FloatArray,

@@ -70,6 +70,8 @@ class StudyResult:
             "mode": main,
             "cases": [_case_json(r) for r in self.mode_records(main)],
             "wall_s": self.elapsed_s[main],
+            "peak_rss_mb": max((r.get("peak_rss_mb", float("nan")) for r in self.records),
+                               default=float("nan")),
             "converged": all(r["converged"] for r in self.records),
             "store": str(self.folder) if self.folder else None,
         }

@@ -12,6 +12,7 @@ standalone computation (its own operators, started from zero).
 from __future__ import annotations
 
 import logging
+import sys
 import time
 from collections import OrderedDict
 from collections.abc import Iterator
@@ -279,6 +280,16 @@ def run_batch(model: Model, grid: Grid, cases: tuple[Case, ...], mode: str,
     return records, state
 
 
+def peak_memory_mb() -> float:
+    """Peak resident memory of this process so far (MiB); NaN where not measurable."""
+    try:
+        import resource
+    except ImportError:  # pragma: no cover - not on Unix
+        return float("nan")
+    peak = resource.getrusage(resource.RUSAGE_SELF).ru_maxrss
+    return float(peak / 1024 if sys.platform != "darwin" else peak / 2**20)
+
+
 def _has_neighbour(state: ChainState | None, case: Case) -> bool:
     """A converged case at most one grid step from ``case`` is retained (itself included:
     a resumed study may hold a case converged but not yet journaled)."""
@@ -313,6 +324,7 @@ def _record(grid: Grid, case: Case, mode: str, result: SolveResult, wall_s: floa
         "operators_built": built,
         "start": start,
         "batch": batch,
+        "peak_rss_mb": peak_memory_mb(),
         "qoi": result.qoi,
         "log": (f"{mode} #{case.number + 1} ({text}): "
                 f"{'converged' if result.converged else 'NOT CONVERGED'} in "

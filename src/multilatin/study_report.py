@@ -54,7 +54,8 @@ def summary_lines(result: StudyResult) -> list[str]:
         f"{len(records)} cases ({' x '.join(str(n) for n in result.plan.grid.shape)} grid over "
         f"{', '.join(result.plan.grid)}), {len(result.plan.chains)} chain(s), mode {main}",
         f"{main} study: {result.elapsed_s[main]:.2f} s, "
-        f"{sum(r['iterations'] for r in records)} iterations in all",
+        f"{sum(r['iterations'] for r in records)} iterations in all, peak memory "
+        f"{max((r.get('peak_rss_mb', float('nan')) for r in result.records), default=0):.0f} MiB",
     ]
     if result.mode_records("cold") and main == "multiresolution":
         gains = result.gains or {}
@@ -64,8 +65,8 @@ def summary_lines(result: StudyResult) -> list[str]:
                      f"{sum(r['iterations'] for r in cold)} iterations in all")
         lines.append(f"gain (sum of cold times / study time) = {gains['gain']:.2f}; "
                      f"paper's definition (cases x first cold time / study time) = "
-                     f"{gains['paper_gain']:.2f}; warm starts alone (iteration times) = "
-                     f"{gains['warm_start_gain']:.2f}")
+                     f"{gains['paper_gain']:.2f}; iterations ratio (cold / multiresolution) = "
+                     f"{gains['iterations_ratio']:.2f}")
     lines.append("converged: all" if not failed else
                  f"NOT CONVERGED: {len(failed)} case(s): " +
                  "; ".join(r["log"] for r in failed[:5]))

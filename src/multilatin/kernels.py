@@ -1,9 +1,15 @@
-"""The contact and stop part of the local stage compiled with Numba (optional extra ``fast``).
+"""The LATIN iteration's point-wise work compiled with Numba (optional extra ``fast``): the
+same formulas as the NumPy code of ``LocalStage`` and ``latin``, written point by point, so
+that a batch's fields are read once per pass. Without Numba the NumPy versions run; the two
+agree to rounding (tests).
 
-The same closed forms as ``LocalStage._contact_and_stops`` (paper §3, eq. [16]–[17]), written
-point by point: for every case of a batch, step after step (Coulomb's law acts on
-increments), the stops first, then the contact pairs with the held-corner rule. Without
-Numba, ``LocalStage`` uses its NumPy version; the two agree to rounding (tests).
+- ``perfect_and_boundary``: perfect interfaces (eq. [8]) and prescribed displacement / force
+  components, every step at once;
+- ``contact_and_stops``: contact with gap and Coulomb friction, and rigid stops (paper §3,
+  eq. [16]–[17]), for every case step after step (Coulomb's law acts on increments), the
+  stops first, then the contact pairs with the held-corner rule;
+- ``relax``: s ← ω s_new + (1 − ω) s in place;
+- ``indicator_squares``: ‖s − ŝ‖², ‖s‖², ‖ŝ‖² per case (paper §4.3).
 """
 
 from __future__ import annotations
@@ -14,6 +20,7 @@ from collections.abc import Callable
 from typing import Any
 
 import numpy as np
+import numpy.typing as npt
 
 from .fem.elasticity import FloatArray, IntArray
 
@@ -111,7 +118,70 @@ def _contact_and_stops(displacement: FloatArray, force: FloatArray, w_hat: Float
                 w_hat[c, t, pb, 0], w_hat[c, t, pb, 1] = prev_b[j, 0], prev_b[j, 1]
 
 
+def _perfect_and_boundary(displacement: FloatArray, force: FloatArray, w_hat: FloatArray,
+                          f_hat: FloatArray, a: IntArray, b: IntArray, k_pair: FloatArray,
+                          boundary: IntArray, k_boundary: FloatArray,
+                          is_displacement: npt.NDArray[np.bool_], prescribed: FloatArray
+                          ) -> None:  # pragma: no cover - compiled
+    n_cases, n_steps = displacement.shape[0], displacement.shape[1]
+    for c in range(n_cases):
+        for t in range(n_steps):
+            for j in range(a.size):
+                pa, pb = a[j], b[j]
+                for d in range(2):
+                    k = k_pair[j, d]
+                    wa, wb = displacement[c, t, pa, d], displacement[c, t, pb, d]
+                    fa, fb = force[c, t, pa, d], force[c, t, pb, d]
+                    w = 0.5 * (wa + wb) - (fa + fb) / (2.0 * k)
+                    f = 0.5 * (fa - fb) - 0.5 * k * (wa - wb)
+                    w_hat[c, t, pa, d], w_hat[c, t, pb, d] = w, w
+                    f_hat[c, t, pa, d], f_hat[c, t, pb, d] = f, -f
+            for i in range(boundary.size):
+                p = boundary[i]
+                for d in range(2):
+                    k = k_boundary[i, d]
+                    data = prescribed[c, t, i, d]
+                    w, f = displacement[c, t, p, d], force[c, t, p, d]
+                    if is_displacement[i, d]:
+                        w_hat[c, t, p, d], f_hat[c, t, p, d] = data, f + k * (data - w)
+                    else:
+                        w_hat[c, t, p, d], f_hat[c, t, p, d] = w + (data - f) / k, data
+
+
+def _relax(current: FloatArray, new: FloatArray, omega: float
+           ) -> None:  # pragma: no cover - compiled
+    flat, flat_new = current.reshape(-1), new.reshape(-1)
+    for i in range(flat.size):
+        flat[i] = omega * flat_new[i] + (1.0 - omega) * flat[i]
+
+
+def _indicator_squares(w: FloatArray, f: FloatArray, w_hat: FloatArray, f_hat: FloatArray,
+                       displacement_weight: FloatArray, force_weight: FloatArray
+                       ) -> FloatArray:  # pragma: no cover - compiled
+    n_cases = w.shape[0]
+    n = displacement_weight.size
+    w2, f2 = w.reshape(n_cases, -1), f.reshape(n_cases, -1)
+    wh2, fh2 = w_hat.reshape(n_cases, -1), f_hat.reshape(n_cases, -1)
+    out = np.zeros((n_cases, 3))
+    for c in range(n_cases):
+        gap = size = size_hat = 0.0
+        for i in range(w2.shape[1]):
+            kw, kf = displacement_weight[i % n], force_weight[i % n]
+            dw, df = w2[c, i] - wh2[c, i], f2[c, i] - fh2[c, i]
+            gap += kw * dw * dw + kf * df * df
+            size += kw * w2[c, i] * w2[c, i] + kf * f2[c, i] * f2[c, i]
+            size_hat += kw * wh2[c, i] * wh2[c, i] + kf * fh2[c, i] * fh2[c, i]
+        out[c, 0], out[c, 1], out[c, 2] = gap, size, size_hat
+    return out
+
+
 contact_and_stops: Callable[..., Any] | None = None
+relax: Callable[..., Any] | None = None
+indicator_squares: Callable[..., Any] | None = None
+perfect_and_boundary: Callable[..., Any] | None = None
 if numba is not None:  # pragma: no branch
     _in_cone = numba.njit(cache=True, inline="always")(_in_cone)
     contact_and_stops = numba.njit(cache=True)(_contact_and_stops)
+    perfect_and_boundary = numba.njit(cache=True)(_perfect_and_boundary)
+    relax = numba.njit(cache=True)(_relax)
+    indicator_squares = numba.njit(cache=True)(_indicator_squares)
