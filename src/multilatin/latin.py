@@ -66,7 +66,7 @@ class LatinOptions:
     """
 
     kappa: float = 0.5
-    tol: float = 5e-6
+    tol: float = 3e-6
     max_iter: int = 1000
     relaxation: float = 0.9
     macro: bool = True
