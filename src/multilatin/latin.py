@@ -27,7 +27,7 @@ from . import kernels
 from .acceleration import Anderson
 from .assembly import DISPLACEMENT, Assembly
 from .errors import ModelError, NotConvergedError
-from .fem.elasticity import FloatArray
+from .fem.elasticity import FloatArray, IntArray
 from .fem.mesh import normal_axis
 from .interfaces import (
     INTERFACE_ELEMENTS,
@@ -36,7 +36,7 @@ from .interfaces import (
     macro_basis,
     with_contact_data,
 )
-from .local_stage import LocalStage
+from .local_stage import LocalStage, macro_only_map
 from .qoi import ContactPressures, evaluate_qois
 from .result import InterfaceFields, SolveResult
 
@@ -273,22 +273,19 @@ class LatinOperators:
             )
         return factor  # type: ignore[no-any-return]
 
-    def linear_stage(
-        self, displacement_hat: FloatArray, force_hat: FloatArray, macro_force_data: FloatArray
-    ) -> tuple[FloatArray, FloatArray]:
-        """s = (W, F) in A_d from ŝ, for all columns (steps, and cases of a batch) at once
-        (eq. [12]–[15]); fields ``(n_columns, n_points, 2)``, macro data ``(n_columns,
-        n_macro)``."""
-        displacement, force = self.micro_stage(displacement_hat, force_hat)
-        if self.macro_basis is not None:
-            self.macro_correction(displacement, force, macro_force_data)
-        return displacement, force
+    @functools.cached_property
+    def macro_only(self) -> tuple[IntArray, sp.csr_matrix]:
+        """The local stage's map on macro-only interfaces (``local_stage.macro_only_map``):
+        it depends on the interface discretisation and k only, so it is built once here."""
+        return macro_only_map(self.points, self.search_direction)
 
     def micro_stage(self, displacement_hat: FloatArray, force_hat: FloatArray
                     ) -> tuple[FloatArray, FloatArray]:
-        """The substructure problems with zero macro correction: W = C (F̂ + k Ŵ) and
-        F = F̂ + k (Ŵ − W) (eq. [13]). Dense products per substructure, rows being columns of
-        the right-hand side, so that nothing is transposed."""
+        """The linear stage (eq. [12]–[15]) is ``micro_stage`` then, with a macro basis,
+        ``macro_correction``, for all columns (steps, and cases of a batch) at once; fields
+        ``(n_columns, n_points, 2)``. Here, the substructure problems with zero macro
+        correction: W = C (F̂ + k Ŵ) and F = F̂ + k (Ŵ − W) (eq. [13]). Dense products per
+        substructure, rows being columns of the right-hand side, so nothing is transposed."""
         shape = displacement_hat.shape
         k = self.search_direction
         rhs = (force_hat + k * displacement_hat).reshape(shape[0], -1)
@@ -401,7 +398,8 @@ def solve_latin_batch(
             raise ModelError(f"initial: interface fields must have shape {shape}, got "
                              f"{[np.shape(field) for field in start]}")
         w_hat[c], f_hat[c] = start
-    local = LocalStage(assemblies, points, ops.search_direction)
+    local = LocalStage(assemblies, points, ops.search_direction,
+                       macro_only=ops.macro_only)
 
     t1 = time.perf_counter()
     # the iteration is many small dense products: BLAS threads cost more than they give

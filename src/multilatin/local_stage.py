@@ -29,14 +29,17 @@ class LocalStage:
     """
 
     def __init__(self, assemblies: Sequence[Assembly], points: Sequence[InterfacePoints],
-                 k: FloatArray, compiled: bool | None = None) -> None:
-        """compiled: the Numba kernels (``kernels``); None: when Numba is installed."""
+                 k: FloatArray, compiled: bool | None = None,
+                 macro_only: tuple[IntArray, sp.csr_matrix] | None = None) -> None:
+        """compiled: the Numba kernels (``kernels``); None: when Numba is installed.
+        macro_only: ``macro_only_map(points[0], k)`` when already built."""
         first = points[0]
         for other in points[1:]:
             if other.n_points != first.n_points or not np.array_equal(other.pairs, first.pairs):
                 raise ModelError("a batch of cases must share the interface discretisation")
         self.pairs = first.pairs
-        self.macro_points, self.macro_map = macro_only_map(first, k)
+        self.macro_points, self.macro_map = (macro_only if macro_only is not None
+                                             else macro_only_map(first, k))
         self.k_macro = k[self.macro_points]
         self.k_pair = k[first.pairs[0]]
         self.boundary = first.boundary

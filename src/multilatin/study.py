@@ -57,16 +57,15 @@ class StudyPlan:
         line of the grid, one geometry), in pieces of at most ``size``: the cases a batched
         multiresolution step solves together."""
         out: list[list[Case]] = []
+        previous_line = None
         for case in chain:
             line = (None if self.inner is None else
                     tuple(i for d, i in enumerate(case.index) if d != self.inner))
-            last = out[-1] if out else None
-            if (last is not None and line is not None and len(last) < size
-                    and tuple(i for d, i in enumerate(last[-1].index) if d != self.inner)
-                    == line):
-                last.append(case)
+            if out and line is not None and line == previous_line and len(out[-1]) < size:
+                out[-1].append(case)
             else:
                 out.append([case])
+            previous_line = line
         return [tuple(batch) for batch in out]
 
     @property
