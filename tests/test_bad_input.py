@@ -162,3 +162,14 @@ def test_contact_errors_name_field_and_value(change, expected):
     with pytest.raises(ml.ModelError) as info:
         contact_with(change)()
     assert expected in str(info.value)
+
+
+@pytest.mark.parametrize("field, value", [("stagnation_window", 1), ("stagnation_ratio", 0.0),
+                                          ("stagnation_ratio", 1.5), ("relaxation", 0.0),
+                                          ("kappa", -1.0)])
+def test_solver_options_name_field_and_value(field, value):
+    from multilatin.errors import ModelError
+    from multilatin.latin import LatinOptions
+
+    with pytest.raises(ModelError, match=rf"{field}: .*{value!r}"):
+        LatinOptions(**{field: value})

@@ -127,3 +127,21 @@ def test_anderson_mixing_converges_to_the_same_answer(b1, solved):
     options = ml.LatinOptions(tol=1e-8, max_iter=5000, acceleration="anderson")
     result = b1.solve({"mu1": 0.1, "mu2": 0.3}, options=options)
     assert result.qoi["R_stop"] == pytest.approx(solved[(0.1, 0.3)][0].qoi["R_stop"], rel=1e-5)
+
+
+def test_a_cycling_fixed_point_is_damped_until_it_converges():
+    """One of the 21 125 cases of the B3 five-parameter study: at ω = 0.9 the iteration
+    cycles (η between 7e-6 and 4e-5, period ~400 iterations, never below the tolerance);
+    lowering ω on stagnation makes it converge, to the answer of a run at ω = 0.8 from the
+    start (the converged answer does not depend on ω)."""
+    from multilatin.errors import NotConvergedError
+    from multilatin.latin import LatinOptions, solve_latin
+
+    assembly = ml.load_model("b3").assemble(
+        {"mu1": 0.25, "mu2": 0.15, "xc": 25, "yc": 76, "rc": 5})
+    with pytest.raises(NotConvergedError):
+        solve_latin(assembly, LatinOptions(stagnation_window=10**6))
+    damped = solve_latin(assembly, LatinOptions())
+    lower = solve_latin(assembly, LatinOptions(relaxation=0.8))
+    assert damped.converged and lower.converged
+    assert damped.qoi["R_stop"] == pytest.approx(lower.qoi["R_stop"], rel=1e-3)
