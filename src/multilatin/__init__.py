@@ -6,9 +6,10 @@ from __future__ import annotations
 import logging
 
 from .errors import ModelError, NotConvergedError
-from .latin import LatinOperators, LatinOptions, solve_latin
+from .latin import LatinOptions, solve_latin
 from .model import Model, bundled_models, load_model
 from .monolithic import solve_monolithic
+from .operators import LatinOperators
 from .parameters import Grid, Mu, Parameter, Parameters, ParameterSpace
 from .result import SolveResult
 from .runner import StudyResult, run_study

@@ -9,36 +9,31 @@ Interior displacements are recovered once, at the end.
 
 from __future__ import annotations
 
-import functools
-import hashlib
 import logging
 import time
 from collections.abc import Sequence
 from dataclasses import asdict, dataclass
 
 import numpy as np
-import numpy.typing as npt
-import scipy.linalg as sla
-import scipy.sparse as sp
-import scipy.sparse.linalg as spla
 from threadpoolctl import threadpool_limits
 
 from . import kernels
 from .acceleration import Anderson
-from .assembly import DISPLACEMENT, Assembly
+from .assembly import Assembly
 from .errors import ModelError, NotConvergedError
 from .fem.elasticity import FloatArray, IntArray
-from .fem.mesh import normal_axis
 from .interfaces import (
     INTERFACE_ELEMENTS,
     InterfacePoints,
-    build_points,
-    macro_basis,
     with_contact_data,
 )
-from .local_stage import LocalStage, macro_only_map
+from .local_stage import LocalStage
+from .operators import LatinOperators, operator_signature
 from .qoi import ContactPressures, evaluate_qois
 from .result import InterfaceFields, SolveResult
+
+__all__ = ["LatinOperators", "LatinOptions", "operator_signature", "solve_latin",
+           "solve_latin_batch"]  # the operators live in ``operators``, imported here too
 
 log = logging.getLogger(__name__)
 
@@ -60,7 +55,8 @@ class LatinOptions:
         cycles between contact statuses instead of converging; measured on one of the
         21 125 B3 cases at ω = 0.9) has its relaxation lowered by 0.1, down to 0.5. A slow
         but converging tail (0.97–0.99 per iteration) gains a factor 0.2–0.4 per 100
-        iterations and is left alone. The converged answer does not depend on ω.
+        iterations and is left alone. The converged answer does not depend on ω. With
+        Anderson mixing the check is off (its damping stays ω).
     acceleration: ``"relaxation"`` alone, or ``"anderson"``: Anderson mixing of the last
         ``anderson_depth`` iterates of the fixed point s ↦ linear(local(s)), damped by ω
         (combinations of admissible fields stay admissible).
@@ -114,230 +110,6 @@ class LatinOptions:
             raise ModelError(
                 f"dirichlet_stiffening: must be >= 1, got {self.dirichlet_stiffening!r}"
             )
-
-
-def operator_signature(assembly: Assembly, options: LatinOptions) -> str:
-    """A digest of everything the linear-stage operators depend on: the substructures'
-    meshes and materials, the interface topology and kinds, and the search direction.
-    Friction coefficients, gaps and loads are not in it: they change no operator."""
-    interfaces = [(itf.kind, itf.sides, itf.condition.kinds if itf.condition else None,
-                   itf.contact is not None) for itf in assembly.interfaces]
-    choices = (options.kappa, options.macro, options.interface_elements,
-               options.dirichlet_stiffening, options.tangential_ratio)
-    text = repr(([s.signature() for s in assembly.substructures], interfaces, choices))
-    return hashlib.sha1(text.encode()).hexdigest()
-
-
-@dataclass(frozen=True)
-class SubstructureOperators:
-    """What one substructure contributes to the linear stage: the factorised
-    S_E = K_E + T_Eᵀ M0 k T_E (eq. [13]), the condensed C_E = T_E S_E⁻¹ T_Eᵀ M0, and its
-    share of the macro problem: the response Q_E = C_E k Ẽ_E to unit macro unknowns and the
-    homogenised operator L_E = Ẽ_Eᵀ M0 k Ẽ_E − (M0 k Ẽ_E)ᵀ Q_E (eq. [14])."""
-
-    key: str
-    factor: spla.SuperLU
-    condensed: FloatArray
-    macro_columns: npt.NDArray[np.int64]  # the macro unknowns of E's interfaces
-    macro_response: FloatArray  # Q_E on those columns (2 P_E × n_E)
-    homogenised: FloatArray  # L_E on those columns (n_E × n_E)
-
-    @functools.cached_property
-    def condensed_transposed(self) -> FloatArray:
-        """C_Eᵀ, contiguous: the linear stage multiplies rows of right-hand sides by it."""
-        return np.ascontiguousarray(self.condensed.T)
-
-    @functools.cached_property
-    def macro_response_transposed(self) -> FloatArray:
-        return np.ascontiguousarray(self.macro_response.T)
-
-
-def _digest(*parts: object) -> str:
-    hasher = hashlib.sha1()
-    for part in parts:
-        if isinstance(part, np.ndarray):
-            hasher.update(np.ascontiguousarray(part).tobytes())
-            hasher.update(repr(part.shape).encode())
-        elif isinstance(part, sp.spmatrix | sp.sparray):
-            matrix = sp.csr_matrix(part)
-            for array in (matrix.data, matrix.indices, matrix.indptr):
-                hasher.update(np.ascontiguousarray(array).tobytes())
-            hasher.update(repr(matrix.shape).encode())
-        else:
-            hasher.update(repr(part).encode())
-    return hasher.hexdigest()
-
-
-class LatinOperators:
-    """Everything of the linear stage that depends on the geometry only: factorised
-    substructure operators, the condensed block-diagonal operator C, the macro basis and the
-    factorised homogenised macro operator (eq. [15]).
-
-    reuse: operators of another assembly; every substructure whose geometry, interface
-        discretisation, search direction and macro basis are unchanged takes its operators
-        from there (paper §6: when a hole changes, only its substructure is rebuilt).
-        ``rebuilt`` names the substructures built here.
-    """
-
-    def __init__(self, assembly: Assembly, options: LatinOptions,
-                 reuse: LatinOperators | None = None) -> None:
-        self.assembly = assembly
-        self.options = options
-        self.signature = operator_signature(assembly, options)
-        self.points: InterfacePoints = build_points(assembly, options.interface_elements)
-        pts = self.points
-        self.search_direction = self._search_direction()
-        k_flat = self.search_direction.reshape(-1)
-        self.m0 = np.repeat(pts.weights, 2)  # diagonal of M0 on flat (2P) vectors
-        basis = macro_basis(assembly, pts) if options.macro else None
-        if basis is not None and not basis.shape[1]:
-            basis = None
-        available = reuse.blocks if reuse is not None else {}
-
-        self.blocks: dict[str, SubstructureOperators] = {}
-        self.substructure_operators: list[SubstructureOperators] = []
-        rebuilt = []
-        for s, sub in enumerate(assembly.substructures):
-            lo, hi = 2 * pts.offsets[s], 2 * pts.offsets[s + 1]
-            rows = basis[lo:hi] if basis is not None else None
-            key = _digest(sub.signature(), pts.traces[s], k_flat[lo:hi], self.m0[lo:hi], rows)
-            block = available.get(key) or self.blocks.get(key)
-            if block is None:
-                block = self._substructure(sub.stiffness(), pts.traces[s], self.m0[lo:hi],
-                                           k_flat[lo:hi], rows, key)
-                rebuilt.append(sub.name)
-            self.blocks[key] = block
-            self.substructure_operators.append(block)
-        self.rebuilt = tuple(rebuilt)
-        self.factors = [b.factor for b in self.substructure_operators]
-        self.flat_ranges = [(2 * pts.offsets[s], 2 * pts.offsets[s + 1])
-                            for s in range(len(assembly.substructures))]
-
-        self.macro_basis = basis
-        if basis is not None:
-            n_macro = basis.shape[1]
-            homogenised = np.zeros((n_macro, n_macro))
-            for block in self.substructure_operators:
-                columns = block.macro_columns
-                # L = Σ_E L_E, the assembled homogenised operator (eq. [14]–[15])
-                homogenised[np.ix_(columns, columns)] += block.homogenised
-            homogenised = 0.5 * (homogenised + homogenised.T)
-            factor = self._factorise_macro(homogenised)
-            # L⁻¹, dense (n_macro² is small): W̃ᴹ = L⁻¹ (F_dᴹ − Π F) (eq. [15])
-            self.homogenised_inverse = sla.cho_solve(factor, np.eye(homogenised.shape[0]))
-            self.project = (basis.T @ sp.diags(self.m0)).tocsr()  # Π = Ẽᵀ M0
-            self.basis_transposed = sp.csr_matrix(basis.T)
-
-    @staticmethod
-    def _substructure(stiffness: sp.csr_matrix, trace: sp.csr_matrix, m0: FloatArray,
-                      k: FloatArray, basis_rows: sp.csr_matrix | None,
-                      key: str) -> SubstructureOperators:
-        operator = (stiffness + trace.T @ sp.diags(m0 * k) @ trace).tocsc()
-        factor = spla.splu(operator)
-        rhs = (trace.T @ sp.diags(m0)).toarray()
-        condensed = trace @ factor.solve(rhs)  # C_E = T S⁻¹ Tᵀ M0, dense
-        if basis_rows is None:
-            empty = np.zeros((0, 0))
-            return SubstructureOperators(key, factor, condensed, np.zeros(0, dtype=np.int64),
-                                         np.zeros((condensed.shape[0], 0)), empty)
-        columns = np.unique(basis_rows.indices).astype(np.int64)  # E's own macro unknowns
-        own_basis = basis_rows[:, columns]
-        k_basis = (sp.diags(k) @ own_basis).toarray()
-        response = condensed @ k_basis  # Q_E = C_E k Ẽ_E
-        mk_basis = m0[:, None] * k_basis
-        homogenised = (own_basis.T @ mk_basis) - mk_basis.T @ response
-        return SubstructureOperators(key, factor, condensed, columns, response,
-                                     np.asarray(homogenised))
-
-    def _search_direction(self) -> FloatArray:
-        """k per interface point and component: κ E / L (stiffer on prescribed displacements)."""
-        opts = self.options
-        pts = self.points
-        k = np.zeros((pts.n_points, 2))
-        for i, itf in enumerate(self.assembly.interfaces):
-            subs = [self.assembly.substructures[r.substructure] for r in itf.sides]
-            young = float(np.mean([s.material.young for s in subs]))
-            x0, x1, y0, y1 = self.assembly.body_box(subs[0].body)
-            value = opts.kappa * young / min(x1 - x0, y1 - y0)
-            for side_index in range(len(itf.sides)):
-                k[pts.side_points[(i, side_index)]] = value
-            if itf.contact is not None:
-                tangential = 1 - normal_axis(itf.sides[0].side)
-                for side_index in range(len(itf.sides)):
-                    k[pts.side_points[(i, side_index)], tangential] *= opts.tangential_ratio
-            elif itf.condition is not None:
-                for comp, kind in enumerate(itf.condition.kinds):
-                    if kind == DISPLACEMENT:
-                        k[pts.side_points[(i, 0)], comp] *= opts.dirichlet_stiffening
-        return k
-
-    @staticmethod
-    def _factorise_macro(homogenised: FloatArray) -> tuple[FloatArray, bool]:
-        try:
-            factor = sla.cho_factor(homogenised)
-        except np.linalg.LinAlgError:
-            raise ModelError(
-                "macro problem is singular: the assembly is not held against rigid-body motion"
-            ) from None
-        pivots = np.abs(np.diag(factor[0]))
-        if pivots.min() < 1e-7 * pivots.max():
-            raise ModelError(
-                "macro problem is singular: the assembly is not held against rigid-body motion"
-            )
-        return factor  # type: ignore[no-any-return]
-
-    @functools.cached_property
-    def macro_only(self) -> tuple[IntArray, sp.csr_matrix]:
-        """The local stage's map on macro-only interfaces (``local_stage.macro_only_map``):
-        it depends on the interface discretisation and k only, so it is built once here."""
-        return macro_only_map(self.points, self.search_direction)
-
-    def micro_stage(self, displacement_hat: FloatArray, force_hat: FloatArray
-                    ) -> tuple[FloatArray, FloatArray]:
-        """The linear stage (eq. [12]–[15]) is ``micro_stage`` then, with a macro basis,
-        ``macro_correction``, for all columns (steps, and cases of a batch) at once; fields
-        ``(n_columns, n_points, 2)``. Here, the substructure problems with zero macro
-        correction: W = C (F̂ + k Ŵ) and F = F̂ + k (Ŵ − W) (eq. [13]). Dense products per
-        substructure, rows being columns of the right-hand side, so nothing is transposed."""
-        shape = displacement_hat.shape
-        k = self.search_direction
-        rhs = (force_hat + k * displacement_hat).reshape(shape[0], -1)
-        flat_displacement = np.empty_like(rhs)
-        for (lo, hi), block in zip(self.flat_ranges, self.substructure_operators, strict=True):
-            np.matmul(rhs[:, lo:hi], block.condensed_transposed,
-                      out=flat_displacement[:, lo:hi])
-        displacement: FloatArray = flat_displacement.reshape(shape)
-        force = force_hat + k * (displacement_hat - displacement)
-        return displacement, force
-
-    def macro_correction(self, displacement: FloatArray, force: FloatArray,
-                         macro_force_data: FloatArray) -> None:
-        """The macro problem, in place: W̃ᴹ = L⁻¹ (F_dᴹ − Π F) (eq. [14]–[15]), then
-        W += Q W̃ᴹ substructure by substructure (Q_E acts on E's own macro unknowns) and
-        F += k (Ẽ W̃ᴹ − Q W̃ᴹ)."""
-        shape = displacement.shape
-        residual = macro_force_data - (self.project @ force.reshape(shape[0], -1).T).T
-        macro = residual @ self.homogenised_inverse
-        correction = np.empty((shape[0], shape[1] * 2))
-        for (lo, hi), block in zip(self.flat_ranges, self.substructure_operators, strict=True):
-            np.matmul(macro[:, block.macro_columns], block.macro_response_transposed,
-                      out=correction[:, lo:hi])
-        extension = np.asarray((self.basis_transposed.T @ macro.T).T).reshape(shape)
-        correction_field = correction.reshape(shape)
-        displacement += correction_field
-        force += self.search_direction * (extension - correction_field)
-
-    def recover(self, displacement: FloatArray, force: FloatArray) -> dict[str, FloatArray]:
-        """Interior displacements u_E = S_E⁻¹ T_Eᵀ M0 (F + k W) of every substructure."""
-        n_steps = displacement.shape[0]
-        k = self.search_direction
-        g = (force + k * displacement).reshape(n_steps, -1).T * self.m0[:, None]
-        out = {}
-        for s, sub in enumerate(self.assembly.substructures):
-            lo, hi = 2 * self.points.offsets[s], 2 * self.points.offsets[s + 1]
-            u = self.factors[s].solve(np.ascontiguousarray(self.points.traces[s].T @ g[lo:hi]))
-            out[sub.name] = u.T.reshape(n_steps, -1, 2)
-        return out
 
 
 def solve_latin(assembly: Assembly, options: LatinOptions | None = None,

@@ -23,8 +23,9 @@ import numpy as np
 
 from .errors import ModelError
 from .fem.elasticity import FloatArray
-from .latin import LatinOperators, LatinOptions, operator_signature, solve_latin, solve_latin_batch
+from .latin import LatinOptions, solve_latin, solve_latin_batch
 from .model import Model
+from .operators import LatinOperators, operator_signature
 from .parameters import Grid, Mu
 from .result import SolveResult
 
