@@ -141,3 +141,24 @@ def test_loads_as_columns_scale_linearly():
     v = result.qoi["v"]
     assert v[1] == pytest.approx(3 * v[0], rel=1e-8)
     assert v[0] == pytest.approx(ml.Model(spec).reference().qoi["v"][0], rel=1e-6)
+
+
+def test_observer_sees_every_iteration_without_changing_it(b0):
+    """The diagnostic hook (``benchmarks/tail_modes.py``) gets s = (W, F) of each iteration;
+    the indicator computed from what it saw and the run's history agree, and observing does
+    not change the answer."""
+    from multilatin.latin import solve_latin
+
+    assembly = b0.assemble()
+    seen: list[tuple[int, np.ndarray, np.ndarray]] = []
+
+    def record(iteration, active, w, f):
+        assert active.tolist() == [0]
+        seen.append((iteration, w.copy(), f.copy()))
+
+    observed = solve_latin(assembly, observer=record)
+    plain = solve_latin(assembly)
+    assert [s[0] for s in seen] == list(range(1, observed.iterations + 1))
+    np.testing.assert_array_equal(observed.history, plain.history)
+    np.testing.assert_array_equal(seen[-1][1][0], observed.interface.displacement)
+    np.testing.assert_array_equal(seen[-1][2][0], observed.interface.force)

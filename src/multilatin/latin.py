@@ -11,10 +11,11 @@ from __future__ import annotations
 
 import logging
 import time
-from collections.abc import Sequence
+from collections.abc import Callable, Sequence
 from dataclasses import asdict, dataclass
 
 import numpy as np
+import numpy.typing as npt
 from threadpoolctl import threadpool_limits
 
 from . import kernels
@@ -36,6 +37,11 @@ __all__ = ["LatinOperators", "LatinOptions", "operator_signature", "solve_latin"
            "solve_latin_batch"]  # the operators live in ``operators``, imported here too
 
 log = logging.getLogger(__name__)
+
+#: called after every iteration with (iteration, active cases, W, F) of the active cases,
+#: s = (W, F) after relaxation, shapes ``(n_active, n_steps, n_points, 2)``; the arrays are
+#: the solver's own and change in place on the next iteration (copy what you keep)
+IterationObserver = Callable[[int, npt.NDArray[np.int64], FloatArray, FloatArray], None]
 
 
 @dataclass(frozen=True)
@@ -114,7 +120,8 @@ class LatinOptions:
 
 def solve_latin(assembly: Assembly, options: LatinOptions | None = None,
                 operators: LatinOperators | None = None, check: bool = True,
-                initial: tuple[FloatArray, FloatArray] | None = None) -> SolveResult:
+                initial: tuple[FloatArray, FloatArray] | None = None,
+                observer: IterationObserver | None = None) -> SolveResult:
     """Solve ``assembly`` with the micro-macro LATIN method.
 
     operators: reuse the operators of an assembly with the same geometry (checked by
@@ -122,11 +129,13 @@ def solve_latin(assembly: Assembly, options: LatinOptions | None = None,
     initial: start from these interface fields ŝ = (Ŵ, F̂), shapes ``(n_steps, n_points,
         2)`` — typically a neighbouring converged solution (multiresolution, paper §6) —
         beginning with a linear stage; None starts from ŝ = 0.
+    observer: see ``IterationObserver`` (diagnostics, e.g. ``benchmarks/tail_modes.py``).
 
     Raises ``NotConvergedError`` (with the unconverged result attached) when η ≥ tol after
     ``max_iter`` iterations, unless ``check`` is False.
     """
-    return solve_latin_batch([assembly], options, operators, check, [initial])[0]
+    return solve_latin_batch([assembly], options, operators, check, [initial],
+                             observer)[0]
 
 
 def solve_latin_batch(
@@ -135,6 +144,7 @@ def solve_latin_batch(
     operators: LatinOperators | None = None,
     check: bool = True,
     initial: Sequence[tuple[FloatArray, FloatArray] | None] | None = None,
+    observer: IterationObserver | None = None,
 ) -> list[SolveResult]:
     """Solve cases that share their operators (same geometry and search direction; friction
     coefficients, gaps and loads may differ) together, as one batched LATIN iteration
@@ -145,6 +155,7 @@ def solve_latin_batch(
     by few large ones.
 
     initial: per case, the interface fields to start from (see ``solve_latin``) or None.
+    observer: see ``IterationObserver``.
     Results carry the batch's timings (``timings["batch_size"]``).
     """
     if not assemblies:
@@ -190,7 +201,7 @@ def solve_latin_batch(
     # the iteration is many small dense products: BLAS threads cost more than they give
     # (measured 3x slower per iteration with 2 OpenBLAS threads on b1-9)
     with threadpool_limits(limits=1, user_api="blas"):
-        state = _iterate(ops, local, options, w_hat, f_hat)
+        state = _iterate(ops, local, options, w_hat, f_hat, observer)
     t_iter = time.perf_counter() - t1
 
     t2 = time.perf_counter()
@@ -266,7 +277,8 @@ class _IterationState:
 
 
 def _iterate(ops: LatinOperators, local: LocalStage, options: LatinOptions,
-             w_hat: FloatArray, f_hat: FloatArray) -> _IterationState:
+             w_hat: FloatArray, f_hat: FloatArray,
+             observer: IterationObserver | None = None) -> _IterationState:
     """Batched LATIN iterations from ŝ = (``w_hat``, ``f_hat``), shapes ``(n_cases, n_steps,
     n_points, 2)``, each case until its η < tol or the cap."""
     pts = ops.points
@@ -310,6 +322,8 @@ def _iterate(ops: LatinOperators, local: LocalStage, options: LatinOptions,
             omega = relaxation[:, None, None, None]
             w = omega * w_new + (1.0 - omega) * w
             f = omega * f_new + (1.0 - omega) * f
+        if observer is not None:
+            observer(iteration, active, w, f)
         tb = time.perf_counter()
         w_hat, f_hat = local(w, f)
         out.t_local += time.perf_counter() - tb

@@ -1,0 +1,136 @@
+"""Where the slow tail of the LATIN iteration lives: the dominant modes of the fixed point.
+
+    python benchmarks/tail_modes.py [--models b1 b1-4 b1-9] [--window 40] [--modes 3]
+    python benchmarks/tail_modes.py --models b1-9 --point 50 50 --step 13
+
+Near convergence the contact statuses settle and the iteration s ↦ s' (linear stage, then
+relaxation, then local stage) is affine, so the differences d_n = s_{n+1} − s_n of its
+iterates follow d_{n+1} = G d_n. A dynamic-mode decomposition of the last ``--window``
+differences before the default tolerance (in the indicator's norm, ∫ k W·W + k⁻¹ F·F)
+estimates eigenvalues of G (the convergence rate per iteration of the tail) and their
+modes. For each case this prints the eigenvalues of the modes that make up most of the last
+difference and, for the first of them, their share in W and F, the load steps and the
+interface points that carry them. With ``--point X Y --step T``, it also follows the contact
+pair at (X, Y) in step T over the last ``--window`` iterations: ŝ's normal force N and
+|F_T| / μ|N| (1: slip).
+Uses only the solver's own iteration (``solve_latin(observer=...)``) and local stage.
+"""
+
+from __future__ import annotations
+
+import argparse
+
+import numpy as np
+
+import multilatin as ml
+from multilatin.assembly import Assembly
+from multilatin.latin import LatinOperators, solve_latin
+from multilatin.local_stage import LocalStage
+
+CASES = ((0.3, 0.0), (0.1, 0.3))
+
+
+def dominant_modes(states: np.ndarray, rank_tol: float = 1e-6
+                   ) -> tuple[np.ndarray, np.ndarray]:
+    """Eigenvalues and modes (columns) of the linear map that takes each difference of
+    consecutive ``states`` (rows) to the next one (exact DMD), ordered by their share of
+    the last difference (what the iteration is still changing at the end)."""
+    differences = np.diff(states, axis=0).T
+    before, after = differences[:, :-1], differences[:, 1:]
+    u, sigma, vt = np.linalg.svd(before, full_matrices=False)
+    rank = int(np.sum(sigma > rank_tol * sigma[0]))
+    u, sigma, vt = u[:, :rank], sigma[:rank], vt[:rank]
+    reduced = u.T @ after @ vt.T / sigma
+    values, vectors = np.linalg.eig(reduced)
+    modes = after @ vt.T / sigma @ vectors
+    modes /= np.linalg.norm(modes, axis=0)
+    amplitude = np.abs(np.linalg.lstsq(modes, differences[:, -1], rcond=None)[0])
+    order = np.argsort(-amplitude)
+    return values[order], modes[:, order]
+
+
+def follow_pair(assembly: Assembly, operators: LatinOperators, point: list[float],
+                step: int, window: int) -> None:
+    """Print ŝ at the contact pair at ``point`` in ``step`` over the last ``window``
+    iterations (a second solve, the local stage applied to each s)."""
+    points = operators.points
+    side_a, side_b = points.contact_pairs
+    found = np.flatnonzero(np.all(np.isclose(points.coords[side_a], point), axis=1))
+    if not found.size:
+        raise SystemExit(f"--point: no contact pair at {point}")
+    pair = int(found[0])
+    normal = points.normals[side_a[pair]]
+    friction = float(points.contact_friction[pair])
+    local = LocalStage([assembly], [points], operators.search_direction,
+                       macro_only=operators.macro_only)
+    rows: list[tuple[int, float, float]] = []
+
+    def record(iteration: int, active: np.ndarray, w: np.ndarray, f: np.ndarray) -> None:
+        force = local(w.copy(), f.copy())[1][0, step - 1, side_a[pair]]
+        normal_force = float(force @ normal)
+        tangential = float(np.linalg.norm(force - normal_force * normal))
+        rows.append((iteration, normal_force,
+                     tangential / max(friction * abs(normal_force), 1e-300)))
+
+    solve_latin(assembly, operators=operators, observer=record)
+    print(f"  contact pair at ({point[0]:g}, {point[1]:g}), step {step}, μ = {friction:g}:")
+    for iteration, normal_force, ratio in rows[-window::4]:
+        print(f"    iteration {iteration}: N = {normal_force:.3f}, |F_T| / μ|N| = {ratio:.3f}")
+
+
+def main() -> None:
+    parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    parser.add_argument("--models", nargs="+", default=["b1", "b1-4", "b1-9"])
+    parser.add_argument("--window", type=int, default=40)
+    parser.add_argument("--modes", type=int, default=3)
+    parser.add_argument("--point", type=float, nargs=2, help="a contact pair to follow")
+    parser.add_argument("--step", type=int, default=13, help="its load step (from 1)")
+    args = parser.parse_args()
+    options = ml.LatinOptions()
+    for name in args.models:
+        model = ml.load_model(name)
+        for mu1, mu2 in CASES:
+            assembly = model.assemble({"mu1": mu1, "mu2": mu2})
+            operators = LatinOperators(assembly, options)
+            points = operators.points
+            k = operators.search_direction
+            scale_w = np.sqrt(points.weights[:, None] * k)
+            scale_f = np.sqrt(points.weights[:, None] / k)
+            states: list[np.ndarray] = []
+
+            def record(iteration: int, active: np.ndarray, w: np.ndarray, f: np.ndarray,
+                       scale_w: np.ndarray = scale_w, scale_f: np.ndarray = scale_f,
+                       states: list[np.ndarray] = states) -> None:
+                states.append(np.concatenate([(w[0] * scale_w).ravel(),
+                                              (f[0] * scale_f).ravel()]))
+
+            result = solve_latin(assembly, operators=operators, observer=record)
+            window = np.array(states[-args.window - 1:])
+            values, vectors = dominant_modes(window)
+            print(f"\n{name} at (μ1, μ2) = ({mu1:g}, {mu2:g}): {result.iterations} iterations; "
+                  f"eigenvalues (largest share of the last change first): "
+                  + ", ".join(f"{v.real:.3f}" + (f"{v.imag:+.3f}i" if abs(v.imag) > 1e-3
+                                                   else "") for v in values[:6]))
+            n_steps, n_points = assembly.n_steps, points.n_points
+            for j in range(min(args.modes, values.size)):
+                mode = np.abs(vectors[:, j]) ** 2
+                mode /= mode.sum()
+                w_part, f_part = np.split(mode, 2)
+                f_part = f_part.reshape(n_steps, n_points, 2)
+                steps = f_part.sum(axis=(1, 2)) + w_part.reshape(n_steps, -1).sum(axis=1)
+                busiest = np.argsort(-steps)[:3] + 1
+                per_point = f_part.sum(axis=(0, 2)) + w_part.reshape(n_steps, n_points, 2
+                                                                     ).sum(axis=(0, 2))
+                top = np.argsort(-per_point)[:4]
+                where = "; ".join(
+                    f"({points.coords[p][0]:.1f}, {points.coords[p][1]:.1f}) "
+                    f"{assembly.interfaces[points.interface[p]].name} "
+                    f"{per_point[p]:.0%}" for p in top)
+                print(f"  mode {j + 1}, eigenvalue {values[j].real:.3f}: F {f_part.sum():.0%}, "
+                      f"W {w_part.sum():.0%}; steps {', '.join(map(str, busiest))}; {where}")
+            if args.point is not None:
+                follow_pair(assembly, operators, args.point, args.step, args.window)
+
+
+if __name__ == "__main__":
+    main()
