@@ -11,8 +11,8 @@ estimates eigenvalues of G (the convergence rate per iteration of the tail) and 
 modes. For each case this prints the eigenvalues of the modes that make up most of the last
 difference and, for the first of them, their share in W and F, the load steps and the
 interface points that carry them. With ``--point X Y --step T``, it also follows the contact
-pair at (X, Y) in step T over the last ``--window`` iterations: ŝ's normal force N and
-|F_T| / μ|N| (1: slip).
+pair at (X, Y) in step T over the last ``--window`` iterations, in the same solve: ŝ's
+normal force N and |F_T| / μ|N| (1: slip).
 Uses only the solver's own iteration (``solve_latin(observer=...)``) and local stage.
 """
 
@@ -49,33 +49,40 @@ def dominant_modes(states: np.ndarray, rank_tol: float = 1e-6
     return values[order], modes[:, order]
 
 
-def follow_pair(assembly: Assembly, operators: LatinOperators, point: list[float],
-                step: int, window: int) -> None:
-    """Print ŝ at the contact pair at ``point`` in ``step`` over the last ``window``
-    iterations (a second solve, the local stage applied to each s)."""
-    points = operators.points
-    side_a, side_b = points.contact_pairs
-    found = np.flatnonzero(np.all(np.isclose(points.coords[side_a], point), axis=1))
-    if not found.size:
-        raise SystemExit(f"--point: no contact pair at {point}")
-    pair = int(found[0])
-    normal = points.normals[side_a[pair]]
-    friction = float(points.contact_friction[pair])
-    local = LocalStage([assembly], [points], operators.search_direction,
-                       macro_only=operators.macro_only)
-    rows: list[tuple[int, float, float]] = []
+class PairTrace:
+    """ŝ at the contact pair at ``point`` in ``step`` (from 1), iteration after iteration:
+    the local stage applied to each s the solver shows its observer."""
 
-    def record(iteration: int, active: np.ndarray, w: np.ndarray, f: np.ndarray) -> None:
-        force = local(w.copy(), f.copy())[1][0, step - 1, side_a[pair]]
-        normal_force = float(force @ normal)
-        tangential = float(np.linalg.norm(force - normal_force * normal))
-        rows.append((iteration, normal_force,
-                     tangential / max(friction * abs(normal_force), 1e-300)))
+    def __init__(self, assembly: Assembly, operators: LatinOperators, point: list[float],
+                 step: int) -> None:
+        points = operators.points
+        side_a = points.contact_pairs[0]
+        found = np.flatnonzero(np.all(np.isclose(points.coords[side_a], point), axis=1))
+        if not found.size:
+            raise SystemExit(f"--point: no contact pair at {point}")
+        if not 1 <= step <= assembly.n_steps:
+            raise SystemExit(f"--step: expected 1 to {assembly.n_steps}, got {step}")
+        self.point, self.step = point, step
+        self.index = int(side_a[found[0]])
+        self.normal = points.normals[self.index]
+        self.friction = float(points.contact_friction[found[0]])
+        self.local = LocalStage([assembly], [points], operators.search_direction,
+                                macro_only=operators.macro_only)
+        self.rows: list[tuple[int, float, float]] = []
 
-    solve_latin(assembly, operators=operators, observer=record)
-    print(f"  contact pair at ({point[0]:g}, {point[1]:g}), step {step}, μ = {friction:g}:")
-    for iteration, normal_force, ratio in rows[-window::4]:
-        print(f"    iteration {iteration}: N = {normal_force:.3f}, |F_T| / μ|N| = {ratio:.3f}")
+    def __call__(self, iteration: int, w: np.ndarray, f: np.ndarray) -> None:
+        force = self.local(w.copy(), f.copy())[1][0, self.step - 1, self.index]
+        normal_force = float(force @ self.normal)
+        tangential = float(np.linalg.norm(force - normal_force * self.normal))
+        self.rows.append((iteration, normal_force,
+                          tangential / max(self.friction * abs(normal_force), 1e-300)))
+
+    def report(self, window: int) -> None:
+        print(f"  contact pair at ({self.point[0]:g}, {self.point[1]:g}), step {self.step}, "
+              f"μ = {self.friction:g}:")
+        for iteration, normal_force, ratio in self.rows[-window::4]:
+            print(f"    iteration {iteration}: N = {normal_force:.3f}, "
+                  f"|F_T| / μ|N| = {ratio:.3f}")
 
 
 def main() -> None:
@@ -97,12 +104,17 @@ def main() -> None:
             scale_w = np.sqrt(points.weights[:, None] * k)
             scale_f = np.sqrt(points.weights[:, None] / k)
             states: list[np.ndarray] = []
+            trace = (PairTrace(assembly, operators, args.point, args.step)
+                     if args.point is not None else None)
 
             def record(iteration: int, active: np.ndarray, w: np.ndarray, f: np.ndarray,
                        scale_w: np.ndarray = scale_w, scale_f: np.ndarray = scale_f,
-                       states: list[np.ndarray] = states) -> None:
+                       states: list[np.ndarray] = states,
+                       trace: PairTrace | None = trace) -> None:
                 states.append(np.concatenate([(w[0] * scale_w).ravel(),
                                               (f[0] * scale_f).ravel()]))
+                if trace is not None:
+                    trace(iteration, w, f)
 
             result = solve_latin(assembly, operators=operators, observer=record)
             window = np.array(states[-args.window - 1:])
@@ -115,12 +127,10 @@ def main() -> None:
             for j in range(min(args.modes, values.size)):
                 mode = np.abs(vectors[:, j]) ** 2
                 mode /= mode.sum()
-                w_part, f_part = np.split(mode, 2)
-                f_part = f_part.reshape(n_steps, n_points, 2)
-                steps = f_part.sum(axis=(1, 2)) + w_part.reshape(n_steps, -1).sum(axis=1)
-                busiest = np.argsort(-steps)[:3] + 1
-                per_point = f_part.sum(axis=(0, 2)) + w_part.reshape(n_steps, n_points, 2
-                                                                     ).sum(axis=(0, 2))
+                w_part, f_part = (part.reshape(n_steps, n_points, 2)
+                                  for part in np.split(mode, 2))
+                busiest = np.argsort(-(w_part + f_part).sum(axis=(1, 2)))[:3] + 1
+                per_point = (w_part + f_part).sum(axis=(0, 2))
                 top = np.argsort(-per_point)[:4]
                 where = "; ".join(
                     f"({points.coords[p][0]:.1f}, {points.coords[p][1]:.1f}) "
@@ -128,8 +138,8 @@ def main() -> None:
                     f"{per_point[p]:.0%}" for p in top)
                 print(f"  mode {j + 1}, eigenvalue {values[j].real:.3f}: F {f_part.sum():.0%}, "
                       f"W {w_part.sum():.0%}; steps {', '.join(map(str, busiest))}; {where}")
-            if args.point is not None:
-                follow_pair(assembly, operators, args.point, args.step, args.window)
+            if trace is not None:
+                trace.report(args.window)
 
 
 if __name__ == "__main__":

@@ -15,7 +15,6 @@ from collections.abc import Callable, Sequence
 from dataclasses import asdict, dataclass
 
 import numpy as np
-import numpy.typing as npt
 from threadpoolctl import threadpool_limits
 
 from . import kernels
@@ -41,7 +40,7 @@ log = logging.getLogger(__name__)
 #: called after every iteration with (iteration, active cases, W, F) of the active cases,
 #: s = (W, F) after relaxation, shapes ``(n_active, n_steps, n_points, 2)``; the arrays are
 #: the solver's own and change in place on the next iteration (copy what you keep)
-IterationObserver = Callable[[int, npt.NDArray[np.int64], FloatArray, FloatArray], None]
+IterationObserver = Callable[[int, IntArray, FloatArray, FloatArray], None]
 
 
 @dataclass(frozen=True)
