@@ -103,7 +103,7 @@ def test_cli_reports_bad_input_with_exit_status_2(capsys, tmp_path):
     assert main(["solve", str(bad)]) == 2
     assert "materials.steel.E: Young's modulus must be > 0, got -1" in capsys.readouterr().err
     assert main(["solve", "b0", "--kappa", "-1"]) == 2
-    assert "kappa: the search direction must be > 0, got -1.0" in capsys.readouterr().err
+    assert "kappa: the search direction k = κ E / L needs κ in [0.001, 1000]" in capsys.readouterr().err
 
 
 CONTACT = {

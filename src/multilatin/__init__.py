@@ -14,9 +14,11 @@ from .parameters import Grid, Mu, Parameter, Parameters, ParameterSpace
 from .result import SolveResult
 from .runner import StudyResult, run_study
 from .spec import ModelSpec
+from .uniqueness import FreeMotion
 
 __version__ = "0.1.0"
 __all__ = [
+    "FreeMotion",
     "Grid",
     "LatinOperators",
     "LatinOptions",

@@ -15,7 +15,9 @@ import sys
 from pathlib import Path
 
 from .errors import ModelError, NotConvergedError
+from .files import ensure_writable_folder
 from .latin import LatinOptions
+from .limits import MEMORY_ENVIRONMENT
 from .model import REFERENCE_MESHES, Model, bundled_models, load_model
 from .output import write_result
 from .parameters import parse_assignments
@@ -50,6 +52,14 @@ def _add_model_arguments(parser: argparse.ArgumentParser) -> None:
     parser.add_argument("--json", action="store_true",
                         help="print one JSON object on standard output")
     parser.add_argument("--out", type=Path, help="write VTK fields, tables and plots here")
+    _add_memory_argument(parser)
+
+
+def _add_memory_argument(parser: argparse.ArgumentParser, default: object = argparse.SUPPRESS
+                         ) -> None:
+    parser.add_argument("--max-memory-gb", type=float, default=default, metavar="GB",
+                        help="refuse models and studies estimated to need more memory "
+                        "(default: 80%% of the memory available; or MULTILATIN_MAX_MEMORY_GB)")
 
 
 def _add_latin_arguments(parser: argparse.ArgumentParser) -> None:
@@ -71,6 +81,7 @@ def build_parser() -> argparse.ArgumentParser:
         "micro-macro LATIN method.",
     )
     parser.add_argument("-v", "--verbose", action="count", default=0)
+    _add_memory_argument(parser, default=None)
     sub = parser.add_subparsers(dest="command", required=True)
     solve = sub.add_parser("solve", help="solve a model with the LATIN micro-macro solver")
     _add_model_arguments(solve)
@@ -111,6 +122,7 @@ def build_parser() -> argparse.ArgumentParser:
                        help="multiresolution: solve up to N cases of a grid line together, "
                             "each from its nearest converged neighbour (1: one by one)")
     study.add_argument("--no-progress", action="store_true", help="no progress bar")
+    _add_memory_argument(study)
     _add_latin_arguments(study)
     sub.add_parser("models", help="list the bundled models")
     show = sub.add_parser("show", help="describe a model: parameters, substructures, QoIs")
@@ -132,13 +144,16 @@ def _report(result: SolveResult, args: argparse.Namespace,
             data["reference"] = {"qoi": reference.qoi, "wall_s": reference.wall_s}
         print(json.dumps(data))
         return
-    status = "converged" if result.converged else "NOT CONVERGED"
+    status = "converged" if result.converged else f"NOT CONVERGED ({result.failure})"
     print(f"{result.assembly.name} ({result.method}): {status}, {result.iterations} iterations, "
           f"indicator {result.indicator:.2e}, {result.wall_s:.3f} s")
     print("parameters: " + ", ".join(f"{k} = {v:g}" for k, v in result.assembly.mu.items()))
     if not result.converged:
         print("  (quantities of interest withheld: the iteration did not converge)")
         return
+    for motion in result.free_motions:
+        if motion.reaches_last_step:
+            print(f"  NOT UNIQUE: {motion.describe()}")
     for label, res in [("", result)] + ([("reference ", reference)] if reference else []):
         for name, value in res.qoi.items():
             if isinstance(value, list):
@@ -215,6 +230,8 @@ def main(argv: list[str] | None = None) -> int:
     level = logging.WARNING - 10 * args.verbose
     logging.basicConfig(level=level, format="%(levelname)s %(name)s: %(message)s",
                         stream=sys.stderr)
+    if args.max_memory_gb is not None:
+        os.environ[MEMORY_ENVIRONMENT] = repr(args.max_memory_gb)
     try:
         if args.command == "models":
             for name in bundled_models():
@@ -228,6 +245,8 @@ def main(argv: list[str] | None = None) -> int:
             return 0
         mu = model.parameters.parse(parse_assignments(args.assignments))
         split = _parse_split(args.split)
+        if args.out is not None:
+            ensure_writable_folder(args.out)
         if args.command == "reference":
             try:
                 monolithic = model.reference(mu, refine=args.refine, split=split,

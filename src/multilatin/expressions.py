@@ -33,6 +33,7 @@ _FUNCTIONS: dict[str, Callable[..., float]] = {
     "max": max,
 }
 _CONSTANTS = {"pi": math.pi}
+MAX_EXPRESSION_LENGTH = 1000
 
 
 def names_in(expression: str) -> set[str]:
@@ -43,18 +44,25 @@ def names_in(expression: str) -> set[str]:
     return {n.id for n in ast.walk(tree) if isinstance(n, ast.Name)} - called - set(_CONSTANTS)
 
 
-def evaluate(value: object, parameters: Mapping[str, float], field: str) -> float:
-    """A float from a number or an expression string; errors name ``field``."""
+def evaluate(value: object, parameters: Mapping[str, float], field: str,
+             infinite: bool = False) -> float:
+    """A finite float from a number or an expression string; errors name ``field``.
+    ``infinite``: ±inf is accepted too (a parameter's unbounded range)."""
     if isinstance(value, bool):
         raise ModelError(f"{field}: expected a number, got {value!r}")
     if isinstance(value, (int, float)):
-        return float(value)
+        return _finite(float(value), value, field, infinite)
     if not isinstance(value, str):
         raise ModelError(f"{field}: expected a number or an expression, got {value!r}")
+    if len(value) > MAX_EXPRESSION_LENGTH:
+        raise ModelError(f"{field}: expression of {len(value)} characters (at most "
+                         f"{MAX_EXPRESSION_LENGTH})")
     try:
         tree = ast.parse(value, mode="eval")
     except SyntaxError as exc:
         raise ModelError(f"{field}: cannot parse expression {value!r}: {exc.msg}") from None
+    except (RecursionError, MemoryError):
+        raise ModelError(f"{field}: expression {value[:40]!r}... is nested too deeply") from None
 
     def walk(node: ast.AST) -> float:
         if isinstance(node, ast.Expression):
@@ -82,6 +90,20 @@ def evaluate(value: object, parameters: Mapping[str, float], field: str) -> floa
         raise ModelError(f"{field}: expression {value!r} contains a disallowed construct")
 
     try:
-        return walk(tree)
+        result = walk(tree)
     except ZeroDivisionError:
         raise ModelError(f"{field}: expression {value!r} divides by zero") from None
+    except OverflowError:
+        raise ModelError(f"{field}: expression {value!r} overflows (beyond ±1.8e308)") from None
+    except (ValueError, TypeError) as exc:  # sqrt(-1), min() of nothing, a complex power
+        raise ModelError(f"{field}: expression {value!r} cannot be evaluated: {exc}") from None
+    except RecursionError:
+        raise ModelError(f"{field}: expression {value[:40]!r}... is nested too deeply") from None
+    return _finite(result, value, field, infinite)
+
+
+def _finite(result: float, value: object, field: str, infinite: bool = False) -> float:
+    if isinstance(result, complex) or math.isnan(result) or (
+            math.isinf(result) and not infinite):
+        raise ModelError(f"{field}: {value!r} is not a finite number (gives {result})")
+    return float(result)

@@ -31,11 +31,19 @@ from .local_stage import LocalStage
 from .operators import LatinOperators, operator_signature
 from .qoi import ContactPressures, evaluate_qois
 from .result import InterfaceFields, SolveResult
+from .uniqueness import free_motions
 
 __all__ = ["LatinOperators", "LatinOptions", "operator_signature", "solve_latin",
            "solve_latin_batch"]  # the operators live in ``operators``, imported here too
 
 log = logging.getLogger(__name__)
+
+#: admissible κ: beyond, k is so far from the stiffness that the linear stage loses the
+#: digits the answer needs (and the macro problem turns singular in floating point)
+KAPPA_RANGE = (1e-3, 1e3)
+#: the indicator's norm squares fields scaled by √k and 1/√k: data whose scaled size leaves
+#: this window would overflow or underflow in double precision
+SCALE_RANGE = (1e-120, 1e120)
 
 #: called after every iteration with (iteration, active cases, W, F) of the active cases,
 #: s = (W, F) after relaxation, shapes ``(n_active, n_steps, n_points, 2)``; the arrays are
@@ -86,10 +94,12 @@ class LatinOptions:
     stagnation_ratio: float = 0.7
 
     def __post_init__(self) -> None:
-        if not self.kappa > 0:
-            raise ModelError(f"kappa: the search direction must be > 0, got {self.kappa!r}")
-        if not self.tol > 0:
-            raise ModelError(f"tol: must be > 0, got {self.tol!r}")
+        if not KAPPA_RANGE[0] <= self.kappa <= KAPPA_RANGE[1]:
+            raise ModelError(f"kappa: the search direction k = κ E / L needs κ in "
+                             f"[{KAPPA_RANGE[0]:g}, {KAPPA_RANGE[1]:g}] (useful: 0.1 to 2), "
+                             f"got {self.kappa!r}")
+        if not 0 < self.tol < 1:
+            raise ModelError(f"tol: must lie in (0, 1), got {self.tol!r}")
         if self.max_iter < 1:
             raise ModelError(f"max_iter: must be >= 1, got {self.max_iter!r}")
         if not 0 < self.relaxation <= 1:
@@ -195,17 +205,21 @@ def solve_latin_batch(
         w_hat[c], f_hat[c] = start
     local = LocalStage(assemblies, points, ops.search_direction,
                        macro_only=ops.macro_only)
+    _check_scale(assemblies, points[0], ops.search_direction, local)
 
     t1 = time.perf_counter()
     # the iteration is many small dense products: BLAS threads cost more than they give
     # (measured 3x slower per iteration with 2 OpenBLAS threads on b1-9)
-    with threadpool_limits(limits=1, user_api="blas"):
+    # overflow and NaN are detected in η and end the case as a failure (``_outcome``)
+    with threadpool_limits(limits=1, user_api="blas"), np.errstate(over="ignore",
+                                                                    invalid="ignore"):
         state = _iterate(ops, local, options, w_hat, f_hat, observer)
     t_iter = time.perf_counter() - t1
 
     t2 = time.perf_counter()
-    displacements = ops.recover(state.w.reshape(-1, *shape[1:]),
-                                state.f.reshape(-1, *shape[1:]))
+    with np.errstate(over="ignore", invalid="ignore"):  # a failed case may hold inf / NaN
+        displacements = ops.recover(state.w.reshape(-1, *shape[1:]),
+                                    state.f.reshape(-1, *shape[1:]))
     results = []
     for c, (assembly, pts) in enumerate(zip(assemblies, points, strict=True)):
         history = np.array(state.histories[c])
@@ -219,10 +233,13 @@ def solve_latin_batch(
             pressure=-np.sum(state.f_hat[c][:, a] * pts.normals[a], axis=2),
         )
         qoi = evaluate_qois(assembly, fields, reactions, pressures)
+        converged, failure = _outcome(history, qoi, options)
+        motions = (tuple(free_motions(assembly, pts, state.w_hat[c], state.f_hat[c]))
+                   if converged else ())
         results.append(SolveResult(
             method="latin",
             assembly=assembly,
-            converged=bool(history[-1] < options.tol),
+            converged=converged,
             iterations=history.size,
             indicator=float(history[-1]),
             history=history,
@@ -233,6 +250,8 @@ def solve_latin_batch(
             interface=InterfaceFields(pts.coords, pts.weights, pts.interface, pts.substructure,
                                       state.w[c], state.f[c], state.w_hat[c], state.f_hat[c]),
             options=asdict(options),
+            free_motions=motions,
+            failure=failure,
         ))
     t_post = time.perf_counter() - t2
     timings = {
@@ -252,13 +271,31 @@ def solve_latin_batch(
                  "converged" if result.converged else "NOT converged", result.iterations,
                  result.indicator, timings["total"],
                  f" (batch of {n_cases})" if n_cases > 1 else "")
+        for motion in result.free_motions:
+            if motion.reaches_last_step:
+                log.info("%s: not unique: %s", result.assembly.name, motion.describe())
     if check:
         for result in results:
             if not result.converged:
-                raise NotConvergedError(
-                    f"LATIN did not converge: eta = {result.indicator:.3e} >= tol = "
-                    f"{options.tol:g} after {result.iterations} iterations (max_iter)", result)
+                raise NotConvergedError(f"LATIN did not converge: {result.failure}", result)
     return results
+
+
+def _outcome(history: FloatArray, qoi: dict[str, float | list[float]],
+             options: LatinOptions) -> tuple[bool, str]:
+    """Converged or not, and why not: the cap reached, or non-finite fields (an overflow or
+    a NaN is a failure, never an answer)."""
+    eta = float(history[-1])
+    if not np.isfinite(eta):
+        return False, (f"non-finite fields (overflow or NaN) at iteration {history.size}: the "
+                       "data's scale is beyond double precision, or the problem is singular")
+    if not all(np.all(np.isfinite(value)) for value in qoi.values()):
+        bad = [name for name, value in qoi.items() if not np.all(np.isfinite(value))]
+        return False, f"non-finite quantities of interest ({', '.join(bad)})"
+    if eta >= options.tol:
+        return False, (f"eta = {eta:.3e} >= tol = {options.tol:g} after {history.size} "
+                       "iterations (max_iter)")
+    return True, ""
 
 
 @dataclass
@@ -337,7 +374,10 @@ def _iterate(ops: LatinOperators, local: LocalStage, options: LatinOptions,
             gap = _norms(displacement_weight, force_weight, w - w_hat, f - f_hat)
             size = 0.5 * (_norms(displacement_weight, force_weight, w, f)
                           + _norms(displacement_weight, force_weight, w_hat, f_hat))
-        eta = np.divide(gap, size, out=np.zeros_like(gap), where=size > 0)
+        # η = 0 only for a zero solution (no load): a NaN or overflowed norm stays NaN
+        eta = np.where(size > 0, gap / np.where(size > 0, size, 1.0),
+                       np.where(gap == 0, 0.0, np.nan))
+        eta = np.where(np.isfinite(gap) & np.isfinite(size), eta, np.nan)
         for c, value in zip(active, eta, strict=True):
             out.histories[c].append(float(value))
         if iteration % 50 == 0:
@@ -345,7 +385,8 @@ def _iterate(ops: LatinOperators, local: LocalStage, options: LatinOptions,
                       active.size)
         if iteration % options.stagnation_window == 0 and mixer is None:
             _damp_stagnating(out.histories, active, relaxation, options)
-        done = eta < options.tol if iteration < options.max_iter else np.ones_like(eta, bool)
+        done = ((eta < options.tol) | ~np.isfinite(eta) if iteration < options.max_iter
+                else np.ones_like(eta, bool))
         if done.any():
             leaving = active[done]
             out.w[leaving], out.f[leaving] = w[done], f[done]
@@ -360,6 +401,47 @@ def _iterate(ops: LatinOperators, local: LocalStage, options: LatinOptions,
             if mixer is not None:
                 mixer.subset(keep)
     return out
+
+
+def _check_scale(assemblies: Sequence[Assembly], points: InterfacePoints, k: FloatArray,
+                 local: LocalStage) -> None:
+    """Refuse, before iterating, data whose size the solver cannot represent: the indicator
+    squares F/√k and W√k (paper §4.3), so prescribed forces, displacements and gaps scaled
+    so, and k itself, must stay inside ``SCALE_RANGE``."""
+    k_min, k_max = float(k.min()), float(k.max())
+    young = [s.material.young for a in assemblies for s in a.substructures]
+    if not SCALE_RANGE[0] <= k_min <= k_max <= SCALE_RANGE[1]:
+        raise ModelError(
+            f"the search direction k = κ E / L runs from {k_min:.3g} to {k_max:.3g} (E from "
+            f"{min(young):.3g} to {max(young):.3g}): beyond what double precision represents "
+            f"(k must stay within [{SCALE_RANGE[0]:g}, {SCALE_RANGE[1]:g}]); rescale the "
+            "units of the model (e.g. mm, N, MPa)")
+    root_w = np.sqrt(points.weights)
+    root_k = np.sqrt(k)
+    sizes: list[tuple[float, str]] = []
+    boundary = local.boundary
+    if boundary.size:
+        scaled = np.where(local.is_displacement, root_k[boundary] * root_w[boundary, None],
+                          root_w[boundary, None] / root_k[boundary])
+        values = np.abs(local.prescribed) * scaled
+        at = np.unravel_index(int(np.argmax(values)), values.shape)
+        point = int(boundary[at[2]])
+        itf = assemblies[int(at[0])].interfaces[int(points.interface[point])]
+        kind = "displacement" if local.is_displacement[at[2], at[3]] else "force"
+        sizes.append((float(values.max()), f"prescribed {kind} {local.prescribed[at]:.3g} on "
+                                           f"boundary {itf.name!r}"))
+    for gaps, where in ((local.gap_contact, points.contact_pairs[0]),
+                        (local.gap_stop, points.stops)):
+        if gaps.size:
+            scaled_gap = np.abs(gaps) * (root_k[where].max(axis=1) * root_w[where])
+            sizes.append((float(scaled_gap.max()), f"a gap of {float(np.abs(gaps).max()):.3g}"))
+    for size, what in sizes:
+        if size > SCALE_RANGE[1] or 0 < size < SCALE_RANGE[0]:
+            raise ModelError(
+                f"{what}: with the search direction k from {k_min:.3g} to {k_max:.3g} the "
+                f"solver's norms would {'overflow' if size > 1 else 'underflow'} in double "
+                f"precision (scaled size {size:.3g} outside [{SCALE_RANGE[0]:g}, "
+                f"{SCALE_RANGE[1]:g}]); rescale the units of the model (e.g. mm, N, MPa)")
 
 
 def _damp_stagnating(histories: list[list[float]], active: IntArray, relaxation: FloatArray,

@@ -20,7 +20,7 @@ import scipy.sparse.linalg as spla
 
 from .assembly import DISPLACEMENT, Assembly
 from .contact_newton import contact_set, solve_contact_history, tangents
-from .errors import ModelError
+from .errors import ModelError, NotConvergedError
 from .fem.elasticity import FloatArray, IntArray
 from .interfaces import discretise_side
 from .qoi import ContactPressures, evaluate_qois
@@ -120,6 +120,9 @@ def solve_monolithic(assembly: Assembly) -> SolveResult:
         u, contact_force, multipliers, iterations = solve_contact_history(
             stiffness, load, u, free, contacts, young)
 
+    if not (np.all(np.isfinite(u)) and np.all(np.isfinite(contact_force))):
+        raise NotConvergedError("reference: non-finite displacements or forces (overflow or "
+                                "NaN): the data's scale is beyond double precision", None)
     reaction_field = stiffness @ u - load - contact_force  # support reactions at fixed dofs
     reactions: dict[str, FloatArray] = {}
     for name, mine in own_load.items():

@@ -13,6 +13,7 @@ import meshio
 import numpy as np
 
 from .fem.elasticity import cell_stresses, von_mises
+from .files import ensure_writable_folder
 from .plots import plot_deformed, plot_histories
 from .result import SolveResult
 
@@ -94,12 +95,20 @@ def plot_convergence(results: dict[str, SolveResult], path: Path, tol: float | N
 
 def write_result(result: SolveResult, folder: Path) -> list[Path]:
     """``result.json``, ``qoi.csv`` (a row per load step), VTK files, and for LATIN the
-    convergence plot."""
-    folder.mkdir(parents=True, exist_ok=True)
+    convergence plot. A result that did not converge gets ``result.json`` (QoIs null,
+    ``converged`` false, ``failure``) and the convergence plot only."""
+    ensure_writable_folder(folder)
     written = []
     js = folder / "result.json"
     js.write_text(json.dumps(result.to_json_dict(), indent=2), encoding="utf-8")
     written.append(js)
+    if not result.converged:  # no answer: the diagnosis only, no fields or QoI tables
+        if result.method == "latin":
+            written.append(plot_convergence({result.assembly.name: result},
+                                            folder / "convergence.png", result.options.get("tol")))
+        log.warning("%s: not converged (%s): wrote %s only", folder, result.failure,
+                    ", ".join(p.name for p in written))
+        return written
     table = folder / "qoi.csv"
     with table.open("w", newline="", encoding="utf-8") as fh:
         writer = csv.writer(fh)

@@ -14,6 +14,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from .errors import ModelError
+from .limits import check_grid_count
 
 
 @dataclass(frozen=True)
@@ -204,6 +205,7 @@ def _parse_values(item: str, text: str) -> tuple[float, ...]:
                          "a comma-separated list of numbers, or one number") from None
     if count < 1:
         raise ModelError(f"--grid {item!r}: empty grid (count {count})")
+    check_grid_count(item, count)
     if count == 1 and start != stop:
         raise ModelError(f"--grid {item!r}: one value cannot span {start}:{stop}")
     return tuple(float(v) for v in np.round(np.linspace(start, stop, count), 12))

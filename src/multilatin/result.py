@@ -45,10 +45,21 @@ class SolveResult:
     qoi: dict[str, float | list[float]]
     interface: InterfaceFields | None = None
     options: dict[str, Any] = field(default_factory=dict)
+    #: rigid motions that change no force in the converged state (``multilatin.uniqueness``)
+    free_motions: tuple[Any, ...] = ()
+    #: why the solve failed, when it did ("" when converged)
+    failure: str = ""
 
     @property
     def wall_s(self) -> float:
         return self.timings.get("total", float("nan"))
+
+    @property
+    def unique(self) -> bool:
+        """False when the discrete problem does not determine the last step's answer (a free
+        rigid motion at the friction limit, ``multilatin.uniqueness``): another solver, or
+        this one from another start, may return another answer."""
+        return not any(m.reaches_last_step for m in self.free_motions)
 
     def to_json_dict(self) -> dict[str, Any]:
         """The command-line JSON contract: converged, iterations, indicator, wall_s, qoi, …"""
@@ -57,14 +68,24 @@ class SolveResult:
             "method": self.method,
             "params": dict(self.assembly.mu),
             "converged": self.converged,
+            "failure": self.failure,
+            "unique": self.unique,
+            "free_motions": [m.describe() for m in self.free_motions],
             "iterations": self.iterations,
-            "indicator": self.indicator,
+            "indicator": _finite_or_none(self.indicator),
             "wall_s": self.wall_s,
-            "qoi": self.qoi,
+            # no answer from a failed solve: the QoIs are withheld (null)
+            "qoi": self.qoi if self.converged else {name: None for name in self.qoi},
             "n_steps": self.assembly.n_steps,
             "n_substructures": len(self.assembly.substructures),
             "n_dofs": self.assembly.n_dofs,
             "timings": self.timings,
-            "history": [float(v) for v in self.history],
+            "history": [_finite_or_none(v) for v in self.history],
             "options": self.options,
         }
+
+
+def _finite_or_none(value: float) -> float | None:
+    """JSON has no NaN or infinity: null instead."""
+    value = float(value)
+    return value if np.isfinite(value) else None

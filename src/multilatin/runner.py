@@ -7,6 +7,7 @@ import logging
 import sys
 import tempfile
 import time
+import warnings
 from collections.abc import Callable, Sequence
 from dataclasses import asdict, dataclass, replace
 from hashlib import sha1
@@ -16,14 +17,18 @@ from typing import Any
 import xarray as xr
 
 from . import kernels
-from .errors import ModelError
+from .errors import ModelError, NotConvergedError
 from .latin import LatinOptions, solve_latin
+from .limits import check_study
 from .model import Model
 from .parameters import Grid
 from .store import StudyStore
 from .study import MODES, Case, ChainState, StudyPlan, plan_study, run_chain_step
 
 log = logging.getLogger(__name__)
+
+#: seconds to reach a Dask scheduler given by address before giving up
+SCHEDULER_TIMEOUT_S = 10.0
 
 
 @dataclass(frozen=True)
@@ -35,6 +40,12 @@ class StudyResult:
     records: list[dict[str, Any]]
     elapsed_s: dict[str, float]  # per mode: the study's wall time (summed over resumptions)
     folder: Path | None
+    repairs: tuple[str, ...] = ()  # what resuming repaired in the folder (``StudyStore``)
+
+    @property
+    def failed(self) -> list[dict[str, Any]]:
+        """The records of the cases that did not converge (their QoIs are no answer)."""
+        return [r for r in self.records if not r["converged"]]
 
     @property
     def main_mode(self) -> str:
@@ -48,19 +59,28 @@ class StudyResult:
     def gains(self) -> dict[str, float] | None:
         """Both modes run: the gain (Σ cold times / the multiresolution study's time), the
         paper's gain (cases × the first cold time / the study's time) and the gain of the
-        warm starts alone (iteration times only, operators set aside)."""
-        cold, warm = self.mode_records("cold"), self.mode_records("multiresolution")
-        if not cold or not warm or len(cold) != len(warm):
+        warm starts alone (iteration times only, operators set aside). Cases that did not
+        converge in either mode are left out of every sum (the study's time loses their
+        share); ``gain_cases`` says over how many cases the gains stand."""
+        cold = {r["number"]: r for r in self.mode_records("cold")}
+        warm = {r["number"]: r for r in self.mode_records("multiresolution")}
+        if not cold or not warm or set(cold) != set(warm):
             return None
-        study_time = self.elapsed_s["multiresolution"]
-        first_cold = cold[0]["wall_s"]
+        kept = [n for n in sorted(cold) if cold[n]["converged"] and warm[n]["converged"]]
+        if not kept:
+            return None
+        warm_total = sum(r["wall_s"] for r in warm.values())
+        study_time = self.elapsed_s["multiresolution"] * (
+            sum(warm[n]["wall_s"] for n in kept) / warm_total if warm_total > 0 else 1.0)
+        first_cold = cold[min(cold)]["wall_s"]
         return {
-            "gain": sum(r["wall_s"] for r in cold) / study_time,
-            "paper_gain": len(cold) * first_cold / study_time,
-            "warm_start_gain": (sum(r["wall_s"] - r["setup_s"] for r in cold)
-                                / sum(r["wall_s"] - r["setup_s"] for r in warm)),
-            "iterations_ratio": (sum(r["iterations"] for r in cold)
-                                 / sum(r["iterations"] for r in warm)),
+            "gain": sum(cold[n]["wall_s"] for n in kept) / study_time,
+            "paper_gain": len(kept) * first_cold / study_time,
+            "warm_start_gain": (sum(cold[n]["wall_s"] - cold[n]["setup_s"] for n in kept)
+                                / sum(warm[n]["wall_s"] - warm[n]["setup_s"] for n in kept)),
+            "iterations_ratio": (sum(cold[n]["iterations"] for n in kept)
+                                 / sum(warm[n]["iterations"] for n in kept)),
+            "gain_cases": float(len(kept)),
         }
 
     def to_json_dict(self) -> dict[str, Any]:
@@ -74,6 +94,9 @@ class StudyResult:
             "peak_rss_mb": max((r.get("peak_rss_mb", float("nan")) for r in self.records),
                                default=float("nan")),
             "converged": all(r["converged"] for r in self.records),
+            "not_converged": len(self.failed),
+            "not_unique": sum(not r.get("unique", True) for r in self.records),
+            "repairs": list(self.repairs),
             "store": str(self.folder) if self.folder else None,
         }
         if main == "multiresolution" and self.mode_records("cold"):
@@ -84,8 +107,12 @@ class StudyResult:
 
 
 def _case_json(record: dict[str, Any]) -> dict[str, Any]:
-    return {key: record[key] for key in ("params", "iterations", "wall_s", "converged", "qoi",
-                                          "setup_s", "start")}
+    out = {key: record[key] for key in ("params", "iterations", "wall_s", "converged", "qoi",
+                                         "setup_s", "start")}
+    out["unique"] = record.get("unique", True)
+    if not record["converged"]:  # no answer: masked, as in study.nc
+        out["qoi"] = {name: None for name in record["qoi"]}
+    return out
 
 
 def run_study(
@@ -102,6 +129,7 @@ def run_study(
     progress: bool = True,
     command: str = "",
     on_case: Callable[[dict[str, Any]], None] | None = None,
+    on_failure: str = "warn",
 ) -> StudyResult:
     """Run (or resume) a study of ``model`` over ``grid``.
 
@@ -114,6 +142,10 @@ def run_study(
         case after case.
     workers / scheduler: run the chains' cases as tasks on a local Dask cluster of
         ``workers`` processes, or on the cluster at ``scheduler``; 0 and None: serial.
+    on_failure: when cases did not converge (recorded, QoIs NaN in ``dataset``, left out of
+        ``gains``): ``"warn"`` (a ``RuntimeWarning`` naming them), ``"raise"``
+        (``NotConvergedError`` once the study is written, the result attached) or
+        ``"ignore"``.
     """
     options = options or LatinOptions()
     for mode in modes:
@@ -123,19 +155,22 @@ def run_study(
         raise ModelError(f"--workers: must be >= 0, got {workers}")
     if batch < 1:
         raise ModelError(f"--batch: must be >= 1, got {batch}")
+    if on_failure not in ("warn", "raise", "ignore"):
+        raise ModelError(f"on_failure: expected 'warn', 'raise' or 'ignore', got {on_failure!r}")
     n_chains = chains if chains is not None else max(workers, 1)
+    check_study(grid.size, len(modes))
     plan = plan_study(model, grid, options, n_chains)
     identity = {
         "model": model.name,
         "model_sha1": sha1(json.dumps(model.spec.data, sort_keys=True, default=str)
                            .encode()).hexdigest(),
         "defaults": dict(model.parameters.defaults()),
-        "grid": {name: list(grid[name]) for name in grid},
+        "grid": [[name, list(grid[name])] for name in grid],  # in order: it sets the traversal
         "options": asdict(options),
         "chains": len(plan.chains),
     }
     folder = Path(out) if out is not None else Path(tempfile.mkdtemp(prefix="multilatin-"))
-    store = StudyStore(folder, identity)
+    store = StudyStore(folder, identity, record_fits=_record_fits(plan, model))
     attrs = {"model": model.name, "title": model.title, "command": command,
              "tolerance": options.tol, "chains": len(plan.chains),
              "geometric_parameters": list(plan.geometric)}
@@ -154,18 +189,21 @@ def run_study(
             bar = _progress_bar(plan.size, plan.size - len(pending), mode, progress)
             start = time.perf_counter()
 
-            def finished(record: dict[str, Any], state: ChainState | None,
+            def finished(records: list[dict[str, Any]], state: ChainState | None,
                          start: float = start, previous: float = previous,
                          bar: Any = bar) -> None:
-                record["elapsed_s"] = previous + time.perf_counter() - start
-                store.add(record, state)
+                elapsed_now = previous + time.perf_counter() - start
+                for record in records:
+                    record["elapsed_s"] = elapsed_now
+                store.add_batch(records, state)
                 store.maybe_write_dataset(grid, attrs)
                 if bar is not None:
                     bar.set_postfix_str(", ".join(f"{k}={v:g}" for k, v in
-                                                  record["params"].items()))
-                    bar.update(1)
+                                                  records[-1]["params"].items()))
+                    bar.update(len(records))
                 if on_case is not None:
-                    on_case(record)
+                    for record in records:
+                        on_case(record)
 
             runner(model, grid, plan, mode, options, store, finished, batch, workers,
                    scheduler)
@@ -176,7 +214,32 @@ def run_study(
         dataset = store.write_dataset(grid, {**attrs, "elapsed_s": elapsed})
     finally:
         store.close()
-    return StudyResult(plan, dataset, records, elapsed, folder)
+    result = StudyResult(plan, dataset, records, elapsed, folder, tuple(store.repairs))
+    failed = result.failed
+    if failed and on_failure != "ignore":
+        message = (f"{len(failed)} of {len(records)} case(s) did not converge (converged = "
+                   "False; their QoIs are NaN in the dataset and left out of the gains): "
+                   + "; ".join(r["log"] for r in failed[:3]) + ("; ..." if len(failed) > 3
+                                                                 else ""))
+        if on_failure == "raise":
+            raise NotConvergedError(message, result)
+        warnings.warn(message, RuntimeWarning, stacklevel=2)
+    return result
+
+
+def _record_fits(plan: StudyPlan, model: Model) -> Callable[[dict[str, Any]], bool]:
+    """Whether a journal record is a case of ``plan`` (number, grid index and parameters)."""
+    by_number = {case.number: case for case in plan.cases}
+
+    def fits(record: dict[str, Any]) -> bool:
+        try:
+            case = by_number[int(record["number"])]
+            return (record["mode"] in MODES and list(case.index) == list(record["index"])
+                    and all(abs(case.mu[k] - float(v)) <= 1e-12 * max(1.0, abs(v))
+                            for k, v in record["params"].items()))
+        except (KeyError, TypeError, ValueError):
+            return False
+    return fits
 
 
 def _load_kernels(model: Model, case: Case, options: LatinOptions) -> None:
@@ -215,25 +278,18 @@ def _pending_batches(plan: StudyPlan, chain: tuple[Case, ...], mode: str, store:
     return [batch for batch in batches if batch]
 
 
-def _finish_batch(records: list[dict[str, Any]], state: ChainState | None,
-                  finished: Callable[[dict[str, Any], ChainState | None], None]) -> None:
-    # the chain's state (it holds the whole batch) is written with the first record
-    for n, record in enumerate(records):
-        finished(record, state if n == 0 else None)
-
-
 def _run_serial(model: Model, grid: Grid, plan: StudyPlan, mode: str, options: LatinOptions,
-                store: StudyStore, finished: Callable[[dict[str, Any], ChainState | None], None],
+                store: StudyStore, finished: Callable[[list[dict[str, Any]], ChainState | None], None],
                 batch: int, workers: int, scheduler: str | None) -> None:
     for chain_number, chain in enumerate(plan.chains):
         state = store.chain_state(mode, chain_number) if mode != "cold" else None
         for cases in _pending_batches(plan, chain, mode, store, batch):
             records, state = run_chain_step(model, grid, cases, mode, options, state)
-            _finish_batch(records, state, finished)
+            finished(records, state)
 
 
 def _run_dask(model: Model, grid: Grid, plan: StudyPlan, mode: str, options: LatinOptions,
-              store: StudyStore, finished: Callable[[dict[str, Any], ChainState | None], None],
+              store: StudyStore, finished: Callable[[list[dict[str, Any]], ChainState | None], None],
               batch: int, workers: int, scheduler: str | None) -> None:
     """Each batch of cases a task; within a chain each task takes the previous one's output
     (its warm-start state), chains run in parallel. The client alone writes the store."""
@@ -244,7 +300,11 @@ def _run_dask(model: Model, grid: Grid, plan: StudyPlan, mode: str, options: Lat
                          ) from None
     cluster = None
     if scheduler:
-        client = Client(scheduler)
+        try:
+            client = Client(scheduler, timeout=SCHEDULER_TIMEOUT_S)
+        except (OSError, TimeoutError) as exc:
+            raise ModelError(f"--scheduler {scheduler}: cannot connect within "
+                             f"{SCHEDULER_TIMEOUT_S:g} s ({type(exc).__name__}: {exc})") from None
     else:
         # Dask starts its workers with MALLOC_TRIM_THRESHOLD_ set, which turns off glibc's
         # dynamic mmap threshold: every field array of an iteration is then mmapped and
@@ -277,7 +337,7 @@ def _run_dask(model: Model, grid: Grid, plan: StudyPlan, mode: str, options: Lat
         for future in completed:
             records, state = future.result()
             future.release()
-            _finish_batch(records, state, finished)
+            finished(records, state)
     finally:
         client.close()
         if cluster is not None:

@@ -36,6 +36,7 @@ from .expressions import evaluate
 from .fem.elasticity import PLANE_STRAIN, PLANE_STRESS
 from .fem.mesh import SIDES, RectMesh, normal_axis
 from .holes import place_holes
+from .limits import check_meshes
 from .parameters import Mu, Parameter, Parameters
 
 if sys.version_info >= (3, 11):
@@ -91,6 +92,9 @@ class ModelSpec:
             text = path.read_text(encoding="utf-8")
         except OSError as exc:
             raise ModelError(f"model file {str(path)!r}: {exc.strerror}") from None
+        except UnicodeDecodeError as exc:
+            raise ModelError(f"model file {str(path)!r}: not UTF-8 text (byte "
+                             f"0x{exc.object[exc.start]:02x} at offset {exc.start})") from None
         return ModelSpec.from_string(text, name=path.stem, source=str(path))
 
     @staticmethod
@@ -99,6 +103,9 @@ class ModelSpec:
             data = tomllib.loads(text)
         except tomllib.TOMLDecodeError as exc:
             raise ModelError(f"model file {source or name!r} is not valid TOML: {exc}") from None
+        except RecursionError:
+            raise ModelError(f"model file {source or name!r}: arrays or tables nested too "
+                             "deeply") from None
         return ModelSpec.from_dict(data, name=name, source=source)
 
     @staticmethod
@@ -115,8 +122,8 @@ class ModelSpec:
             param = Parameter(
                 name=pname,
                 default=evaluate(_require(table, "default", where), {}, f"{where}.default"),
-                minimum=evaluate(table.get("min", -math.inf), {}, f"{where}.min"),
-                maximum=evaluate(table.get("max", math.inf), {}, f"{where}.max"),
+                minimum=evaluate(table.get("min", -math.inf), {}, f"{where}.min", infinite=True),
+                maximum=evaluate(table.get("max", math.inf), {}, f"{where}.max", infinite=True),
                 description=str(table.get("description", "")),
                 unit=str(table.get("unit", "")),
             )
@@ -148,6 +155,11 @@ class ModelSpec:
         return builder.assembly(self.name)
 
 
+#: Young's moduli outside this window are a units error, and would over- or underflow the
+#: solvers' norms (E² and 1/E appear in them)
+YOUNG_RANGE = (1e-100, 1e100)
+
+
 class _Builder:
     """Evaluates a model table with one parameter set into an ``Assembly``."""
 
@@ -174,6 +186,10 @@ class _Builder:
             poisson = self.num(_require(table, "nu", where), f"{where}.nu")
             if not young > 0.0:
                 raise ModelError(f"{where}.E: Young's modulus must be > 0, got {young:g}")
+            if not YOUNG_RANGE[0] <= young <= YOUNG_RANGE[1]:
+                raise ModelError(f"{where}.E: {young:g} is outside the range the solvers "
+                                 f"represent [{YOUNG_RANGE[0]:g}, {YOUNG_RANGE[1]:g}]; check "
+                                 "the units (e.g. MPa with mm and N)")
             if not -1.0 < poisson < 0.5:
                 raise ModelError(f"{where}.nu: Poisson's ratio must lie in (-1, 0.5), got {poisson:g}")
             out[mname] = (young, poisson)
@@ -215,6 +231,7 @@ class _Builder:
     def substructures(self) -> tuple[list[Substructure], dict[str, tuple[float, ...]]]:
         materials = self.materials()
         subs: list[Substructure] = []
+        planned: list[tuple[str, str, Material, tuple[float, float, float, float], int, int]] = []
         bodies: dict[str, tuple[float, ...]] = {}
         common = {"name", "x", "y", "elements", "material", "hypothesis", "thickness"}
         for b, table in enumerate(self.data.get("bodies", [])):
@@ -246,9 +263,13 @@ class _Builder:
             for j, i in itertools.product(range(sy), range(sx)):
                 sub_name = name if sx * sy == 1 else f"{name}[{i},{j}]"
                 ex, ey = own.get((i, j), (nx // sx, ny // sy))
-                mesh = RectMesh(float(xs[i]), float(xs[i + 1]), float(ys[j]), float(ys[j + 1]),
-                                ex * self.refine, ey * self.refine)
-                subs.append(Substructure(sub_name, name, mesh, mat))
+                planned.append((sub_name, name, mat, (float(xs[i]), float(xs[i + 1]),
+                                                      float(ys[j]), float(ys[j + 1])),
+                                ex * self.refine, ey * self.refine))
+        unknown = sorted(set(self.split) - set(bodies))
+        if unknown:
+            raise ModelError(f"--split {unknown[0]}: no body of that name in [[bodies]] "
+                             f"(bodies: {', '.join(bodies) or 'none'})")
         for s, table in enumerate(self.data.get("substructures", [])):
             where = f"substructures[{s}]"
             _check_keys(table, common | {"body"}, where)
@@ -258,10 +279,15 @@ class _Builder:
             nx, ny = (_positive_int(v, f"{where}.elements")
                       for v in _pair(_require(table, "elements", where), f"{where}.elements"))
             body = str(table.get("body", name))
-            mesh = RectMesh(x0, x1, y0, y1, nx * self.refine, ny * self.refine)
-            subs.append(Substructure(name, body, mesh, self.material(table, where, materials)))
+            planned.append((name, body, self.material(table, where, materials),
+                            (x0, x1, y0, y1), nx * self.refine, ny * self.refine))
             lo = bodies.get(body, (x0, x1, y0, y1))
             bodies[body] = (min(lo[0], x0), max(lo[1], x1), min(lo[2], y0), max(lo[3], y1))
+        # the size guard, before any mesh is built (a 3000 x 3000 mesh would take the
+        # machine's memory)
+        check_meshes([(name, ex, ey) for name, _, _, _, ex, ey in planned])
+        for name, body, mat, (x0, x1, y0, y1), ex, ey in planned:
+            subs.append(Substructure(name, body, RectMesh(x0, x1, y0, y1, ex, ey), mat))
         if not subs:
             raise ModelError("model: no [[bodies]] or [[substructures]] defined")
         names = [s.name for s in subs]

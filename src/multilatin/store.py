@@ -1,29 +1,42 @@
-"""A study's results on disk, written as they come, so that a study survives a crash.
+"""A study's results on disk, written as they come, so that a study survives any crash.
 
 The folder holds:
 
 ``study.json``
-    what the study is (model, grid, solver options, chains): a study started again with the
-    same command in the same folder resumes; a different study there is refused.
+    what the study is (model, grid in the order given, solver options, chains): a study
+    started again with the same command in the same folder resumes; a different study there
+    is refused.
 ``cases.jsonl``
-    one line per finished case, appended and flushed as soon as the case ends: the durable
-    record. A line cut short by a crash is ignored.
+    one line per finished case: the durable record (the journal is the truth). A batch's
+    lines are appended in one write and flushed to disk.
 ``chains/<mode>-<chain>.npz``
-    each multiresolution chain's warm-start state after its latest case (written before the
-    case's line, atomically, with that case's record inside: a resumed chain starts from
-    exactly where the interrupted one stood, and a case whose line was lost is recovered).
+    each multiresolution chain's warm-start state after its latest batch, with that batch's
+    records inside. It is written (atomically) *before* the batch's journal lines: a crash
+    between the two loses nothing, the records are recovered from the state on resume, and
+    a resumed chain starts from exactly where the interrupted one stood.
 ``study.nc``
     the xarray Dataset (one dimension per grid parameter, plus ``mode`` and ``step``),
-    rebuilt from the records every few seconds and at the end (netCDF, atomically replaced).
+    rebuilt from the records every few seconds and at the end (atomically replaced).
+``.lock``
+    held (``flock``) by the process running the study, with its PID: a second study in the
+    same folder is refused. The kernel releases it when the process ends, however it ends.
+
+Whatever a crash leaves behind is repaired on the next start and said (``StudyStore.repairs``,
+logged as warnings): temporary files are removed, a journal line cut short or damaged is
+dropped (its case is computed again), a damaged chain state is dropped (its chain's next
+case starts cold), a damaged ``study.json`` is rewritten when every journal record fits
+the study being started, refused otherwise.
 """
 
 from __future__ import annotations
 
+import io
 import json
 import logging
 import os
+import signal
 import time
-from collections.abc import Iterable
+from collections.abc import Callable, Iterable
 from pathlib import Path
 from typing import Any
 
@@ -31,65 +44,143 @@ import numpy as np
 import xarray as xr
 
 from .errors import ModelError
+from .files import ensure_writable_folder
 from .parameters import Grid
 from .study import ChainState
 
 log = logging.getLogger(__name__)
 
 Key = tuple[str, int]  # (mode, case number)
+RecordCheck = Callable[[dict[str, Any]], bool]
+
+#: testing hook (``tests/test_store_faults.py``): the process kills itself with SIGKILL at
+#: the N-th write point of the store (before, inside and after every file write), after
+#: appending the point's label to the file named by ``FAULT_LOG_ENVIRONMENT`` when set
+FAULT_ENVIRONMENT = "_MULTILATIN_KILL_AT_WRITE_POINT"
+FAULT_LOG_ENVIRONMENT = "_MULTILATIN_KILL_LOG"
+_write_points = 0
+
+
+def _fault_point(label: str) -> None:
+    global _write_points
+    target = os.environ.get(FAULT_ENVIRONMENT)
+    if not target:
+        return
+    _write_points += 1
+    if _write_points == int(target):
+        log_path = os.environ.get(FAULT_LOG_ENVIRONMENT)
+        if log_path:
+            with open(log_path, "a", encoding="utf-8") as handle:
+                handle.write(label + "\n")
+        os.kill(os.getpid(), signal.SIGKILL)
 
 
 class StudyStore:
-    """The results folder of one study (see the module's docstring)."""
+    """The results folder of one study (see the module's docstring).
+
+    record_fits: tells whether a journal record belongs to the study being started (used
+        to adopt a folder whose ``study.json`` was damaged).
+    """
 
     def __init__(self, folder: str | Path, identity: dict[str, Any],
-                 write_interval: float = 2.0) -> None:
+                 write_interval: float = 2.0, record_fits: RecordCheck | None = None) -> None:
         self.folder = Path(folder)
         self.identity = identity
         self.write_interval = write_interval
+        self.repairs: list[str] = []
         self._write_cost = 0.0  # seconds the latest dataset write took
-        self.folder.mkdir(parents=True, exist_ok=True)
-        (self.folder / "chains").mkdir(exist_ok=True)
-        meta = self.folder / "study.json"
-        if meta.exists():
-            existing = json.loads(meta.read_text(encoding="utf-8"))
-            if existing.get("identity") != identity:
-                differing = sorted(k for k in set(identity) | set(existing.get("identity", {}))
-                                   if identity.get(k) != existing.get("identity", {}).get(k))
-                raise ModelError(
-                    f"--out {self.folder}: the folder holds a different study (differs in "
-                    f"{', '.join(differing)}); use another folder or the same arguments")
-        else:
-            _write_atomic(meta, json.dumps({"identity": identity}, indent=1))
-        self.records: dict[Key, dict[str, Any]] = {}
-        self._journal_path = self.folder / "cases.jsonl"
-        self._read_journal()
-        self._journal = self._journal_path.open("a", encoding="utf-8")
-        self._recover_from_chain_states()
         self._last_write = 0.0
+        ensure_writable_folder(self.folder)
+        self._lock = _FolderLock(self.folder)
+        try:
+            (self.folder / "chains").mkdir(exist_ok=True)
+            self._remove_leftovers()
+            self.records: dict[Key, dict[str, Any]] = {}
+            self._journal_path = self.folder / "cases.jsonl"
+            self._read_journal()
+            self._check_identity(record_fits)
+            self._journal = self._journal_path.open("a", encoding="utf-8")
+            self._recover_from_chain_states()
+        except BaseException:
+            self._lock.release()
+            raise
 
     # reading -----------------------------------------------------------------
+    def _repaired(self, message: str) -> None:
+        log.warning("%s: %s", self.folder, message)
+        self.repairs.append(message)
+
+    def _remove_leftovers(self) -> None:
+        for path in [*self.folder.glob("*.tmp"), *self.folder.glob("*.tmp.*"),
+                     *(self.folder / "chains").glob("*.tmp*")]:
+            path.unlink(missing_ok=True)
+            self._repaired(f"removed {path.relative_to(self.folder)} (a write cut short)")
+
+    def _check_identity(self, record_fits: RecordCheck | None) -> None:
+        meta = self.folder / "study.json"
+        if not meta.exists():
+            if self.records and not _all_fit(self.records.values(), record_fits):
+                raise ModelError(f"--out {self.folder}: the folder holds the journal of "
+                                 "another study (and no study.json); use another folder")
+            _write_atomic(meta, json.dumps({"identity": self.identity}, indent=1).encode())
+            return
+        try:
+            existing = json.loads(meta.read_text(encoding="utf-8"))["identity"]
+            if not isinstance(existing, dict):
+                raise TypeError("identity is not a table")
+        except (ValueError, KeyError, TypeError) as exc:
+            if not _all_fit(self.records.values(), record_fits):
+                raise ModelError(
+                    f"--out {self.folder}: study.json is damaged ({exc}) and the journal's "
+                    "records do not fit this study; use another folder") from None
+            self._repaired(f"study.json was damaged ({exc}); rewritten for this study, whose "
+                           f"grid every one of the {len(self.records)} journal records fits")
+            _write_atomic(meta, json.dumps({"identity": self.identity}, indent=1).encode())
+            return
+        if existing != self.identity:
+            raise ModelError(_difference_message(self.folder, existing, self.identity))
+
     def _read_journal(self) -> None:
         if not self._journal_path.exists():
             return
-        text = self._journal_path.read_text(encoding="utf-8")
-        complete = text if text.endswith("\n") else text[: text.rfind("\n") + 1]
-        if complete != text:
-            log.warning("%s: ignoring a line cut short by an interruption", self._journal_path)
-            _write_atomic(self._journal_path, complete)
-        for line in complete.splitlines():
-            if line.strip():
-                record = json.loads(line)
-                self.records[(record["mode"], record["number"])] = record
+        raw = self._journal_path.read_bytes()
+        complete = raw[: raw.rfind(b"\n") + 1]
+        damaged = complete != raw
+        if damaged:
+            self._repaired("dropped the journal's last line, cut short by an interruption")
+        kept: list[str] = []
+        for number, line in enumerate(complete.split(b"\n"), start=1):
+            if not line.strip():
+                continue
+            try:
+                record = json.loads(line.decode("utf-8"))
+                key = (str(record["mode"]), int(record["number"]))
+            except (ValueError, KeyError, TypeError):
+                damaged = True
+                self._repaired(f"dropped damaged line {number} of cases.jsonl (its case is "
+                               "computed again)")
+                continue
+            self.records[key] = record
+            kept.append(json.dumps(record))
+        if damaged:
+            _write_atomic(self._journal_path, "".join(line + "\n" for line in kept).encode())
 
     def _recover_from_chain_states(self) -> None:
         for path in sorted((self.folder / "chains").glob("*.npz")):
-            with np.load(path) as data:
-                record = json.loads(str(data["record"]))
-            if (record["mode"], record["number"]) not in self.records:
-                log.warning("recovering case %d of %s from its chain state", record["number"],
-                            path.name)
-                self._append(record)
+            try:
+                with np.load(path) as data:
+                    records = json.loads(str(data["records"]))
+                    ChainState.from_arrays({k: data[k] for k in data.files if k != "records"})
+            except Exception as exc:  # noqa: BLE001 - any damage: the journal is the truth
+                path.unlink(missing_ok=True)
+                self._repaired(f"dropped damaged chain state {path.name} ({type(exc).__name__}:"
+                               f" {exc}); that chain's next case starts cold")
+                continue
+            missing = [r for r in records if (r["mode"], r["number"]) not in self.records]
+            if missing:
+                self._repaired(f"recovered {len(missing)} case(s) from {path.name} whose "
+                               "journal lines were lost")
+                self._append(missing)
 
     def finished(self, mode: str, number: int) -> bool:
         return (mode, number) in self.records
@@ -99,24 +190,35 @@ class StudyStore:
         if not path.exists():
             return None
         with np.load(path) as data:
-            return ChainState.from_arrays({k: data[k] for k in data.files if k != "record"})
+            return ChainState.from_arrays({k: data[k] for k in data.files if k != "records"})
 
     # writing -----------------------------------------------------------------
-    def add(self, record: dict[str, Any], state: ChainState | None) -> None:
-        """Keep a finished case: its chain state first, then its line in the journal."""
+    def add_batch(self, records: list[dict[str, Any]], state: ChainState | None) -> None:
+        """Keep the finished cases of a batch: the chain's state with the records inside
+        first (atomically), then their journal lines in one append."""
         if state is not None:
-            path = self.folder / "chains" / f"{record['mode']}-{record['chain']}.npz"
-            tmp = path.with_name(path.stem + ".tmp.npz")
-            arrays: dict[str, Any] = {"record": np.array(json.dumps(record)),
+            first = records[0]
+            path = self.folder / "chains" / f"{first['mode']}-{first['chain']}.npz"
+            buffer = io.BytesIO()
+            arrays: dict[str, Any] = {"records": np.array(json.dumps(records)),
                                       **state.to_arrays()}
-            np.savez(tmp, **arrays)
-            os.replace(tmp, path)
-        self._append(record)
+            np.savez(buffer, **arrays)
+            _write_atomic(path, buffer.getvalue())
+        self._append(records)
 
-    def _append(self, record: dict[str, Any]) -> None:
-        self._journal.write(json.dumps(record) + "\n")
+    def _append(self, records: list[dict[str, Any]]) -> None:
+        data = "".join(json.dumps(record) + "\n" for record in records)
+        half = len(data) // 2
+        _fault_point("cases.jsonl: before the append")
+        self._journal.write(data[:half])
         self._journal.flush()
-        self.records[(record["mode"], record["number"])] = record
+        _fault_point("cases.jsonl: inside the append")
+        self._journal.write(data[half:])
+        self._journal.flush()
+        os.fsync(self._journal.fileno())
+        _fault_point("cases.jsonl: after the append")
+        for record in records:
+            self.records[(record["mode"], record["number"])] = record
 
     def maybe_write_dataset(self, grid: Grid, attrs: dict[str, Any]) -> None:
         """Rewrite study.nc when ``write_interval`` has passed, and at least ten times as
@@ -129,22 +231,74 @@ class StudyStore:
     def write_dataset(self, grid: Grid, attrs: dict[str, Any]) -> xr.Dataset:
         start = time.monotonic()
         dataset = to_dataset(grid, self.records.values(), attrs)
-        tmp = self.folder / "study.tmp.nc"
-        dataset.to_netcdf(tmp, engine="scipy")
-        os.replace(tmp, self.folder / "study.nc")
+        _write_atomic(self.folder / "study.nc", bytes(dataset.to_netcdf(engine="scipy")))
         self._last_write = time.monotonic()
         self._write_cost = self._last_write - start
         return dataset
 
     def close(self) -> None:
         self._journal.close()
+        self._lock.release()
+
+
+class _FolderLock:
+    """An exclusive ``flock`` on ``folder/.lock`` holding the owner's PID."""
+
+    def __init__(self, folder: Path) -> None:
+        self.path = folder / ".lock"
+        try:
+            import fcntl
+        except ImportError:  # pragma: no cover - not on Unix: no lock
+            self._handle = None
+            return
+        handle = self.path.open("a+", encoding="utf-8")
+        try:
+            fcntl.flock(handle, fcntl.LOCK_EX | fcntl.LOCK_NB)
+        except OSError:
+            handle.seek(0)
+            holder = handle.read().strip() or "unknown"
+            handle.close()
+            raise ModelError(f"--out {folder}: another study is running in this folder "
+                             f"(PID {holder}); wait for it to end or use another folder"
+                             ) from None
+        handle.seek(0)
+        handle.truncate()
+        handle.write(str(os.getpid()))
+        handle.flush()
+        self._handle = handle
+
+    def release(self) -> None:
+        if self._handle is not None and not self._handle.closed:
+            self._handle.close()  # closing the descriptor releases the flock
+
+
+def _all_fit(records: Iterable[dict[str, Any]], record_fits: RecordCheck | None) -> bool:
+    return record_fits is not None and all(record_fits(r) for r in records)
+
+
+def _difference_message(folder: Path, existing: dict[str, Any],
+                        identity: dict[str, Any]) -> str:
+    differing = sorted(k for k in set(identity) | set(existing)
+                       if identity.get(k) != existing.get(k))
+    if differing == ["grid"]:
+        old, new = existing.get("grid"), identity.get("grid")
+        if (isinstance(old, list) and isinstance(new, list)
+                and sorted(map(str, old)) == sorted(map(str, new))):
+            order = ", ".join(str(item[0]) for item in old)
+            return (f"--out {folder}: the folder holds this study with its --grid items in "
+                    f"the order {order}; give them in that order (the order sets the "
+                    "traversal and the dimensions of study.nc)")
+    return (f"--out {folder}: the folder holds a different study (differs in "
+            f"{', '.join(differing)}); use another folder or the same arguments")
 
 
 def to_dataset(grid: Grid, records: Iterable[dict[str, Any]], attrs: dict[str, Any]
                ) -> xr.Dataset:
     """The labelled results: dimensions ``mode``, one per grid parameter, and ``step`` for
-    quantities of interest given per load step. Cases not computed are NaN (``finished``
-    says which were)."""
+    quantities of interest given per load step. Cases not computed, and cases that did not
+    converge, have NaN quantities of interest (``finished`` and ``converged`` say which);
+    ``unique`` is False where the discrete problem did not determine the answer
+    (``multilatin.uniqueness``)."""
     records = list(records)
     modes = [m for m in ("multiresolution", "cold") if any(r["mode"] == m for r in records)]
     names = list(grid)
@@ -152,26 +306,25 @@ def to_dataset(grid: Grid, records: Iterable[dict[str, Any]], attrs: dict[str, A
     dims = ("mode", *names)
     scalars = {name: np.full(shape, np.nan) for name in
                ("iterations", "indicator", "wall_s", "setup_s")}
-    finished = np.zeros(shape, dtype=bool)
-    converged = np.zeros(shape, dtype=bool)
+    flags = {name: np.zeros(shape, dtype=bool) for name in ("finished", "converged", "unique")}
     texts = {name: np.full(shape, "", dtype=object) for name in ("log", "start")}
     qoi_values: dict[str, np.ndarray] = {}
     for record in records:
         at = (modes.index(record["mode"]), *record["index"])
         for name in scalars:
             scalars[name][at] = record[name]
-        finished[at] = True
-        converged[at] = record["converged"]
+        flags["finished"][at] = True
+        flags["converged"][at] = record["converged"]
+        flags["unique"][at] = record.get("unique", True)
         for name in texts:
             texts[name][at] = record[name]
         for name, value in record["qoi"].items():
-            value = np.asarray(value, dtype=float)
+            value = np.asarray(value if value is not None else np.nan, dtype=float)
             if name not in qoi_values:
                 qoi_values[name] = np.full(shape + value.shape, np.nan)
-            qoi_values[name][at] = value
+            qoi_values[name][at] = value if record["converged"] else np.nan
     variables: dict[str, Any] = {name: (dims, values) for name, values in scalars.items()}
-    variables["finished"] = (dims, finished)
-    variables["converged"] = (dims, converged)
+    variables.update({name: (dims, values) for name, values in flags.items()})
     variables.update({name: (dims, values) for name, values in texts.items()})
     for name, values in qoi_values.items():
         variables[name] = ((*dims, "step") if values.ndim > len(dims) else dims, values)
@@ -183,6 +336,8 @@ def to_dataset(grid: Grid, records: Iterable[dict[str, Any]], attrs: dict[str, A
     dataset["wall_s"].attrs["units"] = "s"
     dataset["setup_s"].attrs["units"] = "s"
     dataset["iterations"].attrs["long_name"] = "LATIN iterations to the tolerance"
+    for name in qoi_values:
+        dataset[name].attrs["note"] = "NaN where the case did not converge (see converged)"
     return dataset
 
 
@@ -197,10 +352,22 @@ def _netcdf_attrs(attrs: dict[str, Any]) -> dict[str, Any]:
     return out
 
 
-def _write_atomic(path: Path, text: str) -> None:
+def _write_atomic(path: Path, data: bytes) -> None:
+    """Write ``data`` to ``path`` through a temporary file replaced in one step (a crash
+    leaves the old file or the new one, never half of one)."""
     tmp = path.with_name(path.name + ".tmp")
-    tmp.write_text(text, encoding="utf-8")
+    kind = "chain state" if path.parent.name == "chains" else path.name
+    _fault_point(f"{kind}: before the write")
+    with tmp.open("wb") as handle:
+        handle.write(data[: len(data) // 2])
+        handle.flush()
+        _fault_point(f"{kind}: inside the write")
+        handle.write(data[len(data) // 2:])
+        handle.flush()
+        os.fsync(handle.fileno())
+    _fault_point(f"{kind}: written, not yet in place")
     os.replace(tmp, path)
+    _fault_point(f"{kind}: in place")
 
 
 def load_study(folder: str | Path) -> xr.Dataset:

@@ -152,16 +152,21 @@ class ChainState:
 
     def nearest(self, index: tuple[int, ...]) -> tuple[tuple[int, ...] | None,
                                                       tuple[FloatArray, FloatArray] | None]:
-        """The retained case nearest to ``index`` (grid steps, L1; ties: most recent)."""
+        """The retained case nearest to ``index`` (grid steps, L1; ties: most recent), never
+        ``index`` itself: a case recomputed after its record was lost must not start from
+        its own earlier answer."""
         best, best_distance = None, None
         for other in reversed(self.retained):
+            if other == index:
+                continue
             distance = sum(abs(a - b) for a, b in zip(other, index, strict=True))
             if best_distance is None or distance < best_distance:
                 best, best_distance = other, distance
         return (best, self.retained[best]) if best is not None else (None, None)
 
     def distance(self, index: tuple[int, ...]) -> int | None:
-        """Grid steps (L1) to the nearest retained case; None when none is retained."""
+        """Grid steps (L1) to the nearest retained case other than ``index``; None when
+        there is none."""
         nearest, _ = self.nearest(index)
         return (None if nearest is None else
                 sum(abs(a - b) for a, b in zip(nearest, index, strict=True)))
@@ -235,10 +240,28 @@ def run_case(model: Model, grid: Grid, case: Case, mode: str, options: LatinOpti
         start_index, initial = state.nearest(case.index)
     setup_s = time.perf_counter() - t0
     result = solve_latin(assembly, options, operators=ops, initial=initial, check=False)
+    result, spent = _path_independent(assembly, options, ops, result, start_index)
     wall_s = time.perf_counter() - t0
     if mode != "cold" and result.converged and state is not None:
         state = _retain(state, case, result)
-    return _record(grid, case, mode, result, wall_s, setup_s, built, start_index, 1), state
+    return _record(grid, case, mode, result, wall_s, setup_s, built, start_index, 1,
+                   spent), state
+
+
+def _path_independent(assembly: Any, options: LatinOptions, ops: LatinOperators,
+                      result: SolveResult, start_index: tuple[int, ...] | None
+                      ) -> tuple[SolveResult, int]:
+    """A warm-started case whose discrete problem does not determine its answer
+    (``multilatin.uniqueness``) is solved again from zero with the same operators: a warm
+    start would pick the solution nearest its neighbour's, so the study's answer would
+    depend on the order of the grid. Returns the result kept and the iterations spent on the
+    warm attempt (0 when it is kept)."""
+    if start_index is None or not result.converged or result.unique:
+        return result, 0
+    log.info("%s: not unique from a warm start; solved again from zero",
+             assembly.name)
+    cold = solve_latin(assembly, options, operators=ops, check=False)
+    return cold, result.iterations
 
 
 def run_batch(model: Model, grid: Grid, cases: tuple[Case, ...], mode: str,
@@ -269,12 +292,15 @@ def run_batch(model: Model, grid: Grid, cases: tuple[Case, ...], mode: str,
     setup_s = time.perf_counter() - t0
     results = solve_latin_batch(assemblies, options, operators=ops,
                                 initial=[fields for _, fields in starts], check=False)
+    kept = [_path_independent(assembly, options, ops, result, start_index)
+             for assembly, result, (start_index, _) in zip(assemblies, results, starts,
+                                                           strict=True)]
     wall_s = time.perf_counter() - t0
-    total_iterations = sum(r.iterations for r in results)
-    for case, result, (start_index, _) in zip(cases, results, starts, strict=True):
-        share = result.iterations / total_iterations
+    total_iterations = sum(r.iterations + spent for r, spent in kept)
+    for case, (result, spent), (start_index, _) in zip(cases, kept, starts, strict=True):
+        share = (result.iterations + spent) / total_iterations
         records.append(_record(grid, case, mode, result, share * wall_s, share * setup_s,
-                               built and case is cases[0], start_index, len(cases)))
+                               built and case is cases[0], start_index, len(cases), spent))
         if result.converged:
             state = _retain(state, case, result)
     return records, state
@@ -291,8 +317,7 @@ def peak_memory_mb() -> float:
 
 
 def _has_neighbour(state: ChainState | None, case: Case) -> bool:
-    """A converged case at most one grid step from ``case`` is retained (itself included:
-    a resumed study may hold a case converged but not yet journaled)."""
+    """A converged case one grid step from ``case`` is retained."""
     distance = state.distance(case.index) if state is not None else None
     return distance is not None and distance <= 1
 
@@ -304,12 +329,18 @@ def _retain(state: ChainState, case: Case, result: SolveResult) -> ChainState:
 
 
 def _record(grid: Grid, case: Case, mode: str, result: SolveResult, wall_s: float,
-            setup_s: float, built: bool, start_index: tuple[int, ...] | None, batch: int
-            ) -> dict[str, Any]:
+            setup_s: float, built: bool, start_index: tuple[int, ...] | None, batch: int,
+            warm_attempt: int = 0) -> dict[str, Any]:
+    """A case's journal record. ``warm_attempt``: iterations of a warm start given up for a
+    solve from zero (the answer was not unique); they count in ``iterations``."""
     start = ("zero" if start_index is None else
              ", ".join(f"{n}={grid[n][i]:g}" for n, i in zip(grid, start_index, strict=True)))
+    if warm_attempt:
+        start = "zero (not unique: the warm start was set aside)"
     params = {name: case.mu[name] for name in grid}
     text = ", ".join(f"{k}={v:g}" for k, v in params.items())
+    iterations = int(result.iterations) + warm_attempt
+    status = ("converged" if result.converged else f"NOT CONVERGED ({result.failure})")
     return {
         "mode": mode,
         "number": case.number,
@@ -317,7 +348,9 @@ def _record(grid: Grid, case: Case, mode: str, result: SolveResult, wall_s: floa
         "index": list(case.index),
         "params": params,
         "converged": bool(result.converged),
-        "iterations": int(result.iterations),
+        "unique": bool(result.unique),
+        "free_motions": [m.describe() for m in result.free_motions if m.reaches_last_step],
+        "iterations": iterations,
         "indicator": float(result.indicator),
         "wall_s": wall_s,
         "setup_s": setup_s,
@@ -326,11 +359,12 @@ def _record(grid: Grid, case: Case, mode: str, result: SolveResult, wall_s: floa
         "batch": batch,
         "peak_rss_mb": peak_memory_mb(),
         "qoi": result.qoi,
-        "log": (f"{mode} #{case.number + 1} ({text}): "
-                f"{'converged' if result.converged else 'NOT CONVERGED'} in "
-                f"{result.iterations} iterations, eta={result.indicator:.2e}, "
+        "log": (f"{mode} #{case.number + 1} ({text}): {status} in "
+                f"{iterations} iterations, eta={result.indicator:.2e}, "
                 f"{wall_s:.3f} s{f' (share of a batch of {batch})' if batch > 1 else ''}, "
-                f"start: {start}, operators {'built' if built else 'reused'}"),
+                f"start: {start}, operators {'built' if built else 'reused'}"
+                + ("" if result.unique else "; NOT UNIQUE: " + "; ".join(
+                    m.describe() for m in result.free_motions if m.reaches_last_step))),
     }
 
 

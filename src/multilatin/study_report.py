@@ -32,7 +32,7 @@ def case_table(result: StudyResult) -> tuple[list[str], list[list[Any]]]:
     header = ["case", *names, "iterations", "time / first cold"]
     if main == "multiresolution" and cold:
         header += ["cold iterations", "cold time / first cold"]
-    header += scalar_qois + ["converged", "start"]
+    header += scalar_qois + ["converged", "unique", "start"]
     rows = []
     for record in rows_main:
         row: list[Any] = [record["number"] + 1, *[record["params"][n] for n in names],
@@ -40,8 +40,9 @@ def case_table(result: StudyResult) -> tuple[list[str], list[list[Any]]]:
         if main == "multiresolution" and cold:
             other = cold.get(record["number"])
             row += ([other["iterations"], other["wall_s"] / unit] if other else ["", ""])
-        row += [record["qoi"][q] for q in scalar_qois]
-        row += [record["converged"], record["start"]]
+        # no answer from a case that did not converge: masked, as in study.nc
+        row += [record["qoi"][q] if record["converged"] else float("nan") for q in scalar_qois]
+        row += [record["converged"], record.get("unique", True), record["start"]]
         rows.append(row)
     return header, rows
 
@@ -63,13 +64,29 @@ def summary_lines(result: StudyResult) -> list[str]:
         lines.append(f"cold (every case standalone, from zero): sum of times "
                      f"{sum(r['wall_s'] for r in cold):.2f} s, "
                      f"{sum(r['iterations'] for r in cold)} iterations in all")
-        lines.append(f"gain (sum of cold times / study time) = {gains['gain']:.2f}; "
-                     f"paper's definition (cases x first cold time / study time) = "
-                     f"{gains['paper_gain']:.2f}; iterations ratio (cold / multiresolution) = "
-                     f"{gains['iterations_ratio']:.2f}")
+        if not gains:
+            lines.append("gain: not measured (no case converged in both modes)")
+        else:
+            over = ("" if gains["gain_cases"] == len(cold) else
+                    f" (over the {gains['gain_cases']:.0f} of {len(cold)} cases converged "
+                    "in both modes)")
+            lines.append(f"gain (sum of cold times / study time) = {gains['gain']:.2f}; "
+                         f"paper's definition (cases x first cold time / study time) = "
+                         f"{gains['paper_gain']:.2f}; iterations ratio (cold / "
+                         f"multiresolution) = {gains['iterations_ratio']:.2f}{over}")
     lines.append("converged: all" if not failed else
-                 f"NOT CONVERGED: {len(failed)} case(s): " +
-                 "; ".join(r["log"] for r in failed[:5]))
+                 f"NOT CONVERGED: {len(failed)} case(s) (no answer: QoIs masked, left out of "
+                 "the gain): " + "; ".join(r["log"] for r in failed[:5]))
+    not_unique = [r for r in records if not r.get("unique", True)]
+    if not_unique:
+        lines.append(
+            f"NOT UNIQUE: {len(not_unique)} case(s) where the discrete problem does not "
+            "determine the answer (a body at the friction limit; solved from zero so that "
+            "the answer does not depend on the study's order): "
+            + ", ".join("(" + ", ".join(f"{k}={v:g}" for k, v in r["params"].items()) + ")"
+                        for r in not_unique[:8]) + (", ..." if len(not_unique) > 8 else ""))
+    for repair in result.repairs:
+        lines.append(f"repaired on resume: {repair}")
     return lines
 
 
@@ -114,7 +131,8 @@ def plot_response(dataset: xr.Dataset, folder: Path, mode: str) -> list[Path]:
     varied = [str(d) for d in data["iterations"].dims if data.sizes[d] > 1]
     scalars = [str(name) for name, var in data.data_vars.items()
                if name not in ("iterations", "indicator", "wall_s", "setup_s", "finished",
-                               "converged", "log", "start") and "step" not in var.dims]
+                               "converged", "unique", "log", "start")
+               and "step" not in var.dims]
     paths = []
     for name in scalars:
         values = data[name].where(data["converged"])

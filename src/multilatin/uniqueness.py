@@ -1,0 +1,187 @@
+"""Where the discrete problem does not determine the answer: free rigid motions at the
+friction limit.
+
+A converged state is one solution of the incremental contact problem; it is the only one
+unless some rigid motion of a group of substructures changes no force. That happens when
+the load uses up the friction capacity along a motion that nothing else holds: every closed
+contact point lets it slide (no motion along its normal), no prescribed displacement
+component moves, and the friction forces already oppose it at their limit μ|N| (B1 at
+μ1 + μ2 = 0.3, step 10: the push 15 MPa × 50 mm = 750 N equals the capacity
+0.3 × 2500 N, and the centre block's position between its place at step 9 and the stop is
+free). With friction, the later steps inherit that position (Coulomb's law acts on
+increments), so they are not determined either: two correct solvers, or one solver started
+from two places, may return different answers, 1.2 % apart on that B1 case.
+
+``free_motions`` finds such motions in a converged state: for every load step and every
+*cluster* (substructures joined by perfect or macro-only interfaces, which move together),
+the rigid motions (two translations, one rotation) that the pressed contacts (no motion
+along their normal) and the prescribed displacements allow, that push into no contact
+touching with zero force, and whose friction reserve — the share of the friction capacity
+along the motion not yet used — is below ``reserve_tol``. A point slipping during the step
+keeps its force (at the limit) for a small motion either way; a point at rest only for a
+motion against its force. Motions combining several clusters are not searched.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import numpy as np
+
+from .assembly import Assembly
+from .fem.elasticity import FloatArray, IntArray
+from .interfaces import InterfacePoints
+
+#: a free motion is reported when less than this share of the friction capacity along it is
+#: left (the load is within 0.1 % of the sliding limit)
+RESERVE_TOL = 1e-3
+
+
+@dataclass(frozen=True)
+class FreeMotion:
+    """A rigid motion of ``bodies`` at ``step`` (1-based) that changes no force: velocity
+    (vx, vy) + ω × (x − centre), with ``reserve`` the unused share of friction along it.
+    ``reaches_last_step``: the last step's answer depends on it (it is the last step, or
+    friction carries the position into the later steps)."""
+
+    step: int
+    bodies: tuple[str, ...]
+    velocity: tuple[float, float]
+    rotation: float
+    centre: tuple[float, float]
+    reserve: float
+    reaches_last_step: bool
+
+    def describe(self) -> str:
+        what = (f"translation ({self.velocity[0]:+.3g}, {self.velocity[1]:+.3g})"
+                if abs(self.rotation) < 1e-9 else
+                f"rotation about ({self.centre[0]:.4g}, {self.centre[1]:.4g})")
+        return (f"step {self.step}: {'+'.join(self.bodies)} is free to move ({what}), the "
+                f"friction along it used to {100 * (1 - self.reserve):.2f} % of its capacity"
+                + ("; the answers from this step on are not determined by the discrete "
+                   "problem" if self.reaches_last_step else
+                   "; only this step's displacements are undetermined"))
+
+
+def clusters(assembly: Assembly) -> list[IntArray]:
+    """Substructures joined by perfect or macro-only interfaces (they move together)."""
+    parent = list(range(len(assembly.substructures)))
+
+    def root(i: int) -> int:
+        while parent[i] != i:
+            parent[i] = parent[parent[i]]
+            i = parent[i]
+        return i
+
+    for itf in assembly.interfaces:
+        if itf.kind in ("perfect", "macro") and len(itf.sides) == 2:
+            a, b = (root(side.substructure) for side in itf.sides)
+            parent[a] = b
+    groups: dict[int, list[int]] = {}
+    for s in range(len(parent)):
+        groups.setdefault(root(s), []).append(s)
+    return [np.array(g, dtype=np.int64) for g in groups.values()]
+
+
+def free_motions(assembly: Assembly, points: InterfacePoints, displacement_hat: FloatArray,
+                 force_hat: FloatArray, reserve_tol: float = RESERVE_TOL) -> list[FreeMotion]:
+    """The free rigid motions of a converged state ŝ = (Ŵ, F̂), shapes ``(n_steps,
+    n_points, 2)`` (see the module's docstring). Vectorised over the load steps: per cluster,
+    the constraints' Gram matrix on the three rigid modes for every step at once, its null
+    space by a batched eigendecomposition."""
+    n_steps = force_hat.shape[0]
+    force_scale = float(np.abs(force_hat).max()) or 1.0
+    displacement_scale = float(np.abs(displacement_hat).max()) or 1.0
+    a, b = points.contact_pairs
+    out: list[FreeMotion] = []
+    for group in clusters(assembly):
+        inside = np.isin(points.substructure, group)
+        coords = points.coords[inside]
+        centre = coords.mean(axis=0)
+        size = float(np.ptp(coords, axis=0).max()) or 1.0
+        fixed = points.boundary[inside[points.boundary]]
+        rows = _rigid_rows(points.coords[fixed], centre, size)[
+            points.boundary_is_displacement[inside[points.boundary]]]
+        held = rows.T @ rows  # prescribed displacements: the same at every step
+        if np.linalg.matrix_rank(held, tol=1e-10 * max(np.abs(held).max(), 1e-300)) == 3:
+            continue  # held in every rigid mode (a clamped body)
+        own_a, own_b = inside[a] & ~inside[b], inside[b] & ~inside[a]
+        own_stops = points.stops[inside[points.stops]]
+        p = np.concatenate([a[own_a], b[own_b], own_stops])  # the cluster's contact points
+        partner = np.concatenate([b[own_a], a[own_b], np.full(own_stops.size, -1)])
+        friction = np.concatenate([points.contact_friction[own_a],
+                                   points.contact_friction[own_b],
+                                   points.stop_friction[inside[points.stops]]])
+        gap = np.concatenate([points.contact_gap[own_a], points.contact_gap[own_b],
+                              points.stop_gap[inside[points.stops]]])
+        normal = points.normals[p]
+        modes = _rigid_rows(points.coords[p], centre, size)  # (n, 2, 3)
+        along_normal = np.einsum("nc,nck->nk", normal, modes)  # (n, 3)
+        force = force_hat[:, p]  # (T, n, 2): the force on the cluster
+        normal_force = np.einsum("tnc,nc->tn", force, normal)
+        # [Ŵ] = Ŵ_partner − Ŵ_own (a stop's side is fixed): opening and slip increments
+        jump = np.where(partner[None, :, None] >= 0,
+                        displacement_hat[:, np.maximum(partner, 0)], 0.0) - displacement_hat[:, p]
+        opening = gap + np.einsum("nc,tnc->tn", normal, jump)
+        increment = np.diff(jump, axis=0, prepend=np.zeros((1, *jump.shape[1:])))
+        slip = increment - np.einsum("tnc,nc->tn", increment, normal)[..., None] * normal
+        moving = np.linalg.norm(slip, axis=2) > 1e-4 * displacement_scale  # (T, n)
+        pressed = normal_force < -1e-9 * force_scale  # two-sided: no motion along n
+        touching = ~pressed & (opening <= 1e-4 * displacement_scale)  # may only separate
+        gram = held + np.einsum("tn,nk,nl->tkl", pressed.astype(float), along_normal,
+                                along_normal)
+        values, vectors = np.linalg.eigh(gram)  # ascending
+        free = values <= 1e-10 * np.maximum(values[:, -1:], 1e-300)
+        if not free.any():
+            continue
+        tangential_force = force - normal_force[..., None] * normal
+        limit = friction * np.abs(normal_force)  # (T, n): μ|N|
+        weights = points.weights[p]
+        bodies = tuple(sorted({assembly.substructures[s].body for s in group}))
+        with_friction = bool(np.any(friction > 0))
+        for t, column in zip(*np.nonzero(free), strict=True):
+            for sign in (1.0, -1.0):
+                mode = sign * vectors[t, :, column]
+                velocity = modes @ mode
+                into = np.sum(velocity * normal, axis=1)  # along n: into the partner
+                if np.any(touching[t] & (into > 1e-9)):
+                    continue  # it would push into a touching partner
+                reserve = _friction_reserve(velocity, normal, tangential_force[t], limit[t],
+                                            moving[t], weights)
+                if reserve <= reserve_tol:
+                    out.append(FreeMotion(int(t) + 1, bodies, (float(mode[0]), float(mode[1])),
+                                          float(mode[2] / size),
+                                          (float(centre[0]), float(centre[1])),
+                                          max(reserve, 0.0), int(t) + 1 == n_steps
+                                          or with_friction))
+                    break  # one sign of a direction is enough to say it is free
+    out.sort(key=lambda motion: motion.step)
+    return out
+
+
+def _friction_reserve(velocity: FloatArray, normal: FloatArray, tangential_force: FloatArray,
+                      limit: FloatArray, moving: np.ndarray, weights: FloatArray) -> float:
+    """The share of the friction capacity along ``velocity`` not yet used, 0 when the
+    motion changes no friction force. A point slipping during the step (``moving``) keeps
+    its force for a small motion either way if its force is at the limit; a point at rest
+    keeps it only for a motion against its force, at the limit."""
+    slide = velocity - np.sum(velocity * normal, axis=1)[:, None] * normal
+    speed = np.linalg.norm(slide, axis=1)
+    size = np.linalg.norm(tangential_force, axis=1)
+    against = -np.sum(tangential_force * slide, axis=1)  # = μ|N| speed when at the limit
+    used = np.where(moving, size * speed, against)
+    capacity = float(np.sum(weights * limit * speed))
+    if capacity <= 0:
+        return 0.0
+    return (capacity - float(np.sum(weights * used))) / capacity
+
+
+def _rigid_rows(x: FloatArray, centre: FloatArray, size: float) -> FloatArray:
+    """Velocity components of the three rigid modes at points ``x``: shape (n, 2, 3), the
+    rotation scaled by ``size`` so that the three modes weigh alike."""
+    rows = np.zeros((x.shape[0], 2, 3))
+    rows[:, 0, 0] = 1.0
+    rows[:, 1, 1] = 1.0
+    rows[:, 0, 2] = -(x[:, 1] - centre[1]) / size
+    rows[:, 1, 2] = (x[:, 0] - centre[0]) / size
+    return rows
