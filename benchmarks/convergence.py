@@ -22,7 +22,7 @@ import time
 import numpy as np
 
 import multilatin as ml
-from multilatin.latin import LatinOptions, solve_latin
+from multilatin.latin import LatinOptions
 
 MODELS = ["b1", "b1-4", "b1-9", "b3"]
 PAIRS = [(0.3, 0.0), (0.1, 0.3), (0.35, 0.25), (0.3, 0.15)]
