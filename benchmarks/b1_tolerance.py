@@ -2,6 +2,7 @@
 
     python benchmarks/b1_tolerance.py                      # five cases, b1 / b1-4 / b1-9
     python benchmarks/b1_tolerance.py --models b1 --grid   # the 13 x 13 study grid (~5 min)
+    python benchmarks/b1_tolerance.py --grid --kappa 1     # the same at another κ
 
 For each model and friction pair, R_stop at η < tol (a cold solve) is compared with the
 tightly converged value (η < 1e-9). The cases of a tolerance are solved as batches
@@ -24,11 +25,11 @@ TOLERANCES = [1e-3, 3e-4, 1e-4, 3e-5, 1e-5, 5e-6, 3e-6, 1e-6]
 EXACT = 1e-9
 
 
-def solve(model: ml.Model, cases: list[tuple[float, float]], tol: float
+def solve(model: ml.Model, cases: list[tuple[float, float]], tol: float, kappa: float = 0.5
           ) -> tuple[np.ndarray, np.ndarray]:
     """R_stop and iterations of every case, cold, at η < tol."""
     assemblies = [model.assemble({"mu1": a, "mu2": b}) for a, b in cases]
-    options = ml.LatinOptions(tol=tol, max_iter=20000)
+    options = ml.LatinOptions(tol=tol, max_iter=20000, kappa=kappa)
     operators = LatinOperators(assemblies[0], options)
     r_stop, iterations = [], []
     for start in range(0, len(assemblies), 13):
@@ -43,13 +44,16 @@ def main() -> None:
     parser.add_argument("--models", nargs="+", default=["b1", "b1-4", "b1-9"])
     parser.add_argument("--grid", action="store_true",
                         help="every (μ1, μ2) of the 13 x 13 study grid instead of five cases")
+    parser.add_argument("--kappa", type=float, default=ml.LatinOptions().kappa,
+                        help="search direction κ of the solves at each tolerance (the tight "
+                             "reference solve keeps the default)")
     args = parser.parse_args()
     values = [round(0.05 * i, 2) for i in range(13)]
     cases = [(a, b) for a in values for b in values] if args.grid else CASES
     for name in args.models:
         model = ml.load_model(name)
         exact, _ = solve(model, cases, EXACT)
-        table = {tol: solve(model, cases, tol) for tol in TOLERANCES}
+        table = {tol: solve(model, cases, tol, args.kappa) for tol in TOLERANCES}
         large = exact > 200.0
         if not args.grid:
             print(f"\n{name}: error of R_stop in N (iterations) at each tolerance\n")
