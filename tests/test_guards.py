@@ -13,7 +13,7 @@ import numpy as np
 import pytest
 
 import multilatin as ml
-from multilatin import latin, runner
+from multilatin import limits, runner
 from multilatin.cli import main
 from multilatin.errors import ModelError, NotConvergedError
 from multilatin.expressions import evaluate
@@ -54,7 +54,7 @@ def test_non_finite_fields_end_the_solve_as_a_failure(monkeypatch: pytest.Monkey
                                                       ) -> None:
     """With the up-front check switched off, the overflow reaches the iteration: η is NaN,
     not 0, and the solve fails instead of converging on nonsense."""
-    monkeypatch.setattr(latin, "SCALE_RANGE", (0.0, math.inf))
+    monkeypatch.setattr(limits, "SCALE_RANGE", (0.0, math.inf))
     model = ml.load_model("b0")
     result = model.solve({"P": 1e308}, check=False)
     assert not result.converged

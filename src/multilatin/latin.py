@@ -27,6 +27,7 @@ from .interfaces import (
     InterfacePoints,
     with_contact_data,
 )
+from .limits import check_scale
 from .local_stage import LocalStage
 from .operators import LatinOperators, operator_signature
 from .qoi import ContactPressures, evaluate_qois
@@ -41,9 +42,6 @@ log = logging.getLogger(__name__)
 #: admissible κ: beyond, k is so far from the stiffness that the linear stage loses the
 #: digits the answer needs (and the macro problem turns singular in floating point)
 KAPPA_RANGE = (1e-3, 1e3)
-#: the indicator's norm squares fields scaled by √k and 1/√k: data whose scaled size leaves
-#: this window would overflow or underflow in double precision
-SCALE_RANGE = (1e-120, 1e120)
 
 #: called after every iteration with (iteration, active cases, W, F) of the active cases,
 #: s = (W, F) after relaxation, shapes ``(n_active, n_steps, n_points, 2)``; the arrays are
@@ -205,7 +203,7 @@ def solve_latin_batch(
         w_hat[c], f_hat[c] = start
     local = LocalStage(assemblies, points, ops.search_direction,
                        macro_only=ops.macro_only)
-    _check_scale(assemblies, points[0], ops.search_direction, local)
+    check_scale(assemblies, points[0], ops.search_direction, local)
 
     t1 = time.perf_counter()
     # the iteration is many small dense products: BLAS threads cost more than they give
@@ -401,47 +399,6 @@ def _iterate(ops: LatinOperators, local: LocalStage, options: LatinOptions,
             if mixer is not None:
                 mixer.subset(keep)
     return out
-
-
-def _check_scale(assemblies: Sequence[Assembly], points: InterfacePoints, k: FloatArray,
-                 local: LocalStage) -> None:
-    """Refuse, before iterating, data whose size the solver cannot represent: the indicator
-    squares F/√k and W√k (paper §4.3), so prescribed forces, displacements and gaps scaled
-    so, and k itself, must stay inside ``SCALE_RANGE``."""
-    k_min, k_max = float(k.min()), float(k.max())
-    young = [s.material.young for a in assemblies for s in a.substructures]
-    if not SCALE_RANGE[0] <= k_min <= k_max <= SCALE_RANGE[1]:
-        raise ModelError(
-            f"the search direction k = κ E / L runs from {k_min:.3g} to {k_max:.3g} (E from "
-            f"{min(young):.3g} to {max(young):.3g}): beyond what double precision represents "
-            f"(k must stay within [{SCALE_RANGE[0]:g}, {SCALE_RANGE[1]:g}]); rescale the "
-            "units of the model (e.g. mm, N, MPa)")
-    root_w = np.sqrt(points.weights)
-    root_k = np.sqrt(k)
-    sizes: list[tuple[float, str]] = []
-    boundary = local.boundary
-    if boundary.size:
-        scaled = np.where(local.is_displacement, root_k[boundary] * root_w[boundary, None],
-                          root_w[boundary, None] / root_k[boundary])
-        values = np.abs(local.prescribed) * scaled
-        at = np.unravel_index(int(np.argmax(values)), values.shape)
-        point = int(boundary[at[2]])
-        itf = assemblies[int(at[0])].interfaces[int(points.interface[point])]
-        kind = "displacement" if local.is_displacement[at[2], at[3]] else "force"
-        sizes.append((float(values.max()), f"prescribed {kind} {local.prescribed[at]:.3g} on "
-                                           f"boundary {itf.name!r}"))
-    for gaps, where in ((local.gap_contact, points.contact_pairs[0]),
-                        (local.gap_stop, points.stops)):
-        if gaps.size:
-            scaled_gap = np.abs(gaps) * (root_k[where].max(axis=1) * root_w[where])
-            sizes.append((float(scaled_gap.max()), f"a gap of {float(np.abs(gaps).max()):.3g}"))
-    for size, what in sizes:
-        if size > SCALE_RANGE[1] or 0 < size < SCALE_RANGE[0]:
-            raise ModelError(
-                f"{what}: with the search direction k from {k_min:.3g} to {k_max:.3g} the "
-                f"solver's norms would {'overflow' if size > 1 else 'underflow'} in double "
-                f"precision (scaled size {size:.3g} outside [{SCALE_RANGE[0]:g}, "
-                f"{SCALE_RANGE[1]:g}]); rescale the units of the model (e.g. mm, N, MPa)")
 
 
 def _damp_stagnating(histories: list[list[float]], active: IntArray, relaxation: FloatArray,

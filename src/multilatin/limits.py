@@ -1,5 +1,7 @@
-"""Size guards: estimate the memory (and time) a model or a study needs before building it,
-and refuse what would not fit, with the estimate and the way to raise the limit.
+"""Guards before work: estimate the memory (and time) a model or a study needs before building
+it, and refuse what would not fit, with the estimate and the way to raise the limit; and
+refuse data whose scale the solver's norms cannot represent in double precision
+(``check_scale``, called by ``solve_latin`` before iterating).
 
 The limit is ``MULTILATIN_MAX_MEMORY_GB`` when set (the command line's ``--max-memory-gb``
 sets it), else 80 % of the memory available now.
@@ -17,8 +19,17 @@ from __future__ import annotations
 import math
 import os
 from collections.abc import Sequence
+from typing import TYPE_CHECKING
+
+import numpy as np
 
 from .errors import ModelError
+
+if TYPE_CHECKING:  # types only: the solver's modules import this one
+    from .assembly import Assembly
+    from .fem.elasticity import FloatArray
+    from .interfaces import InterfacePoints
+    from .local_stage import LocalStage
 
 MEMORY_ENVIRONMENT = "MULTILATIN_MAX_MEMORY_GB"
 #: a grid parameter may take at most this many values (a guard against a typo in a count)
@@ -28,6 +39,9 @@ MAX_VALUES_PER_PARAMETER = 1_000_000
 BYTES_PER_CASE = 8_000
 #: effective speed of the triangular solves of the condensation (bytes-bound), flop/s
 CONDENSATION_FLOPS = 2e9
+#: the indicator's norm squares fields scaled by √k and 1/√k: data whose scaled size leaves
+#: this window would overflow or underflow in double precision
+SCALE_RANGE = (1e-120, 1e120)
 
 
 def available_memory() -> float:
@@ -113,3 +127,44 @@ def check_study(cases: int, modes: int) -> None:
     """Refuse a study whose bookkeeping alone would not fit in memory."""
     _refuse(f"the study ({cases} cases x {modes} mode(s))", float(cases) * modes
             * BYTES_PER_CASE)
+
+
+def check_scale(assemblies: Sequence[Assembly], points: InterfacePoints, k: FloatArray,
+                local: LocalStage) -> None:
+    """Refuse, before iterating, data whose size the solver cannot represent: the indicator
+    squares F/√k and W√k (paper §4.3), so prescribed forces, displacements and gaps scaled
+    so, and k itself, must stay inside ``SCALE_RANGE``."""
+    k_min, k_max = float(k.min()), float(k.max())
+    young = [s.material.young for a in assemblies for s in a.substructures]
+    if not SCALE_RANGE[0] <= k_min <= k_max <= SCALE_RANGE[1]:
+        raise ModelError(
+            f"the search direction k = κ E / L runs from {k_min:.3g} to {k_max:.3g} (E from "
+            f"{min(young):.3g} to {max(young):.3g}): beyond what double precision represents "
+            f"(k must stay within [{SCALE_RANGE[0]:g}, {SCALE_RANGE[1]:g}]); rescale the "
+            "units of the model (e.g. mm, N, MPa)")
+    root_w = np.sqrt(points.weights)
+    root_k = np.sqrt(k)
+    sizes: list[tuple[float, str]] = []
+    boundary = local.boundary
+    if boundary.size:
+        scaled = np.where(local.is_displacement, root_k[boundary] * root_w[boundary, None],
+                          root_w[boundary, None] / root_k[boundary])
+        values = np.abs(local.prescribed) * scaled
+        at = np.unravel_index(int(np.argmax(values)), values.shape)
+        point = int(boundary[at[2]])
+        itf = assemblies[int(at[0])].interfaces[int(points.interface[point])]
+        kind = "displacement" if local.is_displacement[at[2], at[3]] else "force"
+        sizes.append((float(values.max()), f"prescribed {kind} {local.prescribed[at]:.3g} on "
+                                           f"boundary {itf.name!r}"))
+    for gaps, where in ((local.gap_contact, points.contact_pairs[0]),
+                        (local.gap_stop, points.stops)):
+        if gaps.size:
+            scaled_gap = np.abs(gaps) * (root_k[where].max(axis=1) * root_w[where])
+            sizes.append((float(scaled_gap.max()), f"a gap of {float(np.abs(gaps).max()):.3g}"))
+    for size, what in sizes:
+        if size > SCALE_RANGE[1] or 0 < size < SCALE_RANGE[0]:
+            raise ModelError(
+                f"{what}: with the search direction k from {k_min:.3g} to {k_max:.3g} the "
+                f"solver's norms would {'overflow' if size > 1 else 'underflow'} in double "
+                f"precision (scaled size {size:.3g} outside [{SCALE_RANGE[0]:g}, "
+                f"{SCALE_RANGE[1]:g}]); rescale the units of the model (e.g. mm, N, MPa)")
