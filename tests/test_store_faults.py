@@ -101,7 +101,11 @@ def test_leftovers_and_damaged_files_are_repaired_and_said(b1: ml.Model,
     lines[2] = lines[2][: len(lines[2]) // 2]
     (folder / "cases.jsonl").write_text("\n".join(lines) + "\n")
     (folder / "study.json").write_text('{"identity": {"model": "b1", ')
+    (folder / "study.nc.tmp").write_bytes(b"CDF half")
+    (folder / "my-notes.tmp.txt").write_text("the user's own file")  # left alone
     result = run_study(b1, GRID, out=folder, progress=False)
+    assert (folder / "my-notes.tmp.txt").read_text() == "the user's own file"
+    assert not (folder / "study.nc.tmp").exists()
     repairs = "\n".join(result.repairs)
     assert "removed chains/multiresolution-0.npz.tmp" in repairs
     assert "dropped damaged chain state multiresolution-0.npz" in repairs

@@ -51,6 +51,9 @@ from .study import ChainState
 log = logging.getLogger(__name__)
 
 Key = tuple[str, int]  # (mode, case number)
+#: temporary files of the store's writes (``_write_atomic``; ``study.tmp.nc`` and
+#: ``chains/*.tmp.npz`` of earlier versions) and of the writability probe
+LEFTOVERS = ("study.nc.tmp", "study.json.tmp", "cases.jsonl.tmp", "study.tmp.nc", ".write-probe")
 RecordCheck = Callable[[dict[str, Any]], bool]
 
 #: testing hook (``tests/test_store_faults.py``): the process kills itself with SIGKILL at
@@ -111,10 +114,15 @@ class StudyStore:
         self.repairs.append(message)
 
     def _remove_leftovers(self) -> None:
-        for path in [*self.folder.glob("*.tmp"), *self.folder.glob("*.tmp.*"),
-                     *(self.folder / "chains").glob("*.tmp*")]:
-            path.unlink(missing_ok=True)
-            self._repaired(f"removed {path.relative_to(self.folder)} (a write cut short)")
+        """Remove the temporary files of writes cut short — the store's own names only
+        (files of the user's in the folder are left alone)."""
+        own = [self.folder / name for name in LEFTOVERS]
+        chains = self.folder / "chains"
+        own += [*chains.glob("*.npz.tmp"), *chains.glob("*.tmp.npz")]
+        for path in own:
+            if path.is_file():
+                path.unlink()
+                self._repaired(f"removed {path.relative_to(self.folder)} (a write cut short)")
 
     def _check_identity(self, record_fits: RecordCheck | None) -> None:
         meta = self.folder / "study.json"
