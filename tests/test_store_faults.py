@@ -212,3 +212,19 @@ def test_a_case_computed_again_never_starts_from_its_own_answer(b1: ml.Model,
         assert int(str(record["iterations"])) > 5
     assert all(r["converged"] for r in resumed.records)
     assert np.isfinite([r["qoi"]["R_stop"] for r in resumed.records]).all()
+
+
+def test_a_refused_study_leaves_its_folder_unlocked(b1: ml.Model, tmp_path: Path,
+                                                   monkeypatch: pytest.MonkeyPatch) -> None:
+    """A study that fails before its first case (here the data-scale check) releases the
+    folder: the same process can start a study there again — even while it keeps the
+    exception (its traceback holds the failed call's frame, as an interactive session
+    does)."""
+    from multilatin import limits
+    monkeypatch.setattr(limits, "SCALE_RANGE", (1e-120, 1e-3))  # everything "too large"
+    with pytest.raises(ModelError, match="double precision") as kept:
+        run_study(b1, Grid({"mu2": [0.0]}), out=tmp_path, progress=False)
+    monkeypatch.undo()
+    assert kept.tb is not None
+    result = run_study(b1, Grid({"mu2": [0.0]}), out=tmp_path, progress=False)
+    assert result.records[0]["converged"]

@@ -175,10 +175,10 @@ def run_study(
              "tolerance": options.tol, "chains": len(plan.chains),
              "geometric_parameters": list(plan.geometric)}
     elapsed: dict[str, float] = {}
-    if not (workers or scheduler) and any(not store.finished(mode, case.number)
-                                          for mode in modes for case in plan.cases):
-        _load_kernels(model, plan.cases[0], options)
-    try:
+    try:  # the store (and its folder's lock) is closed however the study ends
+        if not (workers or scheduler) and any(not store.finished(mode, case.number)
+                                              for mode in modes for case in plan.cases):
+            _load_kernels(model, plan.cases[0], options)
         for mode in modes:
             previous = _elapsed(store, mode)
             pending = [c for c in plan.cases if not store.finished(mode, c.number)]
