@@ -287,8 +287,8 @@ def _outcome(history: FloatArray, qoi: dict[str, float | list[float]],
     if not np.isfinite(eta):
         return False, (f"non-finite fields (overflow or NaN) at iteration {history.size}: the "
                        "data's scale is beyond double precision, or the problem is singular")
-    if not all(np.all(np.isfinite(value)) for value in qoi.values()):
-        bad = [name for name, value in qoi.items() if not np.all(np.isfinite(value))]
+    bad = [name for name, value in qoi.items() if not np.all(np.isfinite(value))]
+    if bad:
         return False, f"non-finite quantities of interest ({', '.join(bad)})"
     if eta >= options.tol:
         return False, (f"eta = {eta:.3e} >= tol = {options.tol:g} after {history.size} "
@@ -372,10 +372,11 @@ def _iterate(ops: LatinOperators, local: LocalStage, options: LatinOptions,
             gap = _norms(displacement_weight, force_weight, w - w_hat, f - f_hat)
             size = 0.5 * (_norms(displacement_weight, force_weight, w, f)
                           + _norms(displacement_weight, force_weight, w_hat, f_hat))
-        # η = 0 only for a zero solution (no load): a NaN or overflowed norm stays NaN
-        eta = np.where(size > 0, gap / np.where(size > 0, size, 1.0),
-                       np.where(gap == 0, 0.0, np.nan))
-        eta = np.where(np.isfinite(gap) & np.isfinite(size), eta, np.nan)
+        # a NaN or overflowed norm leaves η NaN; η = 0 only for a zero solution (no load)
+        eta = np.full_like(gap, np.nan)
+        finite = np.isfinite(gap) & np.isfinite(size)
+        np.divide(gap, size, out=eta, where=finite & (size > 0))
+        eta[finite & (size == 0)] = 0.0  # then gap = 0 too (gap ≤ ‖s‖ + ‖ŝ‖)
         for c, value in zip(active, eta, strict=True):
             out.histories[c].append(float(value))
         if iteration % 50 == 0:

@@ -9,6 +9,7 @@ import numpy as np
 
 from .assembly import Assembly
 from .fem.elasticity import FloatArray
+from .uniqueness import FreeMotion
 
 
 @dataclass(frozen=True)
@@ -46,7 +47,7 @@ class SolveResult:
     interface: InterfaceFields | None = None
     options: dict[str, Any] = field(default_factory=dict)
     #: rigid motions that change no force in the converged state (``multilatin.uniqueness``)
-    free_motions: tuple[Any, ...] = ()
+    free_motions: tuple[FreeMotion, ...] = ()
     #: why the solve failed, when it did ("" when converged)
     failure: str = ""
 
@@ -75,7 +76,7 @@ class SolveResult:
             "indicator": _finite_or_none(self.indicator),
             "wall_s": self.wall_s,
             # no answer from a failed solve: the QoIs are withheld (null)
-            "qoi": self.qoi if self.converged else {name: None for name in self.qoi},
+            "qoi": self.qoi if self.converged else withheld(self.qoi),
             "n_steps": self.assembly.n_steps,
             "n_substructures": len(self.assembly.substructures),
             "n_dofs": self.assembly.n_dofs,
@@ -83,6 +84,11 @@ class SolveResult:
             "history": [_finite_or_none(v) for v in self.history],
             "options": self.options,
         }
+
+
+def withheld(qoi: dict[str, Any]) -> dict[str, None]:
+    """The QoIs of a computation that did not converge, as JSON gives them: null."""
+    return {name: None for name in qoi}
 
 
 def _finite_or_none(value: float) -> float | None:

@@ -22,6 +22,7 @@ from .latin import LatinOptions, solve_latin
 from .limits import check_study
 from .model import Model
 from .parameters import Grid
+from .result import withheld
 from .store import StudyStore
 from .study import MODES, Case, ChainState, StudyPlan, plan_study, run_chain_step
 
@@ -111,7 +112,7 @@ def _case_json(record: dict[str, Any]) -> dict[str, Any]:
                                          "setup_s", "start")}
     out["unique"] = record.get("unique", True)
     if not record["converged"]:  # no answer: masked, as in study.nc
-        out["qoi"] = {name: None for name in record["qoi"]}
+        out["qoi"] = withheld(record["qoi"])
     return out
 
 
@@ -170,7 +171,7 @@ def run_study(
         "chains": len(plan.chains),
     }
     folder = Path(out) if out is not None else Path(tempfile.mkdtemp(prefix="multilatin-"))
-    store = StudyStore(folder, identity, record_fits=_record_fits(plan, model))
+    store = StudyStore(folder, identity, record_fits=_record_fits(plan))
     attrs = {"model": model.name, "title": model.title, "command": command,
              "tolerance": options.tol, "chains": len(plan.chains),
              "geometric_parameters": list(plan.geometric)}
@@ -227,7 +228,7 @@ def run_study(
     return result
 
 
-def _record_fits(plan: StudyPlan, model: Model) -> Callable[[dict[str, Any]], bool]:
+def _record_fits(plan: StudyPlan) -> Callable[[dict[str, Any]], bool]:
     """Whether a journal record is a case of ``plan`` (number, grid index and parameters)."""
     by_number = {case.number: case for case in plan.cases}
 

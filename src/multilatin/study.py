@@ -21,6 +21,7 @@ from typing import Any
 
 import numpy as np
 
+from .assembly import Assembly
 from .errors import ModelError
 from .fem.elasticity import FloatArray
 from .latin import LatinOptions, solve_latin, solve_latin_batch
@@ -248,7 +249,7 @@ def run_case(model: Model, grid: Grid, case: Case, mode: str, options: LatinOpti
                    spent), state
 
 
-def _path_independent(assembly: Any, options: LatinOptions, ops: LatinOperators,
+def _path_independent(assembly: Assembly, options: LatinOptions, ops: LatinOperators,
                       result: SolveResult, start_index: tuple[int, ...] | None
                       ) -> tuple[SolveResult, int]:
     """A warm-started case whose discrete problem does not determine its answer
@@ -340,6 +341,7 @@ def _record(grid: Grid, case: Case, mode: str, result: SolveResult, wall_s: floa
     params = {name: case.mu[name] for name in grid}
     text = ", ".join(f"{k}={v:g}" for k, v in params.items())
     iterations = int(result.iterations) + warm_attempt
+    undetermined = [m.describe() for m in result.free_motions if m.reaches_last_step]
     status = ("converged" if result.converged else f"NOT CONVERGED ({result.failure})")
     return {
         "mode": mode,
@@ -349,7 +351,7 @@ def _record(grid: Grid, case: Case, mode: str, result: SolveResult, wall_s: floa
         "params": params,
         "converged": bool(result.converged),
         "unique": bool(result.unique),
-        "free_motions": [m.describe() for m in result.free_motions if m.reaches_last_step],
+        "free_motions": undetermined,
         "iterations": iterations,
         "indicator": float(result.indicator),
         "wall_s": wall_s,
@@ -363,8 +365,7 @@ def _record(grid: Grid, case: Case, mode: str, result: SolveResult, wall_s: floa
                 f"{iterations} iterations, eta={result.indicator:.2e}, "
                 f"{wall_s:.3f} s{f' (share of a batch of {batch})' if batch > 1 else ''}, "
                 f"start: {start}, operators {'built' if built else 'reused'}"
-                + ("" if result.unique else "; NOT UNIQUE: " + "; ".join(
-                    m.describe() for m in result.free_motions if m.reaches_last_step))),
+                + ("; NOT UNIQUE: " + "; ".join(undetermined) if undetermined else "")),
     }
 
 
