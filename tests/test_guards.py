@@ -111,6 +111,10 @@ def test_a_mesh_too_large_for_memory_is_refused_with_the_estimate(
     err = _error(capsys, "solve", "b0", "--refine", "8", "--max-memory-gb", "0.01")
     assert "above the limit of 0.01 GB (MULTILATIN_MAX_MEMORY_GB = 0.01)" in err
     assert main(["solve", "b0", "--max-memory-gb", "50"]) == 0
+    capsys.readouterr()
+    for bad in ("-1", "nan", "0"):
+        assert "--max-memory-gb: must be a number of GB > 0" in _error(
+            capsys, "solve", "b0", "--max-memory-gb", bad)
 
 
 def test_the_memory_estimate_matches_a_measured_build() -> None:

@@ -230,9 +230,12 @@ def main(argv: list[str] | None = None) -> int:
     level = logging.WARNING - 10 * args.verbose
     logging.basicConfig(level=level, format="%(levelname)s %(name)s: %(message)s",
                         stream=sys.stderr)
-    if args.max_memory_gb is not None:
-        os.environ[MEMORY_ENVIRONMENT] = repr(args.max_memory_gb)
     try:
+        if args.max_memory_gb is not None:
+            if not args.max_memory_gb > 0 or args.max_memory_gb == float("inf"):
+                raise ModelError(f"--max-memory-gb: must be a number of GB > 0, got "
+                                 f"{args.max_memory_gb!r}")
+            os.environ[MEMORY_ENVIRONMENT] = repr(args.max_memory_gb)
         if args.command == "models":
             for name in bundled_models():
                 print(f"{name}: {load_model(name).title}")
