@@ -25,6 +25,7 @@ Choice of interface elements (``interface_elements``), decided by test
 from __future__ import annotations
 
 import dataclasses
+from collections.abc import Callable
 from dataclasses import dataclass
 from typing import Any
 
@@ -117,6 +118,16 @@ class InterfacePoints:
     side_points: dict[tuple[int, int], IntArray]  # (interface, side index) -> points
     corner: IntArray  # contact pairs whose two sides' tangential motion is rigidly held
     corner_stops: IntArray  # (n_corner, 2) index in ``stops`` holding side a / b, −1: fixed
+    # contact pairs held tangentially on one side only (``_held_corners``), per pair: the
+    # held side (0: a, 1: b, −1: neither or both), and what holds it: an index in
+    # ``boundary`` (a prescribed displacement) or in ``stops`` (when closed), else −1
+    held_side: IntArray
+    held_boundary: IntArray
+    held_stop: IntArray
+    # perfect pairs held on one side by a prescribed displacement, per pair and component:
+    # the held side (0: a, 1: b, −1: neither or both) and its index in ``boundary``
+    pair_held_side: IntArray  # (n_pairs, 2)
+    pair_held_boundary: IntArray  # (n_pairs, 2)
 
     @property
     def n_points(self) -> int:
@@ -124,8 +135,13 @@ class InterfacePoints:
 
 
 
-def build_points(assembly: Assembly, kind: str = "nodal") -> InterfacePoints:
-    """Discretise every interface side of ``assembly`` with interface elements ``kind``."""
+def build_points(assembly: Assembly, kind: str = "nodal", *,
+                 held_nodes: bool = True) -> InterfacePoints:
+    """Discretise every interface side of ``assembly`` with interface elements ``kind``.
+
+    held_nodes: find the contact and perfect pairs held on one side (``_held_corners``,
+        ``_held_perfect_pairs``); False leaves them to the two-sided rule (before issue 15).
+    """
     per_sub: list[list[tuple[int, int, SideDiscretisation]]] = [
         [] for _ in assembly.substructures
     ]
@@ -197,9 +213,15 @@ def build_points(assembly: Assembly, kind: str = "nodal") -> InterfacePoints:
     stops = cat(stop)
     boundary = cat(bnd)
     is_displacement = (np.concatenate(bnd_disp) if bnd_disp else np.zeros((0, 2), dtype=bool))
-    corner, corner_stops = _held_corners(cat(substructure), all_coords, contact_pairs, stops,
-                                         boundary, is_displacement,
-                                         np.concatenate(normals) if normals else np.zeros((0, 2)))
+    all_normals = np.concatenate(normals) if normals else np.zeros((0, 2))
+    held = _held_corners(cat(substructure), all_coords, contact_pairs, stops, boundary,
+                         is_displacement, all_normals)
+    held.update(_held_perfect_pairs(cat(substructure), all_coords,
+                                    (cat(pairs_a), cat(pairs_b)), boundary, is_displacement))
+    if not held_nodes:
+        for name in ("held_side", "held_boundary", "held_stop", "pair_held_side",
+                     "pair_held_boundary"):
+            held[name] = np.full_like(held[name], -1)
     return InterfacePoints(
         substructure=cat(substructure),
         interface=cat(interface),
@@ -217,8 +239,13 @@ def build_points(assembly: Assembly, kind: str = "nodal") -> InterfacePoints:
         boundary_is_displacement=is_displacement,
         **_contact_data(assembly, side_points),
         side_points=side_points,
-        corner=corner,
-        corner_stops=corner_stops,
+        corner=held["corner"],
+        corner_stops=held["corner_stops"],
+        held_side=held["held_side"],
+        held_boundary=held["held_boundary"],
+        held_stop=held["held_stop"],
+        pair_held_side=held["pair_held_side"],
+        pair_held_boundary=held["pair_held_boundary"],
     )
 
 
@@ -252,35 +279,89 @@ def with_contact_data(points: InterfacePoints, assembly: Assembly) -> InterfaceP
 def _held_corners(substructure: IntArray, coords: FloatArray,
                   contact_pairs: tuple[IntArray, IntArray], stops: IntArray,
                   boundary: IntArray, is_displacement: npt.NDArray[np.bool_],
-                  normals: FloatArray) -> tuple[IntArray, IntArray]:
-    """Contact pairs whose tangential displacement is held rigidly on both sides, by a
-    prescribed displacement or by a stop at the same point of the same substructure (B1's
-    corner between the stop and the wall-held top block).
+                  normals: FloatArray) -> dict[str, IntArray]:
+    """Contact pairs whose tangential displacement is held, at the same node of the same
+    substructure, by a prescribed displacement or a stop: the ends of a contact interface on
+    a clamped or pushed face or on a stop (cross points).
 
-    There the friction force is statically indeterminate (any value in the cone balances);
-    the local stage then keeps it at its previous step's value, the limit of any tangential
-    compliance (see ``LocalStage``).
+    Held on both sides (B1's corner between the stop and the wall-held top block): the
+    friction force is statically indeterminate (any value in the cone balances); the local
+    stage keeps it at its previous step's value, the limit of any tangential compliance
+    (``corner``, ``corner_stops``).
+
+    Held on one side only: the held node's tangential force is shared between the contact
+    point and the holding condition, and only their sum is determined: with nodal
+    interface fields that split is an (almost) neutral mode of the iteration, so slow
+    against a stiff partner that η hardly sees it (measured: R_push 3.7 % off at η < 3e-6
+    for a block on a 1 000 times stiffer foundation, ``benchmarks/slide.py``). The local
+    stage therefore gives that pair's friction from the *free* side alone, as against an
+    obstacle moving with the held node (``held_side``, ``held_boundary``, ``held_stop``).
     """
-    def key(p: int) -> tuple[int, float, float]:
-        return (int(substructure[p]), round(float(coords[p, 0]), 9), round(float(coords[p, 1]), 9))
-
-    fixed = {(key(int(p)), c) for p, mask in zip(boundary, is_displacement, strict=True)
-             for c in range(2) if mask[c]}
+    key = _node_key(substructure, coords)
+    fixed = _prescribed_components(key, boundary, is_displacement)
     stop_of = {(key(int(p)), int(np.argmax(np.abs(normals[p])))): q for q, p in enumerate(stops)}
+    n_pairs = contact_pairs[0].size
     corner, corner_stops = [], []
+    held_side = np.full(n_pairs, -1, dtype=np.int64)
+    held_boundary = np.full(n_pairs, -1, dtype=np.int64)
+    held_stop = np.full(n_pairs, -1, dtype=np.int64)
     for j, (a, b) in enumerate(zip(*contact_pairs, strict=True)):
         tangential = 1 - int(np.argmax(np.abs(normals[a])))
-        holders = []
-        for p in (int(a), int(b)):
+        holders: list[tuple[int, int, int]] = []  # (side, boundary index, stop index)
+        for side, p in enumerate((int(a), int(b))):
             if (key(p), tangential) in fixed:
-                holders.append(-1)
+                holders.append((side, fixed[(key(p), tangential)], -1))
             elif (key(p), tangential) in stop_of:
-                holders.append(stop_of[(key(p), tangential)])
+                holders.append((side, -1, stop_of[(key(p), tangential)]))
         if len(holders) == 2:
             corner.append(j)
-            corner_stops.append(holders)
-    return (np.array(corner, dtype=np.int64),
-            np.array(corner_stops, dtype=np.int64).reshape(-1, 2))
+            corner_stops.append([-1 if stop < 0 else stop for _, _, stop in holders])
+        elif len(holders) == 1:
+            held_side[j], held_boundary[j], held_stop[j] = holders[0]
+    return {"corner": np.array(corner, dtype=np.int64),
+            "corner_stops": np.array(corner_stops, dtype=np.int64).reshape(-1, 2),
+            "held_side": held_side, "held_boundary": held_boundary, "held_stop": held_stop}
+
+
+def _node_key(substructure: IntArray, coords: FloatArray
+              ) -> Callable[[int], tuple[int, float, float]]:
+    """A point's node: its substructure and coordinates (points of different sides of a
+    substructure at the same node share it)."""
+    def key(p: int) -> tuple[int, float, float]:
+        return (int(substructure[p]), round(float(coords[p, 0]), 9), round(float(coords[p, 1]), 9))
+    return key
+
+
+def _prescribed_components(key: Callable[[int], tuple[int, float, float]], boundary: IntArray,
+                           is_displacement: npt.NDArray[np.bool_]
+                           ) -> dict[tuple[tuple[int, float, float], int], int]:
+    """(node, component) -> index in ``boundary`` of the point prescribing its
+    displacement."""
+    return {(key(int(p)), c): i for i, (p, mask) in
+            enumerate(zip(boundary, is_displacement, strict=True)) for c in range(2) if mask[c]}
+
+
+def _held_perfect_pairs(substructure: IntArray, coords: FloatArray,
+                        pairs: tuple[IntArray, IntArray], boundary: IntArray,
+                        is_displacement: npt.NDArray[np.bool_]) -> dict[str, IntArray]:
+    """Perfect pairs whose node is held on one side only by a prescribed displacement
+    component (an interface ending on a clamped or pushed face next to a substructure that
+    is not held there): as for contact (``_held_corners``), only the sum of the pair's and
+    the holder's forces at the held node is determined, so the local stage takes the pair's
+    force from the free side's search direction against the prescribed displacement.
+    Held on both sides, the split is neutral and left alone (measured: no effect)."""
+    key = _node_key(substructure, coords)
+    fixed = _prescribed_components(key, boundary, is_displacement)
+    n_pairs = pairs[0].size
+    held_side = np.full((n_pairs, 2), -1, dtype=np.int64)
+    held_boundary = np.full((n_pairs, 2), -1, dtype=np.int64)
+    for j, (a, b) in enumerate(zip(*pairs, strict=True)):
+        for c in range(2):
+            holders = [(side, fixed[(key(int(p)), c)]) for side, p in enumerate((a, b))
+                       if (key(int(p)), c) in fixed]
+            if len(holders) == 1:
+                held_side[j, c], held_boundary[j, c] = holders[0]
+    return {"pair_held_side": held_side, "pair_held_boundary": held_boundary}
 
 
 def interface_functions(points: InterfacePoints, interface: int, n_sides: int

@@ -46,10 +46,13 @@ def _in_cone(source_x: float, source_y: float, normal_force: float, nx: float, n
 
 def _contact_and_stops(displacement: FloatArray, force: FloatArray, w_hat: FloatArray,
                        f_hat: FloatArray, a: IntArray, b: IntArray, k_contact: FloatArray,
-                       n_contact: FloatArray, mu_contact: FloatArray, gap_contact: FloatArray,
+                       k_contact_b: FloatArray, n_contact: FloatArray, mu_contact: FloatArray,
+                       gap_contact: FloatArray,
                        stops: IntArray, k_stop: FloatArray, n_stop: FloatArray,
                        mu_stop: FloatArray, gap_stop: FloatArray, corner_of_pair: IntArray,
-                       corner_stops: IntArray) -> None:  # pragma: no cover - compiled
+                       corner_stops: IntArray, held_side: IntArray, held_boundary: IntArray,
+                       held_stop: IntArray, prescribed: FloatArray
+                       ) -> None:  # pragma: no cover - compiled
     n_cases, n_steps = displacement.shape[0], displacement.shape[1]
     n_pairs, n_stops = a.size, stops.size
     n_corners = corner_stops.shape[0]
@@ -82,17 +85,60 @@ def _contact_and_stops(displacement: FloatArray, force: FloatArray, w_hat: Float
             for j in range(n_pairs):
                 pa, pb = a[j], b[j]
                 nx, ny = n_contact[j, 0], n_contact[j, 1]
-                kx, ky = k_contact[j, 0], k_contact[j, 1]
+                kx, ky = k_contact[j, 0], k_contact[j, 1]  # side a
+                kbx, kby = k_contact_b[j, 0], k_contact_b[j, 1]
                 dax = displacement[c, t, pa, 0] - prev_a[j, 0]
                 day = displacement[c, t, pa, 1] - prev_a[j, 1]
                 dbx = displacement[c, t, pb, 0] - prev_b[j, 0]
                 dby = displacement[c, t, pb, 1] - prev_b[j, 1]
-                trial_x = 0.5 * (force[c, t, pa, 0] - force[c, t, pb, 0]) + 0.5 * kx * (dbx - dax)
-                trial_y = 0.5 * (force[c, t, pa, 1] - force[c, t, pb, 1]) + 0.5 * ky * (dby - day)
+                # series stiffness k* = k_a k_b / (k_a + k_b) (k / 2 when equal) and the
+                # trial force F* = k* (F_a / k_a − F_b / k_b + [ΔW])
+                if kx == kbx:
+                    hx = 0.5 * kx
+                    trial_x = 0.5 * (force[c, t, pa, 0] - force[c, t, pb, 0]) + hx * (dbx - dax)
+                else:
+                    hx = kx * kbx / (kx + kbx)
+                    trial_x = hx * (force[c, t, pa, 0] / kx - force[c, t, pb, 0] / kbx
+                                    + dbx - dax)
+                if ky == kby:
+                    hy = 0.5 * ky
+                    trial_y = 0.5 * (force[c, t, pa, 1] - force[c, t, pb, 1]) + hy * (dby - day)
+                else:
+                    hy = ky * kby / (ky + kby)
+                    trial_y = hy * (force[c, t, pa, 1] / ky - force[c, t, pb, 1] / kby
+                                    + dby - day)
                 closing = gap_contact[c, j] + (nx * (prev_b[j, 0] - prev_a[j, 0])
                                                + ny * (prev_b[j, 1] - prev_a[j, 1]))
                 normal_force = (nx * trial_x + ny * trial_y
-                                + 0.5 * (abs(nx) * kx + abs(ny) * ky) * closing)
+                                + (abs(nx) * hx + abs(ny) * hy) * closing)
+                # held on one side (``interfaces._held_corners``): the tangential trial
+                # force from the free side alone, against the held node's motion
+                hs = held_side[j]
+                target = 0.0
+                holding = False
+                d = 0 if abs(ny) > abs(nx) else 1  # the tangential component
+                if hs >= 0:
+                    if held_boundary[j] >= 0:
+                        target = prescribed[c, t, held_boundary[j], d]
+                        holding = True
+                    elif stop_closed[held_stop[j]]:
+                        target = prev_stop[held_stop[j], d]
+                        holding = True
+                if holding:
+                    wa_d = displacement[c, t, pa, d]
+                    wb_d = displacement[c, t, pb, d]
+                    if hs == 1:
+                        ka_d = kx if d == 0 else ky
+                        tangential = force[c, t, pa, d] + ka_d * (
+                            prev_a[j, d] + target - prev_b[j, d] - wa_d)
+                    else:
+                        kb_d = kbx if d == 0 else kby
+                        tangential = -(force[c, t, pb, d] + kb_d * (
+                            prev_b[j, d] + target - prev_a[j, d] - wb_d))
+                    if d == 0:
+                        trial_x = tangential
+                    else:
+                        trial_y = tangential
                 fx, fy = 0.0, 0.0
                 if normal_force <= 0.0:
                     fx, fy = _in_cone(trial_x, trial_y, normal_force, nx, ny,
@@ -110,8 +156,13 @@ def _contact_and_stops(displacement: FloatArray, force: FloatArray, w_hat: Float
                     corner_force[q, 0], corner_force[q, 1] = fx, fy
                 prev_a[j, 0] += dax + (fx - force[c, t, pa, 0]) / kx
                 prev_a[j, 1] += day + (fy - force[c, t, pa, 1]) / ky
-                prev_b[j, 0] += dbx + (-fx - force[c, t, pb, 0]) / kx
-                prev_b[j, 1] += dby + (-fy - force[c, t, pb, 1]) / ky
+                prev_b[j, 0] += dbx + (-fx - force[c, t, pb, 0]) / kbx
+                prev_b[j, 1] += dby + (-fy - force[c, t, pb, 1]) / kby
+                if holding:  # the held side follows its holder
+                    if hs == 1:
+                        prev_b[j, d] = target
+                    else:
+                        prev_a[j, d] = target
                 f_hat[c, t, pa, 0], f_hat[c, t, pa, 1] = fx, fy
                 f_hat[c, t, pb, 0], f_hat[c, t, pb, 1] = -fx, -fy
                 w_hat[c, t, pa, 0], w_hat[c, t, pa, 1] = prev_a[j, 0], prev_a[j, 1]
@@ -120,8 +171,9 @@ def _contact_and_stops(displacement: FloatArray, force: FloatArray, w_hat: Float
 
 def _perfect_and_boundary(displacement: FloatArray, force: FloatArray, w_hat: FloatArray,
                           f_hat: FloatArray, a: IntArray, b: IntArray, k_pair: FloatArray,
-                          boundary: IntArray, k_boundary: FloatArray,
-                          is_displacement: npt.NDArray[np.bool_], prescribed: FloatArray
+                          k_pair_b: FloatArray, boundary: IntArray, k_boundary: FloatArray,
+                          is_displacement: npt.NDArray[np.bool_], prescribed: FloatArray,
+                          pair_held_side: IntArray, pair_held_boundary: IntArray
                           ) -> None:  # pragma: no cover - compiled
     n_cases, n_steps = displacement.shape[0], displacement.shape[1]
     for c in range(n_cases):
@@ -129,11 +181,22 @@ def _perfect_and_boundary(displacement: FloatArray, force: FloatArray, w_hat: Fl
             for j in range(a.size):
                 pa, pb = a[j], b[j]
                 for d in range(2):
-                    k = k_pair[j, d]
+                    k, kb = k_pair[j, d], k_pair_b[j, d]
                     wa, wb = displacement[c, t, pa, d], displacement[c, t, pb, d]
                     fa, fb = force[c, t, pa, d], force[c, t, pb, d]
-                    w = 0.5 * (wa + wb) - (fa + fb) / (2.0 * k)
-                    f = 0.5 * (fa - fb) - 0.5 * k * (wa - wb)
+                    held = pair_held_side[j, d]
+                    if held == 1:  # b's node prescribed: a's E+ against it
+                        w = prescribed[c, t, pair_held_boundary[j, d], d]
+                        f = fa + k * (w - wa)
+                    elif held == 0:  # a's node prescribed: b's E+ against it
+                        w = prescribed[c, t, pair_held_boundary[j, d], d]
+                        f = -(fb + kb * (w - wb))
+                    elif k == kb:
+                        w = 0.5 * (wa + wb) - (fa + fb) / (2.0 * k)
+                        f = 0.5 * (fa - fb) - 0.5 * k * (wa - wb)
+                    else:  # Ŵ = (k_a W_a + k_b W_b − F_a − F_b) / (k_a + k_b)
+                        w = (k * wa + kb * wb - fa - fb) / (k + kb)
+                        f = fa + k * (w - wa)
                     w_hat[c, t, pa, d], w_hat[c, t, pb, d] = w, w
                     f_hat[c, t, pa, d], f_hat[c, t, pb, d] = f, -f
             for i in range(boundary.size):

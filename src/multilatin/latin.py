@@ -42,6 +42,7 @@ log = logging.getLogger(__name__)
 #: admissible κ: beyond, k is so far from the stiffness that the linear stage loses the
 #: digits the answer needs (and the macro problem turns singular in floating point)
 KAPPA_RANGE = (1e-3, 1e3)
+SEARCH_MODULI = ("mean", "neighbour", "own")
 
 #: called after every iteration with (iteration, active cases, W, F) of the active cases,
 #: s = (W, F) after relaxation, shapes ``(n_active, n_steps, n_points, 2)``; the arrays are
@@ -53,10 +54,26 @@ IterationObserver = Callable[[int, IntArray, FloatArray, FloatArray], None]
 class LatinOptions:
     """Discretisation and solver choices (arguments, not model parameters).
 
-    kappa: search direction k = κ E / L per interface (E: mean Young's modulus of the two
-        sides, L: the smaller side of the body the interface bounds, so that splitting a
-        body into more substructures keeps the same k, measured best in
-        ``benchmarks/b1_search_direction.py``); the converged answer does not depend on it.
+    kappa: search direction k = κ E / L per interface side (see ``search_modulus``; L: the
+        smaller side of a body, so that splitting a body into more substructures keeps the
+        same k, measured best in ``benchmarks/b1_search_direction.py``); the converged
+        answer does not depend on it.
+    search_modulus: whose E and L set k on each side of an interface between two
+        substructures. ``"own"`` (default): each side its own substructure's;
+        ``"neighbour"``: the substructure on the other side (LMT's scills rule: E−
+        stands for the rest of the structure); ``"mean"``: both sides the mean E of the
+        two and the L of the first side's body (the rule before issue 15). All three are
+        the same for equal materials and body sizes (every bundled B model). On a block
+        against a 1 000 times stiffer foundation (``benchmarks/slide.py``) "own" converges
+        in 59–346 iterations from κ 0.1 to 2, "mean" not in 1 000 at κ ≥ 0.5
+        (docs/convergence.md).
+    held_nodes: at a node held on one side only by a prescribed displacement (or a closed
+        stop, for contact) — an interface ending on a clamped or pushed face — the pair's
+        force comes from the free side alone, against the held motion
+        (``interfaces._held_corners``): only the sum of the pair's and the holder's forces
+        is determined there, and the split was an almost neutral mode that η hardly sees
+        (a block on a 1 000 times stiffer foundation stopped 3.7 % off). False: the
+        earlier two-sided rule, for side-by-side benchmarks.
     tol: stop when the indicator η (paper §4.3) drops below ``tol``.
     max_iter: iteration cap; reaching it without η < tol is a failure, not an answer.
     relaxation: ω in s ← ω s_new + (1 − ω) s_old after each linear stage (method.md §4:
@@ -88,6 +105,8 @@ class LatinOptions:
     acceleration: str = "relaxation"
     anderson_depth: int = 3
     tangential_ratio: float = 1.0
+    search_modulus: str = "own"
+    held_nodes: bool = True
     stagnation_window: int = 100
     stagnation_ratio: float = 0.7
 
@@ -110,6 +129,9 @@ class LatinOptions:
         if self.acceleration not in ("relaxation", "anderson"):
             raise ModelError(f"acceleration: expected 'relaxation' or 'anderson', "
                              f"got {self.acceleration!r}")
+        if self.search_modulus not in SEARCH_MODULI:
+            raise ModelError(f"search_modulus: expected one of {SEARCH_MODULI}, "
+                             f"got {self.search_modulus!r}")
         if not self.tangential_ratio > 0:
             raise ModelError(f"tangential_ratio: must be > 0, got {self.tangential_ratio!r}")
         if self.stagnation_window < 2:

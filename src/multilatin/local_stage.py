@@ -5,9 +5,11 @@
 from __future__ import annotations
 
 import copy
+import functools
 from collections.abc import Sequence
 
 import numpy as np
+import numpy.typing as npt
 import scipy.linalg as sla
 import scipy.sparse as sp
 
@@ -42,12 +44,14 @@ class LocalStage:
                                              else macro_only_map(first, k))
         self.k_macro = k[self.macro_points]
         self.k_pair = k[first.pairs[0]]
+        self.k_pair_b = k[first.pairs[1]]
         self.boundary = first.boundary
         self.k_boundary = k[first.boundary]
         self.is_displacement = first.boundary_is_displacement
         self.contact_pairs = first.contact_pairs
         a = first.contact_pairs[0]
         self.k_contact = k[a]  # diagonal in the interface's (axis-aligned) frame
+        self.k_contact_b = k[first.contact_pairs[1]]
         self.n_contact = first.normals[a]
         self.stops = first.stops
         self.k_stop = k[first.stops]
@@ -56,6 +60,11 @@ class LocalStage:
         self.corner_stops = first.corner_stops
         self.corner_of_pair = np.full(a.size, -1, dtype=np.int64)
         self.corner_of_pair[first.corner] = np.arange(first.corner.size)
+        self.pair_held_side = first.pair_held_side
+        self.pair_held_boundary = first.pair_held_boundary
+        self.held_side = first.held_side
+        self.held_boundary = first.held_boundary
+        self.held_stop = first.held_stop
         if compiled and kernels.contact_and_stops is None:
             raise ModelError("compiled local stage: Numba is not installed "
                              "(pip install 'multilatin[fast]')")
@@ -97,7 +106,8 @@ class LocalStage:
             assert kernels.perfect_and_boundary is not None
             kernels.perfect_and_boundary(
                 displacement, force, w_hat, f_hat, self.pairs[0], self.pairs[1], self.k_pair,
-                self.boundary, self.k_boundary, self.is_displacement, self.prescribed)
+                self.k_pair_b, self.boundary, self.k_boundary, self.is_displacement,
+                self.prescribed, self.pair_held_side, self.pair_held_boundary)
         else:
             self._perfect_and_boundary(displacement, force, w_hat, f_hat)
         m = self.macro_points
@@ -114,9 +124,11 @@ class LocalStage:
             assert kernels.contact_and_stops is not None
             kernels.contact_and_stops(
                 np.ascontiguousarray(displacement), np.ascontiguousarray(force), w_hat, f_hat,
-                self.contact_pairs[0], self.contact_pairs[1], self.k_contact, self.n_contact,
+                self.contact_pairs[0], self.contact_pairs[1], self.k_contact, self.k_contact_b,
+                self.n_contact,
                 self.mu_contact, self.gap_contact, self.stops, self.k_stop, self.n_stop,
-                self.mu_stop, self.gap_stop, self.corner_of_pair, self.corner_stops)
+                self.mu_stop, self.gap_stop, self.corner_of_pair, self.corner_stops,
+                self.held_side, self.held_boundary, self.held_stop, self.prescribed)
         else:
             self._contact_and_stops(displacement, force, w_hat, f_hat)
         return w_hat, f_hat
@@ -124,18 +136,63 @@ class LocalStage:
     def _perfect_and_boundary(self, displacement: FloatArray, force: FloatArray,
                               w_hat: FloatArray, f_hat: FloatArray) -> None:
         a, b = self.pairs
-        k = self.k_pair
+        k, kb = self.k_pair, self.k_pair_b
         wa, wb = displacement[:, :, a], displacement[:, :, b]
         fa, fb = force[:, :, a], force[:, :, b]
-        # perfect interface: Ŵ_E = Ŵ_E', F̂_E + F̂_E' = 0 on the search direction E+ (eq. [8])
-        w_hat[:, :, a] = w_hat[:, :, b] = 0.5 * (wa + wb) - (fa + fb) / (2.0 * k)
-        f_hat[:, :, a] = 0.5 * (fa - fb) - 0.5 * k * (wa - wb)
+        # perfect interface: Ŵ_E = Ŵ_E', F̂_E + F̂_E' = 0 on the search directions E+ of
+        # both sides (eq. [8]): Ŵ = (k_a W_a + k_b W_b − F_a − F_b) / (k_a + k_b)
+        equal = k == kb
+        w_hat[:, :, a] = w_hat[:, :, b] = np.where(
+            equal, 0.5 * (wa + wb) - (fa + fb) / (2.0 * k),
+            (k * wa + kb * wb - fa - fb) / (k + kb))
+        f_hat[:, :, a] = np.where(equal, 0.5 * (fa - fb) - 0.5 * k * (wa - wb),
+                                  fa + k * (w_hat[:, :, a] - wa))
         f_hat[:, :, b] = -f_hat[:, :, a]
+        # a node held on one side by a prescribed displacement: Ŵ = W_d, and the pair's
+        # force from the free side's E+ (``interfaces._held_perfect_pairs``)
+        j, d = np.nonzero(self.pair_held_side >= 0)
+        if j.size:
+            data = self.prescribed[:, :, self.pair_held_boundary[j, d], d]
+            on_b = self.pair_held_side[j, d] == 1
+            w_hat[:, :, a[j], d] = w_hat[:, :, b[j], d] = data
+            f_hat[:, :, a[j], d] = np.where(
+                on_b, fa[:, :, j, d] + k[j, d] * (data - wa[:, :, j, d]),
+                -(fb[:, :, j, d] + kb[j, d] * (data - wb[:, :, j, d])))
+            f_hat[:, :, b[j], d] = -f_hat[:, :, a[j], d]
         # prescribed displacement / force, component-wise
         bd, k = self.boundary, self.k_boundary
         w, f, data = displacement[:, :, bd], force[:, :, bd], self.prescribed
         w_hat[:, :, bd] = np.where(self.is_displacement, data, w + (data - f) / k)
         f_hat[:, :, bd] = np.where(self.is_displacement, f + k * (data - w), data)
+
+    @functools.cached_property
+    def held_pairs(self) -> IntArray:
+        """Contact pairs held tangentially on one side (``interfaces._held_corners``)."""
+        return np.flatnonzero(self.held_side >= 0)
+
+    @functools.cached_property
+    def held_component(self) -> IntArray:
+        """Their tangential component (0: x, 1: y)."""
+        normal = self.n_contact[self.held_pairs]
+        return np.where(np.abs(normal[:, 1]) > np.abs(normal[:, 0]), 0, 1)
+
+    def _held_targets(self, t: int, stop_displacement: FloatArray,
+                      stop_closed: npt.NDArray[np.bool_]
+                      ) -> tuple[npt.NDArray[np.bool_], FloatArray]:
+        """Per case and held pair, in step ``t``: whether its holder holds (a prescribed
+        displacement always, a stop when closed) and the held node's tangential Ŵ."""
+        h, d = self.held_pairs, self.held_component
+        n_cases = self.prescribed.shape[0]
+        if not h.size:
+            return np.zeros((n_cases, 0), dtype=bool), np.zeros((n_cases, 0))
+        by_boundary = self.held_boundary[h] >= 0
+        stop = np.maximum(self.held_stop[h], 0)
+        boundary = np.maximum(self.held_boundary[h], 0)
+        target = np.where(by_boundary, self.prescribed[:, t, boundary, d],
+                          stop_displacement[:, stop, d] if stop_displacement.shape[1]
+                          else 0.0)
+        holding = by_boundary | (stop_closed[:, stop] if stop_closed.shape[1] else False)
+        return np.broadcast_to(holding, target.shape), target
 
     @staticmethod
     def _coulomb(trial: FloatArray, normal_force: FloatArray, normal: FloatArray,
@@ -169,8 +226,11 @@ class LocalStage:
         """
         n_cases = displacement.shape[0]
         a, b = self.contact_pairs
-        k, n = self.k_contact, self.n_contact
-        k_normal = np.sum(np.abs(n) * k, axis=1)
+        k, kb, n = self.k_contact, self.k_contact_b, self.n_contact
+        # series stiffness k* = k_a k_b / (k_a + k_b), k / 2 when both sides are equal
+        equal = k == kb
+        half = np.where(equal, 0.5 * k, k * kb / (k + kb))
+        half_normal = np.sum(np.abs(n) * half, axis=1)
         prev_a = np.zeros((n_cases, a.size, 2))
         prev_b = np.zeros((n_cases, a.size, 2))
         p = self.stops
@@ -195,9 +255,22 @@ class LocalStage:
                 continue
             dwa = displacement[:, t, a] - prev_a  # increments from the local-stage history
             dwb = displacement[:, t, b] - prev_b
-            trial = 0.5 * (force[:, t, a] - force[:, t, b]) + 0.5 * k * (dwb - dwa)
+            # trial force F* = k* (F_a / k_a − F_b / k_b + [ΔW])
+            trial = np.where(equal, 0.5 * (force[:, t, a] - force[:, t, b]) + half * (dwb - dwa),
+                             half * (force[:, t, a] / k - force[:, t, b] / kb + dwb - dwa))
             closing = self.gap_contact + np.sum(n * (prev_b - prev_a), axis=-1)
-            normal_force = np.sum(n * trial, axis=-1) + 0.5 * k_normal * closing
+            normal_force = np.sum(n * trial, axis=-1) + half_normal * closing
+            holding, target = self._held_targets(t, prev_stop, stop_closed)
+            if holding.any():  # held on one side: tangential trial from the free side
+                h, d = self.held_pairs, self.held_component
+                on_b = self.held_side[h] == 1
+                pa_h, pb_h = a[h], b[h]
+                free_b = force[:, t, pa_h, d] + k[h, d] * (
+                    prev_a[:, h, d] + target - prev_b[:, h, d] - displacement[:, t, pa_h, d])
+                free_a = -(force[:, t, pb_h, d] + kb[h, d] * (
+                    prev_b[:, h, d] + target - prev_a[:, h, d] - displacement[:, t, pb_h, d]))
+                trial[:, h, d] = np.where(holding, np.where(on_b, free_b, free_a),
+                                          trial[:, h, d])
             fa = self._coulomb(trial, normal_force, n, self.mu_contact)
             if corner.size:
                 held = np.all((corner_stops < 0)
@@ -209,7 +282,12 @@ class LocalStage:
                 fa[:, corner] = np.where(held[..., None], frozen, current)
                 previous_corner_force = fa[:, corner]
             prev_a = prev_a + dwa + (fa - force[:, t, a]) / k
-            prev_b = prev_b + dwb + (-fa - force[:, t, b]) / k
+            prev_b = prev_b + dwb + (-fa - force[:, t, b]) / kb
+            if holding.any():  # the held side follows its holder
+                h, d = self.held_pairs, self.held_component
+                on_b = self.held_side[h] == 1
+                prev_b[:, h, d] = np.where(holding & on_b, target, prev_b[:, h, d])
+                prev_a[:, h, d] = np.where(holding & ~on_b, target, prev_a[:, h, d])
             f_hat[:, t, a], f_hat[:, t, b] = fa, -fa
             w_hat[:, t, a], w_hat[:, t, b] = prev_a, prev_b
 

@@ -35,7 +35,8 @@ def operator_signature(assembly: Assembly, options: LatinOptions) -> str:
     interfaces = [(itf.kind, itf.sides, itf.condition.kinds if itf.condition else None,
                    itf.contact is not None) for itf in assembly.interfaces]
     choices = (options.kappa, options.macro, options.interface_elements,
-               options.dirichlet_stiffening, options.tangential_ratio)
+               options.dirichlet_stiffening, options.tangential_ratio, options.search_modulus,
+               options.held_nodes)
     text = repr(([s.signature() for s in assembly.substructures], interfaces, choices))
     return hashlib.sha1(text.encode()).hexdigest()
 
@@ -96,7 +97,8 @@ class LatinOperators:
         self.assembly = assembly
         self.options = options
         self.signature = operator_signature(assembly, options)
-        self.points: InterfacePoints = build_points(assembly, options.interface_elements)
+        self.points: InterfacePoints = build_points(assembly, options.interface_elements,
+                                                    held_nodes=options.held_nodes)
         pts = self.points
         self.search_direction = self._search_direction()
         k_flat = self.search_direction.reshape(-1)
@@ -162,16 +164,27 @@ class LatinOperators:
                                      np.asarray(homogenised))
 
     def _search_direction(self) -> FloatArray:
-        """k per interface point and component: κ E / L (stiffer on prescribed displacements)."""
+        """k per interface point and component: κ E / L, E and L those of the neighbour
+        across the interface (``LatinOptions.search_modulus``); stiffer on prescribed
+        displacements."""
         opts = self.options
         pts = self.points
         k = np.zeros((pts.n_points, 2))
+
+        def smaller_side(body: str) -> float:
+            x0, x1, y0, y1 = self.assembly.body_box(body)
+            return min(x1 - x0, y1 - y0)
+
         for i, itf in enumerate(self.assembly.interfaces):
             subs = [self.assembly.substructures[r.substructure] for r in itf.sides]
-            young = float(np.mean([s.material.young for s in subs]))
-            x0, x1, y0, y1 = self.assembly.body_box(subs[0].body)
-            value = opts.kappa * young / min(x1 - x0, y1 - y0)
-            for side_index in range(len(itf.sides)):
+            if opts.search_modulus == "mean" or len(subs) == 1:
+                young = float(np.mean([s.material.young for s in subs]))
+                values = [opts.kappa * young / smaller_side(subs[0].body)] * len(subs)
+            else:  # each side from the substructure on the other side, or its own
+                source = reversed(subs) if opts.search_modulus == "neighbour" else subs
+                values = [opts.kappa * sub.material.young / smaller_side(sub.body)
+                          for sub in source]
+            for side_index, value in enumerate(values):
                 k[pts.side_points[(i, side_index)]] = value
             if itf.contact is not None:
                 tangential = 1 - normal_axis(itf.sides[0].side)
