@@ -7,6 +7,7 @@ foundation (a perfect interface: the same file with the interface's type changed
     python benchmarks/slide.py --ratios 10 1000 --kappas 0.5 --moduli mean neighbour own
     python benchmarks/slide.py --interfaces perfect
     python benchmarks/slide.py --two-sided      # the held-node rule off: before issue 15
+    python benchmarks/slide.py --locate         # where the error of a two-sided solve sits
 
 For each case, one cold LATIN solve at the default tolerance and iteration cap (what a user
 gets from ``multilatin solve slide``) and the monolithic contact-Newton reference of the
@@ -50,11 +51,43 @@ def main() -> None:
                         help="LatinOptions(held_nodes=False): the rule before issue 15")
     parser.add_argument("--max-iter", type=int, default=LatinOptions().max_iter)
     parser.add_argument("--interfaces", nargs="+", default=["contact", "perfect"])
+    parser.add_argument("--locate", action="store_true",
+                        help="ratio 1000, κ 1, two-sided rule: the points that carry the "
+                             "error at the default tolerance against a tight solve")
     args = parser.parse_args()
     ml.load_model("slide").solve()  # warm-up: imports, kernels
+    if args.locate:
+        locate()
+        return
     for interface in args.interfaces:
         print(f"\nblock-foundation interface: {interface}\n")
         table(slide_model(interface), interface, args)
+
+
+def locate() -> None:
+    """The interface points whose force F̂ (times the point's weight) differs most between
+    a solve at the default tolerance and a tight one, at step 1, with the two-sided rule."""
+    model = ml.load_model("slide")
+    mu = {"stiffness_ratio": 1000.0}
+    results = [model.solve(mu, options=LatinOptions(kappa=1.0, held_nodes=False, tol=tol,
+                                                    max_iter=200_000), check=False)
+               for tol in (LatinOptions().tol, 1e-11)]
+    loose, tight = results
+    assert loose.interface is not None and tight.interface is not None
+    print(f"iterations: {loose.iterations} to the default tolerance, {tight.iterations} to "
+          f"1e-11; R_push at step 1: {loose.qoi['R_push'][0]:.4f} N against "  # type: ignore[index]
+          f"{tight.qoi['R_push'][0]:.4f} N")  # type: ignore[index]
+    from multilatin.operators import LatinOperators
+    assembly = model.assemble(mu)
+    points = LatinOperators(assembly, LatinOptions(kappa=1.0, held_nodes=False)).points
+    force = (loose.interface.force_hat - tight.interface.force_hat)[0] * points.weights[:, None]
+    moved = (loose.interface.displacement_hat - tight.interface.displacement_hat)[0]
+    for p in np.argsort(-np.abs(force).max(axis=1))[:4]:
+        name = assembly.interfaces[points.interface[p]].name
+        print(f"  {name} at ({points.coords[p, 0]:g}, {points.coords[p, 1]:g}), substructure "
+              f"{assembly.substructures[points.substructure[p]].name}: force error "
+              f"({force[p, 0]:+.4f}, {force[p, 1]:+.4f}) N, displacement error "
+              f"{np.abs(moved[p]).max():.1e} mm")
 
 
 def table(model: Model, interface: str, args: argparse.Namespace) -> None:

@@ -98,6 +98,21 @@ def test_a_pair_held_on_one_side_follows_its_holder(slide: ml.Model) -> None:
     assert np.all(np.abs(tangential) <= 0.3 * np.abs(normal) * (1 + 1e-12) + 1e-12)
 
 
+def test_b1_held_nodes() -> None:
+    """B1's centre block meets the stop at (50, 50) (held on one side: by the stop) and at
+    (50, 100), where the top block is also held by the smooth wall (both sides: the corner
+    rule while the stop is closed, the wall alone while it is open)."""
+    points = build_points(ml.load_model("b1").assemble())
+    a = points.contact_pairs[0]
+    at = {tuple(np.round(points.coords[a[j]], 6)): j for j in range(a.size)}
+    low, high = at[(50.0, 50.0)], at[(50.0, 100.0)]
+    assert points.held_side[low] == 1 and points.held_stop[low] >= 0  # centre: side b
+    assert points.held_boundary[low] == -1
+    assert high in points.corner
+    assert points.held_side[high] == 1 and points.held_boundary[high] >= 0  # top: the wall
+    assert np.count_nonzero(points.held_side >= 0) == 2
+
+
 @pytest.mark.skipif(kernels.contact_and_stops is None, reason="Numba not installed")
 @pytest.mark.parametrize("modulus", ["own", "neighbour"])
 def test_compiled_local_stage_equals_the_numpy_one_with_unequal_sides(

@@ -287,7 +287,8 @@ def _held_corners(substructure: IntArray, coords: FloatArray,
     Held on both sides (B1's corner between the stop and the wall-held top block): the
     friction force is statically indeterminate (any value in the cone balances); the local
     stage keeps it at its previous step's value, the limit of any tangential compliance
-    (``corner``, ``corner_stops``).
+    (``corner``, ``corner_stops``). While the stop of such a corner is open, its prescribed
+    displacement holds alone: the one-sided rule below applies.
 
     Held on one side only: the held node's tangential force is shared between the contact
     point and the holding condition, and only their sum is determined: with nodal
@@ -316,6 +317,11 @@ def _held_corners(substructure: IntArray, coords: FloatArray,
         if len(holders) == 2:
             corner.append(j)
             corner_stops.append([-1 if stop < 0 else stop for _, _, stop in holders])
+            # while a stop holder is open, the other side's prescribed displacement holds
+            # alone: the one-sided rule (B1's (50, 100) before the stop closes)
+            by_displacement = [h for h in holders if h[1] >= 0]
+            if len(by_displacement) == 1:
+                held_side[j], held_boundary[j], held_stop[j] = by_displacement[0]
         elif len(holders) == 1:
             held_side[j], held_boundary[j], held_stop[j] = holders[0]
     return {"corner": np.array(corner, dtype=np.int64),

@@ -80,8 +80,9 @@ class LatinOptions:
         without it, statically determined clusters give an eigenvalue −1).
     stagnation_window: every so many iterations, a case whose smallest η of the window is
         not below ``stagnation_ratio`` times that of the window before (the fixed point
-        cycles between contact statuses instead of converging; measured on one of the
-        21 125 B3 cases at ω = 0.9) has its relaxation lowered by 0.1, down to 0.5. A slow
+        cycles between contact statuses, measured on one of the 21 125 B3 cases at ω = 0.9
+        before issue 15's held-node rule; or ω is too close to 1 for a statically held
+        body) has its relaxation lowered by 0.1, down to 0.5. A slow
         but converging tail (0.97–0.99 per iteration) gains a factor 0.2–0.4 per 100
         iterations and is left alone. The converged answer does not depend on ω. With
         Anderson mixing the check is off (its damping stays ω).
