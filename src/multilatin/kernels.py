@@ -44,6 +44,18 @@ def _in_cone(source_x: float, source_y: float, normal_force: float, nx: float, n
     return normal_force * nx + scale * tx, normal_force * ny + scale * ty
 
 
+def _series_trial(force_a: float, force_b: float, k_a: float, k_b: float,
+                  jump: float) -> tuple[float, float]:
+    """One component of a contact pair: the series stiffness k* = k_a k_b / (k_a + k_b)
+    (k / 2 when both sides are equal) and the trial force F* = k* (F_a / k_a − F_b / k_b +
+    [ΔW])."""
+    if k_a == k_b:
+        half = 0.5 * k_a
+        return half, 0.5 * (force_a - force_b) + half * jump
+    half = k_a * k_b / (k_a + k_b)
+    return half, half * (force_a / k_a - force_b / k_b + jump)
+
+
 def _contact_and_stops(displacement: FloatArray, force: FloatArray, w_hat: FloatArray,
                        f_hat: FloatArray, a: IntArray, b: IntArray, k_contact: FloatArray,
                        k_contact_b: FloatArray, n_contact: FloatArray, mu_contact: FloatArray,
@@ -91,22 +103,10 @@ def _contact_and_stops(displacement: FloatArray, force: FloatArray, w_hat: Float
                 day = displacement[c, t, pa, 1] - prev_a[j, 1]
                 dbx = displacement[c, t, pb, 0] - prev_b[j, 0]
                 dby = displacement[c, t, pb, 1] - prev_b[j, 1]
-                # series stiffness k* = k_a k_b / (k_a + k_b) (k / 2 when equal) and the
-                # trial force F* = k* (F_a / k_a − F_b / k_b + [ΔW])
-                if kx == kbx:
-                    hx = 0.5 * kx
-                    trial_x = 0.5 * (force[c, t, pa, 0] - force[c, t, pb, 0]) + hx * (dbx - dax)
-                else:
-                    hx = kx * kbx / (kx + kbx)
-                    trial_x = hx * (force[c, t, pa, 0] / kx - force[c, t, pb, 0] / kbx
-                                    + dbx - dax)
-                if ky == kby:
-                    hy = 0.5 * ky
-                    trial_y = 0.5 * (force[c, t, pa, 1] - force[c, t, pb, 1]) + hy * (dby - day)
-                else:
-                    hy = ky * kby / (ky + kby)
-                    trial_y = hy * (force[c, t, pa, 1] / ky - force[c, t, pb, 1] / kby
-                                    + dby - day)
+                hx, trial_x = _series_trial(force[c, t, pa, 0], force[c, t, pb, 0], kx, kbx,
+                                            dbx - dax)
+                hy, trial_y = _series_trial(force[c, t, pa, 1], force[c, t, pb, 1], ky, kby,
+                                            dby - day)
                 closing = gap_contact[c, j] + (nx * (prev_b[j, 0] - prev_a[j, 0])
                                                + ny * (prev_b[j, 1] - prev_a[j, 1]))
                 normal_force = (nx * trial_x + ny * trial_y
@@ -244,6 +244,7 @@ indicator_squares: Callable[..., Any] | None = None
 perfect_and_boundary: Callable[..., Any] | None = None
 if numba is not None:  # pragma: no branch
     _in_cone = numba.njit(cache=True, inline="always")(_in_cone)
+    _series_trial = numba.njit(cache=True, inline="always")(_series_trial)
     contact_and_stops = numba.njit(cache=True)(_contact_and_stops)
     perfect_and_boundary = numba.njit(cache=True)(_perfect_and_boundary)
     relax = numba.njit(cache=True)(_relax)
