@@ -133,3 +133,27 @@ def test_study_bad_input_exits_2_naming_the_field(capsys, tmp_path, argv, field)
     assert status == 2
     assert field in capsys.readouterr().err
     assert not (tmp_path / "s").exists()
+
+
+def test_version_help_defaults_and_verbose_after_the_command(capsys):
+    """`--version`; `--help` shows the solver's defaults; `-v` before or after the command."""
+    import multilatin as ml
+    from multilatin.cli import build_parser
+
+    with pytest.raises(SystemExit) as stop:
+        main(["--version"])
+    assert stop.value.code == 0
+    assert capsys.readouterr().out.strip() == f"multilatin {ml.__version__}"
+    with pytest.raises(SystemExit):
+        main(["solve", "--help"])
+    text = " ".join(capsys.readouterr().out.split())
+    defaults = ml.LatinOptions()
+    for option, value in (("--kappa", defaults.kappa), ("--tol", defaults.tol),
+                          ("--max-iter", defaults.max_iter)):
+        assert f"{option} {option[2:].upper().replace('-', '_')}" in text
+        assert f"(default: {value})" in text
+    parser = build_parser()
+    assert parser.parse_args(["solve", "b0", "-v"]).verbose == 1
+    assert parser.parse_args(["-v", "solve", "b0"]).verbose == 1
+    assert parser.parse_args(["study", "b0", "-vv"]).verbose == 2
+    assert parser.parse_args(["models"]).verbose == 0

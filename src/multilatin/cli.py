@@ -14,6 +14,7 @@ import os
 import sys
 from pathlib import Path
 
+from . import __version__
 from .errors import ModelError, NotConvergedError
 from .files import ensure_writable_folder
 from .latin import LatinOptions
@@ -64,14 +65,21 @@ def _add_memory_argument(parser: argparse.ArgumentParser, default: object = argp
 
 def _add_latin_arguments(parser: argparse.ArgumentParser) -> None:
     d = LatinOptions()
-    parser.add_argument("--kappa", type=float, default=d.kappa, help="search direction k = κE/L")
-    parser.add_argument("--tol", type=float, default=d.tol, help="tolerance on the indicator η")
-    parser.add_argument("--max-iter", type=int, default=d.max_iter, help="iteration cap")
+    parser.add_argument("--kappa", type=float, default=d.kappa,
+                        help="search direction k = κE/L (default: %(default)s)")
+    parser.add_argument("--tol", type=float, default=d.tol,
+                        help="tolerance on the indicator η (default: %(default)s)")
+    parser.add_argument("--max-iter", type=int, default=d.max_iter,
+                        help="iteration cap (default: %(default)s)")
     parser.add_argument("--relaxation", type=float, default=d.relaxation,
-                        help="relaxation ω of the linear stage, in (0, 1]")
+                        help="relaxation ω of the linear stage, in (0, 1] (default: %(default)s)")
     parser.add_argument("--no-macro", action="store_true", help="skip the macro problem")
     parser.add_argument("--interface-elements", default=d.interface_elements,
                         choices=["nodal", "edges", "edge-pairs"])
+
+
+VERBOSE_HELP = ("more log lines on standard error: -v (INFO) a line per solve, -vv (DEBUG) "
+                "the iterations too; before or after the command")
 
 
 def build_parser() -> argparse.ArgumentParser:
@@ -80,7 +88,8 @@ def build_parser() -> argparse.ArgumentParser:
         description="Parametric studies of elastic assemblies with contact by the "
         "micro-macro LATIN method.",
     )
-    parser.add_argument("-v", "--verbose", action="count", default=0)
+    parser.add_argument("--version", action="version", version=f"multilatin {__version__}")
+    parser.add_argument("-v", "--verbose", action="count", default=0, help=VERBOSE_HELP)
     _add_memory_argument(parser, default=None)
     sub = parser.add_subparsers(dest="command", required=True)
     solve = sub.add_parser("solve", help="solve a model with the LATIN micro-macro solver")
@@ -114,19 +123,24 @@ def build_parser() -> argparse.ArgumentParser:
     study.add_argument("--out", type=Path, help="results folder (default: study-<model>)")
     study.add_argument("--json", action="store_true", help="print one JSON object")
     study.add_argument("--workers", type=int, default=0,
-                       help="run on a local Dask cluster of N processes")
+                       help="run on a local Dask cluster of N processes (default: 0, in "
+                            "this process)")
     study.add_argument("--scheduler", help="run on the Dask cluster at this address")
     study.add_argument("--chains", type=int, default=None,
                        help="independent multiresolution chains (default: workers, or 1)")
     study.add_argument("--batch", type=int, default=16,
                        help="multiresolution: solve up to N cases of a grid line together, "
-                            "each from its nearest converged neighbour (1: one by one)")
+                            "each from its nearest converged neighbour (1: one by one; "
+                            "default: %(default)s)")
     study.add_argument("--no-progress", action="store_true", help="no progress bar")
     _add_memory_argument(study)
     _add_latin_arguments(study)
     sub.add_parser("models", help="list the bundled models")
     show = sub.add_parser("show", help="describe a model: parameters, substructures, QoIs")
     show.add_argument("model")
+    for command in sub.choices.values():  # -v after the command too (it then counts alone)
+        command.add_argument("-v", "--verbose", action="count", default=argparse.SUPPRESS,
+                             help=VERBOSE_HELP)
     return parser
 
 
