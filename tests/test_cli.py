@@ -118,6 +118,8 @@ def test_study_json_contract_and_outputs(capsys, tmp_path):
     assert data["gain"] > 0
     report = (tmp_path / "report.html").read_text()
     assert "multilatin study b1 --grid mu1=0.3" in report and "data:image/png" in report
+    assert "no geometric parameter: every case reuses the same operators" in report
+    assert "[]" not in report and "()" not in report  # no Python reprs
     assert (tmp_path / "response_R_stop.png").stat().st_size > 10_000
     assert (tmp_path / "table.csv").read_text().count("\n") == 3
 

@@ -223,6 +223,20 @@ def plot_iterations(result: StudyResult, folder: Path) -> Path:
     return path
 
 
+def _geometry_line(names: Any) -> str:
+    """The parameters that change an operator, in words (the store keeps a list, or a
+    string once it went through netCDF)."""
+    if isinstance(names, str):  # a list's repr, or one name
+        text = names.strip()
+        names = ([part.strip(" '\"") for part in text.strip("[]()").split(",")]
+                 if text[:1] in "[(" else [text])
+        names = [n for n in names if n]
+    listed = [str(n) for n in (names if names is not None else [])]
+    if not listed:
+        return "no geometric parameter: every case reuses the same operators"
+    return "geometric parameters (outer loops, operators rebuilt): " + ", ".join(listed)
+
+
 def write_report(result: StudyResult, folder: Path, header: list[str], rows: list[list[Any]],
                  figures: list[Path]) -> Path:
     """report.html: self-contained (figures embedded)."""
@@ -240,8 +254,7 @@ def write_report(result: StudyResult, folder: Path, header: list[str], rows: lis
           for name, values in result.plan.grid.items()],
         "</ul>",
         f"<p>Tolerance η &lt; {attrs.get('tolerance')}; chains: {attrs.get('chains')}; "
-        f"geometric parameters (outer loops): "
-        f"{html.escape(str(attrs.get('geometric_parameters')))}</p>",
+        f"{html.escape(_geometry_line(attrs.get('geometric_parameters')))}</p>",
         "<h2>Summary</h2><ul>",
         *[f"<li>{html.escape(line)}</li>" for line in summary_lines(result)],
         "</ul><h2>Figures</h2>",
