@@ -159,3 +159,22 @@ def test_version_help_defaults_and_verbose_after_the_command(capsys):
     assert parser.parse_args(["-v", "solve", "b0"]).verbose == 1
     assert parser.parse_args(["study", "b0", "-vv"]).verbose == 2
     assert parser.parse_args(["models"]).verbose == 0
+
+
+def test_log_lines_name_the_case_and_the_kernel_warm_up_is_quiet(caplog, tmp_path):
+    """-v's per-solve lines say which case; the study's two-iteration kernel warm-up does
+    not log a "NOT converged" line."""
+    import logging
+
+    import multilatin as ml
+
+    with caplog.at_level(logging.INFO, logger="multilatin"):
+        ml.load_model("b0").solve({"P": 150.0})
+    assert any("b0 (P=150): converged after" in r.getMessage() for r in caplog.records)
+    caplog.clear()
+    with caplog.at_level(logging.INFO, logger="multilatin"):
+        ml.run_study(ml.load_model("b1"), ml.Grid.parse(["mu1=0.3", "mu2=0,0.2"]),
+                     out=tmp_path / "study", progress=False)
+    messages = [r.getMessage() for r in caplog.records]
+    assert any("mu1=0.3, mu2=0.2): converged after" in m for m in messages)
+    assert not any("NOT converged" in m for m in messages)

@@ -288,13 +288,15 @@ def solve_latin_batch(
     }
     for result in results:
         result.timings.update(timings)
-        log.info("%s: %s after %d iterations, eta = %.2e, %.3f s%s", result.assembly.name,
+        log.info("%s%s: %s after %d iterations, eta = %.2e, %.3f s%s", result.assembly.name,
+                 _parameters_text(result.assembly),
                  "converged" if result.converged else "NOT converged", result.iterations,
                  result.indicator, timings["total"],
                  f" (batch of {n_cases})" if n_cases > 1 else "")
         for motion in result.free_motions:
             if motion.reaches_last_step:
-                log.info("%s: not unique: %s", result.assembly.name, motion.describe())
+                log.info("%s%s: not unique: %s", result.assembly.name,
+                         _parameters_text(result.assembly), motion.describe())
     if check:
         for result in results:
             if not result.converged:
@@ -423,6 +425,12 @@ def _iterate(ops: LatinOperators, local: LocalStage, options: LatinOptions,
             if mixer is not None:
                 mixer.subset(keep)
     return out
+
+
+def _parameters_text(assembly: Assembly) -> str:
+    """`` (mu1=0.3, mu2=0.2)``: the case's parameters, for log lines."""
+    values = ", ".join(f"{name}={value:g}" for name, value in dict(assembly.mu).items())
+    return f" ({values})" if values else ""
 
 
 def _damp_stagnating(histories: list[list[float]], active: IntArray, relaxation: FloatArray,

@@ -252,7 +252,13 @@ def _load_kernels(model: Model, case: Case, options: LatinOptions) -> None:
     if kernels.relax is None:
         return
     t0 = time.perf_counter()
-    solve_latin(model.assemble(case.mu), replace(options, max_iter=2), check=False)
+    solver_log = logging.getLogger("multilatin.latin")
+    level = solver_log.level
+    solver_log.setLevel(max(logging.WARNING, solver_log.getEffectiveLevel()))
+    try:  # its "not converged after 2 iterations" is no news to the user
+        solve_latin(model.assemble(case.mu), replace(options, max_iter=2), check=False)
+    finally:
+        solver_log.setLevel(level)
     log.info("compiled kernels ready in %.2f s", time.perf_counter() - t0)
 
 
