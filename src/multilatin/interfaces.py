@@ -214,10 +214,10 @@ def build_points(assembly: Assembly, kind: str = "nodal", *,
     boundary = cat(bnd)
     is_displacement = (np.concatenate(bnd_disp) if bnd_disp else np.zeros((0, 2), dtype=bool))
     all_normals = np.concatenate(normals) if normals else np.zeros((0, 2))
-    held = _held_corners(cat(substructure), all_coords, contact_pairs, stops, boundary,
-                         is_displacement, all_normals)
-    held.update(_held_perfect_pairs(cat(substructure), all_coords,
-                                    (cat(pairs_a), cat(pairs_b)), boundary, is_displacement))
+    key = _node_key(cat(substructure), all_coords)
+    fixed = _prescribed_components(key, boundary, is_displacement)
+    held = _held_corners(key, fixed, contact_pairs, stops, all_normals)
+    held.update(_held_perfect_pairs(key, fixed, (cat(pairs_a), cat(pairs_b))))
     if not held_nodes:
         for name in ("held_side", "held_boundary", "held_stop", "pair_held_side",
                      "pair_held_boundary"):
@@ -276,9 +276,11 @@ def with_contact_data(points: InterfacePoints, assembly: Assembly) -> InterfaceP
                                stop_friction=data["stop_friction"], stop_gap=data["stop_gap"])
 
 
-def _held_corners(substructure: IntArray, coords: FloatArray,
+NodeKey = Callable[[int], tuple[int, float, float]]
+
+
+def _held_corners(key: NodeKey, fixed: dict[tuple[tuple[int, float, float], int], int],
                   contact_pairs: tuple[IntArray, IntArray], stops: IntArray,
-                  boundary: IntArray, is_displacement: npt.NDArray[np.bool_],
                   normals: FloatArray) -> dict[str, IntArray]:
     """Contact pairs whose tangential displacement is held, at the same node of the same
     substructure, by a prescribed displacement or a stop: the ends of a contact interface on
@@ -298,8 +300,6 @@ def _held_corners(substructure: IntArray, coords: FloatArray,
     stage therefore gives that pair's friction from the *free* side alone, as against an
     obstacle moving with the held node (``held_side``, ``held_boundary``, ``held_stop``).
     """
-    key = _node_key(substructure, coords)
-    fixed = _prescribed_components(key, boundary, is_displacement)
     stop_of = {(key(int(p)), int(np.argmax(np.abs(normals[p])))): q for q, p in enumerate(stops)}
     n_pairs = contact_pairs[0].size
     corner, corner_stops = [], []
@@ -329,8 +329,7 @@ def _held_corners(substructure: IntArray, coords: FloatArray,
             "held_side": held_side, "held_boundary": held_boundary, "held_stop": held_stop}
 
 
-def _node_key(substructure: IntArray, coords: FloatArray
-              ) -> Callable[[int], tuple[int, float, float]]:
+def _node_key(substructure: IntArray, coords: FloatArray) -> NodeKey:
     """A point's node: its substructure and coordinates (points of different sides of a
     substructure at the same node share it)."""
     def key(p: int) -> tuple[int, float, float]:
@@ -338,7 +337,7 @@ def _node_key(substructure: IntArray, coords: FloatArray
     return key
 
 
-def _prescribed_components(key: Callable[[int], tuple[int, float, float]], boundary: IntArray,
+def _prescribed_components(key: NodeKey, boundary: IntArray,
                            is_displacement: npt.NDArray[np.bool_]
                            ) -> dict[tuple[tuple[int, float, float], int], int]:
     """(node, component) -> index in ``boundary`` of the point prescribing its
@@ -347,17 +346,15 @@ def _prescribed_components(key: Callable[[int], tuple[int, float, float]], bound
             enumerate(zip(boundary, is_displacement, strict=True)) for c in range(2) if mask[c]}
 
 
-def _held_perfect_pairs(substructure: IntArray, coords: FloatArray,
-                        pairs: tuple[IntArray, IntArray], boundary: IntArray,
-                        is_displacement: npt.NDArray[np.bool_]) -> dict[str, IntArray]:
+def _held_perfect_pairs(key: NodeKey, fixed: dict[tuple[tuple[int, float, float], int], int],
+                        pairs: tuple[IntArray, IntArray]) -> dict[str, IntArray]:
     """Perfect pairs whose node is held on one side only by a prescribed displacement
     component (an interface ending on a clamped or pushed face next to a substructure that
     is not held there): as for contact (``_held_corners``), only the sum of the pair's and
     the holder's forces at the held node is determined, so the local stage takes the pair's
     force from the free side's search direction against the prescribed displacement.
-    Held on both sides, the split is neutral and left alone (measured: no effect)."""
-    key = _node_key(substructure, coords)
-    fixed = _prescribed_components(key, boundary, is_displacement)
+    Held on both sides, the split is exactly neutral (it enters neither η nor any answer)
+    and is left alone."""
     n_pairs = pairs[0].size
     held_side = np.full((n_pairs, 2), -1, dtype=np.int64)
     held_boundary = np.full((n_pairs, 2), -1, dtype=np.int64)

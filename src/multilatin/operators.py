@@ -164,9 +164,8 @@ class LatinOperators:
                                      np.asarray(homogenised))
 
     def _search_direction(self) -> FloatArray:
-        """k per interface point and component: κ E / L, E and L those of the neighbour
-        across the interface (``LatinOptions.search_modulus``); stiffer on prescribed
-        displacements."""
+        """k per interface point and component: κ E / L, with E and L per side as
+        ``LatinOptions.search_modulus`` says; stiffer on prescribed displacements."""
         opts = self.options
         pts = self.points
         k = np.zeros((pts.n_points, 2))

@@ -223,18 +223,11 @@ def plot_iterations(result: StudyResult, folder: Path) -> Path:
     return path
 
 
-def _geometry_line(names: Any) -> str:
-    """The parameters that change an operator, in words (the store keeps a list, or a
-    string once it went through netCDF)."""
-    if isinstance(names, str):  # a list's repr, or one name
-        text = names.strip()
-        names = ([part.strip(" '\"") for part in text.strip("[]()").split(",")]
-                 if text[:1] in "[(" else [text])
-        names = [n for n in names if n]
-    listed = [str(n) for n in (names if names is not None else [])]
-    if not listed:
+def _geometry_line(names: tuple[str, ...]) -> str:
+    """The grid parameters that change an operator, in words."""
+    if not names:
         return "no geometric parameter: every case reuses the same operators"
-    return "geometric parameters (outer loops, operators rebuilt): " + ", ".join(listed)
+    return "geometric parameters (outer loops, operators rebuilt): " + ", ".join(names)
 
 
 def write_report(result: StudyResult, folder: Path, header: list[str], rows: list[list[Any]],
@@ -254,7 +247,7 @@ def write_report(result: StudyResult, folder: Path, header: list[str], rows: lis
           for name, values in result.plan.grid.items()],
         "</ul>",
         f"<p>Tolerance η &lt; {attrs.get('tolerance')}; chains: {attrs.get('chains')}; "
-        f"{html.escape(_geometry_line(attrs.get('geometric_parameters')))}</p>",
+        f"{html.escape(_geometry_line(result.plan.geometric))}</p>",
         "<h2>Summary</h2><ul>",
         *[f"<li>{html.escape(line)}</li>" for line in summary_lines(result)],
         "</ul><h2>Figures</h2>",
