@@ -15,8 +15,8 @@ import numpy as np
 
 import multilatin as ml
 import multilatin.latin as L
-from multilatin.acceleration import Anderson
 from multilatin.latin import LatinOperators, LatinOptions, solve_latin
+from multilatin.latin.acceleration import Anderson
 
 MASK = np.zeros(0, dtype=bool)  # (points,) the cross points of the current model
 

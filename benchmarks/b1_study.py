@@ -18,8 +18,8 @@ import tempfile
 
 import multilatin as ml
 from multilatin.parameters import Grid
-from multilatin.runner import StudyResult, run_study
-from multilatin.study import clear_operator_cache
+from multilatin.study.plan import clear_operator_cache
+from multilatin.study.runner import StudyResult, run_study
 
 PAPER_ITERATIONS = {
     "b1": [25, 12, 11, 10, 9, 8, 7, 6, 4, 4, 3, 3, 3],

@@ -28,8 +28,8 @@ import numpy as np
 import multilatin as ml
 from multilatin.latin import LatinOptions
 from multilatin.parameters import Grid
-from multilatin.runner import run_study
-from multilatin.study import plan_study, run_case
+from multilatin.study.plan import plan_study, run_case
+from multilatin.study.runner import run_study
 
 GRID = ["mu1=0:0.6:13", "mu2=0:0.6:13", "xc=23:27:5", "yc=73:77:5", "rc=1:5:5"]
 PAPER_GAIN = 5.2

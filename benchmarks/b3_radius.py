@@ -23,7 +23,7 @@ matplotlib.use("Agg")
 import matplotlib.pyplot as plt  # noqa: E402
 
 import multilatin as ml  # noqa: E402
-from multilatin.plots import plot_deformed  # noqa: E402
+from multilatin.io.plots import plot_deformed  # noqa: E402
 
 RADII = [0.0, 1.0, 2.0, 3.0, 4.0, 5.0, 6.0, 7.0]
 ONE_PER_BODY = {"bottom": (1, 1), "centre": (1, 1), "top": (1, 1)}

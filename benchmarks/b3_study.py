@@ -15,7 +15,7 @@ import tempfile
 
 import multilatin as ml
 from multilatin.parameters import Grid
-from multilatin.runner import run_study
+from multilatin.study.runner import run_study
 
 PAPER_GAIN = 4.4
 

@@ -21,9 +21,10 @@ import numpy as np
 from scipy.optimize import NoConvergence, newton_krylov
 
 import multilatin as ml
-from multilatin.assembly import Assembly
-from multilatin.latin import LatinOperators, LatinOptions, _norms
-from multilatin.local_stage import LocalStage
+from multilatin.decomposition.assembly import Assembly
+from multilatin.latin import LatinOperators, LatinOptions
+from multilatin.latin.local_stage import LocalStage
+from multilatin.latin.solver import _norms
 
 Fields = tuple[np.ndarray, np.ndarray]
 

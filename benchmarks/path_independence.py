@@ -21,10 +21,10 @@ import time
 import numpy as np
 
 import multilatin as ml
-from multilatin import study as study_module
 from multilatin.parameters import Grid
-from multilatin.runner import run_study
-from multilatin.study import clear_operator_cache
+from multilatin.study import plan as study_module
+from multilatin.study.plan import clear_operator_cache
+from multilatin.study.runner import run_study
 
 Key = tuple[float, float]
 

@@ -21,10 +21,10 @@ from collections.abc import Callable
 import numpy as np
 
 import multilatin as ml
-from multilatin.assembly import FORCE
+from multilatin.decomposition.assembly import FORCE
 from multilatin.fem.mesh import normal_axis
 from multilatin.latin import LatinOptions
-from multilatin.operators import LatinOperators as Operators
+from multilatin.latin.operators import LatinOperators as Operators
 
 PAIRS = [(0.3, 0.0), (0.1, 0.3), (0.35, 0.25), (0.3, 0.15)]
 VARIANTS: dict[str, dict[str, float]] = {

@@ -24,9 +24,9 @@ from importlib import resources
 import numpy as np
 
 import multilatin as ml
+from multilatin.io.modelfile import ModelSpec
 from multilatin.latin import LatinOptions
 from multilatin.model import Model
-from multilatin.spec import ModelSpec
 
 CONTACT = 'type = "contact"\nfriction = "mu"\ngap = 0.0'
 
@@ -77,7 +77,7 @@ def locate() -> None:
     print(f"iterations: {loose.iterations} to the default tolerance, {tight.iterations} to "
           f"1e-11; R_push at step 1: {loose.qoi['R_push'][0]:.4f} N against "  # type: ignore[index]
           f"{tight.qoi['R_push'][0]:.4f} N")  # type: ignore[index]
-    from multilatin.operators import LatinOperators
+    from multilatin.latin.operators import LatinOperators
     assembly = model.assemble(mu)
     points = LatinOperators(assembly, LatinOptions(kappa=1.0, held_nodes=False)).points
     force = (loose.interface.force_hat - tight.interface.force_hat)[0] * points.weights[:, None]

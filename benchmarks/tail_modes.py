@@ -23,9 +23,9 @@ import argparse
 import numpy as np
 
 import multilatin as ml
-from multilatin.assembly import Assembly
+from multilatin.decomposition.assembly import Assembly
 from multilatin.latin import LatinOperators, solve_latin
-from multilatin.local_stage import LocalStage
+from multilatin.latin.local_stage import LocalStage
 
 CASES = ((0.3, 0.0), (0.1, 0.3))
 

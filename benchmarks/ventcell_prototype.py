@@ -26,9 +26,8 @@ import scipy.sparse as sp
 import scipy.sparse.linalg as spla
 
 import multilatin as ml
-from multilatin import local_stage
-from multilatin.latin import LatinOptions
-from multilatin.operators import LatinOperators, SubstructureOperators
+from multilatin.latin import LatinOptions, local_stage
+from multilatin.latin.operators import LatinOperators, SubstructureOperators
 
 PAIRS = [(0.3, 0.0), (0.1, 0.3), (0.35, 0.25), (0.3, 0.15)]
 STATE: dict[str, object] = {"beta": 0.0, "consistent": True}

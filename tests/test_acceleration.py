@@ -6,7 +6,7 @@ from __future__ import annotations
 
 import numpy as np
 
-from multilatin.acceleration import Anderson
+from multilatin.latin.acceleration import Anderson
 
 
 def _textbook(xs: list[np.ndarray], rs: list[np.ndarray], depth: int, damping: float,

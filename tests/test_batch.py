@@ -6,11 +6,10 @@ import numpy as np
 import pytest
 
 import multilatin as ml
-from multilatin import kernels
+from multilatin.decomposition.interfaces import build_points
 from multilatin.errors import ModelError
-from multilatin.interfaces import build_points
-from multilatin.latin import LatinOperators, LatinOptions, solve_latin, solve_latin_batch
-from multilatin.local_stage import LocalStage
+from multilatin.latin import LatinOperators, LatinOptions, kernels, solve_latin, solve_latin_batch
+from multilatin.latin.local_stage import LocalStage
 
 FRICTIONS = [(0.3, 0.0), (0.1, 0.3), (0.35, 0.25), (0.0, 0.0)]
 

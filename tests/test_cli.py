@@ -83,7 +83,7 @@ def test_contact_status_partitions_the_contact_points():
     sticks everywhere in the last push step (micro-slip only near the wall-held corner of
     the upper one); with μ = 0 every contact point slides."""
     import multilatin as ml
-    from multilatin.plots import contact_status
+    from multilatin.io.plots import contact_status
 
     model = ml.load_model("b1")
     for mu, expect_slip in ((0.6, False), (0.0, True)):

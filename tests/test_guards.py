@@ -13,15 +13,16 @@ import numpy as np
 import pytest
 
 import multilatin as ml
-from multilatin import limits, runner
+from multilatin import limits
 from multilatin.cli import main
 from multilatin.errors import ModelError, NotConvergedError
-from multilatin.expressions import evaluate
+from multilatin.io.expressions import evaluate
 from multilatin.latin import LatinOptions
 from multilatin.limits import MEMORY_ENVIRONMENT, substructure_cost
 from multilatin.parameters import Grid
-from multilatin.runner import run_study
-from multilatin.store import load_study
+from multilatin.study import runner
+from multilatin.study.runner import run_study
+from multilatin.study.store import load_study
 
 B0 = Path(ml.__file__).parent / "models" / "b0.toml"
 

@@ -98,7 +98,7 @@ def test_bad_holes_are_refused(assignments, expected, capsys):
 
 def test_hole_outside_its_substructure_and_negative_radius_in_a_model_file():
     text = load_model("b2").spec.data
-    from multilatin.spec import ModelSpec
+    from multilatin.io.modelfile import ModelSpec
 
     outside = dict(text, holes=[{"substructure": "plate", "centre": [4.0, 1.0], "radius": 0.2}])
     with pytest.raises(ModelError, match=r"holes\[0\].*lies outside substructure 'plate'"):

@@ -5,11 +5,11 @@ from pathlib import Path
 import numpy as np
 import pytest
 
+from multilatin.decomposition.interfaces import interface_functions
 from multilatin.errors import ModelError
-from multilatin.interfaces import interface_functions
+from multilatin.io.modelfile import ModelSpec
 from multilatin.latin import LatinOperators, LatinOptions, solve_latin
-from multilatin.local_stage import LocalStage
-from multilatin.spec import ModelSpec
+from multilatin.latin.local_stage import LocalStage
 
 BAR = """
 [materials.m]

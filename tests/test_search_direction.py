@@ -12,13 +12,12 @@ import numpy as np
 import pytest
 
 import multilatin as ml
-from multilatin import kernels
+from multilatin.decomposition.interfaces import build_points
 from multilatin.errors import ModelError
-from multilatin.interfaces import build_points
-from multilatin.latin import LatinOperators, LatinOptions
-from multilatin.local_stage import LocalStage
+from multilatin.io.modelfile import ModelSpec
+from multilatin.latin import LatinOperators, LatinOptions, kernels
+from multilatin.latin.local_stage import LocalStage
 from multilatin.model import Model
-from multilatin.spec import ModelSpec
 
 SLIDE_LIMIT = 0.3 * 10.0 * 20.0  # μ p L: the friction force once the block slides (N)
 

@@ -19,9 +19,9 @@ import xarray as xr
 import multilatin as ml
 from multilatin.errors import ModelError
 from multilatin.parameters import Grid
-from multilatin.runner import run_study
-from multilatin.store import FAULT_ENVIRONMENT, FAULT_LOG_ENVIRONMENT, StudyStore, load_study
-from multilatin.study import clear_operator_cache
+from multilatin.study.plan import clear_operator_cache
+from multilatin.study.runner import run_study
+from multilatin.study.store import FAULT_ENVIRONMENT, FAULT_LOG_ENVIRONMENT, StudyStore, load_study
 
 COMMAND = [sys.executable, "-m", "multilatin.cli", "study", "b1", "--grid", "mu1=0.1,0.3",
            "--grid", "mu2=0,0.2,0.4", "--tol", "1e-5", "--compare", "--no-progress", "--json"]
@@ -151,7 +151,7 @@ def test_a_second_study_in_the_same_folder_is_refused_with_the_holders_pid(
         tmp_path: Path) -> None:
     holder = subprocess.Popen(
         [sys.executable, "-c",
-         "import sys, time; from multilatin.store import StudyStore; "
+         "import sys, time; from multilatin.study.store import StudyStore; "
          f"s = StudyStore({str(tmp_path)!r}, {{'model': 'b1'}}); print('held', flush=True); "
          "time.sleep(60)"], stdout=subprocess.PIPE, text=True)
     try:

@@ -19,9 +19,9 @@ import multilatin as ml
 from multilatin.errors import ModelError
 from multilatin.latin import LatinOptions
 from multilatin.parameters import Grid, ParameterSpace
-from multilatin.runner import run_study
-from multilatin.store import load_study
-from multilatin.study import boustrophedon, clear_operator_cache, plan_study
+from multilatin.study.plan import boustrophedon, clear_operator_cache, plan_study
+from multilatin.study.runner import run_study
+from multilatin.study.store import load_study
 
 MU2_LINE = Grid({"mu1": [0.3], "mu2": [0.0, 0.1, 0.2, 0.3]})
 

@@ -4,7 +4,7 @@ B1 at μ1 + μ2 = 0.3 reaches the sliding limit at step 10 (push 15 MPa × 50 mm
 0.3 × 2500 N): the centre block's position at that step is not determined by the discrete
 problem, and friction carries it into steps 11–15. A warm start from (0.05, 0.2) picks
 another solution than a cold start or the reference (R_stop 786.2 N against 777.1 N). Such
-states are detected (``multilatin.uniqueness``), flagged, and solved from zero in studies.
+states are detected (``multilatin.decomposition.uniqueness``), flagged, and solved from zero in studies.
 """
 
 from __future__ import annotations
@@ -14,12 +14,12 @@ from pathlib import Path
 import pytest
 
 import multilatin as ml
-from multilatin import study as study_module
+from multilatin.decomposition.uniqueness import clusters
 from multilatin.latin import LatinOptions, solve_latin
 from multilatin.parameters import Grid
-from multilatin.runner import run_study
-from multilatin.study import clear_operator_cache
-from multilatin.uniqueness import clusters
+from multilatin.study import plan as study_module
+from multilatin.study.plan import clear_operator_cache
+from multilatin.study.runner import run_study
 
 
 @pytest.fixture(scope="module")

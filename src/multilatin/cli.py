@@ -15,15 +15,13 @@ import sys
 from pathlib import Path
 
 from . import __version__
+from .decomposition.result import SolveResult
 from .errors import ModelError, NotConvergedError
-from .files import ensure_writable_folder
+from .io.files import ensure_writable_folder
 from .latin import LatinOptions
 from .limits import MEMORY_ENVIRONMENT
 from .model import REFERENCE_MESHES, Model, bundled_models, load_model
-from .output import write_result
 from .parameters import parse_assignments
-from .plots import plot_histories
-from .result import SolveResult
 
 EXIT_BAD_INPUT = 2
 EXIT_NOT_CONVERGED = 3
@@ -147,6 +145,9 @@ def build_parser() -> argparse.ArgumentParser:
 def _report(result: SolveResult, args: argparse.Namespace,
             reference: SolveResult | None = None) -> None:
     if args.out is not None:
+        from .io.output import write_result  # matplotlib and meshio only when writing
+        from .io.plots import plot_histories
+
         for path in write_result(result, args.out):
             log.info("wrote %s", path)
         if reference is not None:
@@ -207,8 +208,8 @@ def _latin_options(args: argparse.Namespace) -> LatinOptions:
 
 def _study(model: Model, args: argparse.Namespace, argv: list[str] | None) -> int:
     from .parameters import Grid
-    from .runner import run_study
-    from .study_report import case_table, format_table, summary_lines, write_study_outputs
+    from .study.report import case_table, format_table, summary_lines, write_study_outputs
+    from .study.runner import run_study
 
     fixed = parse_assignments(args.assignments)
     grid = Grid.parse(args.grid)

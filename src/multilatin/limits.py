@@ -26,10 +26,10 @@ import numpy as np
 from .errors import ModelError
 
 if TYPE_CHECKING:  # types only: the solver's modules import this one
-    from .assembly import Assembly
+    from .decomposition.assembly import Assembly
+    from .decomposition.interfaces import InterfacePoints
     from .fem.elasticity import FloatArray
-    from .interfaces import InterfacePoints
-    from .local_stage import LocalStage
+    from .latin.local_stage import LocalStage
 
 MEMORY_ENVIRONMENT = "MULTILATIN_MAX_MEMORY_GB"
 #: a grid parameter may take at most this many values (a guard against a typo in a count)

@@ -6,15 +6,16 @@ import dataclasses
 from collections.abc import Mapping
 from importlib import resources
 from pathlib import Path
+from typing import TYPE_CHECKING
 
-from .assembly import Assembly
-from .conforming import conforming_assembly
+from .decomposition.assembly import Assembly
+from .decomposition.result import SolveResult
 from .errors import ModelError
-from .latin import LatinOptions, solve_latin
-from .monolithic import solve_monolithic
+from .io.modelfile import ModelSpec
 from .parameters import Mu, Parameters
-from .result import SolveResult
-from .spec import ModelSpec
+
+if TYPE_CHECKING:
+    from .latin import LatinOptions
 
 Split = Mapping[str, tuple[int, int]]
 
@@ -57,6 +58,8 @@ class Model:
               options: LatinOptions | None = None, refine: int = 1,
               split: Split | None = None, check: bool = True) -> SolveResult:
         """LATIN micro-macro solution for parameters ``mu`` (defaults for the others)."""
+        from .latin import solve_latin  # the solvers load on first use, not with the model
+
         return solve_latin(self.assemble(mu, refine=refine, split=split), options, check=check)
 
     def reference(self, mu: Mu | Mapping[str, float] | None = None, *, refine: int = 1,
@@ -76,7 +79,11 @@ class Model:
                 itf.kind == "macro" for itf in assembly.interfaces)
             mesh = "conforming" if special else "same"
         if mesh == "conforming":
+            from .reference.conforming import conforming_assembly
+
             assembly = conforming_assembly(self.spec, assembly, refine=refine)
+        from .reference.monolithic import solve_monolithic
+
         return solve_monolithic(assembly)
 
 

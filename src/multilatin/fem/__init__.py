@@ -1,1 +1,6 @@
-"""Finite-element layer: structured Q4 meshes and vectorised 2D elasticity kernels."""
+"""Finite elements, the lowest room: meshes (structured Q4 rectangles and unstructured
+Q4/T3), plane elasticity (Hooke matrices, stiffness, stresses), level sets and their cut cells,
+and the X-FEM (Heaviside-enriched) stiffness of cut cells.
+
+May import: ``multilatin.errors`` only. Knows nothing of substructures or interfaces.
+"""

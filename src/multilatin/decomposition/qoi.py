@@ -8,8 +8,8 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
+from ..fem.elasticity import FloatArray, interpolate
 from .assembly import Assembly
-from .fem.elasticity import FloatArray, interpolate
 
 
 @dataclass(frozen=True)

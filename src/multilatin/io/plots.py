@@ -10,8 +10,8 @@ from typing import Any
 import numpy as np
 import numpy.typing as npt
 
-from .fem.elasticity import FloatArray
-from .result import SolveResult
+from ..decomposition.result import SolveResult
+from ..fem.elasticity import FloatArray
 
 STATUS_COLOURS = {"open": "tab:blue", "stick": "tab:green", "slip": "tab:red"}
 

@@ -18,13 +18,13 @@ import scipy.sparse as sp
 import scipy.sparse.csgraph as csgraph
 import scipy.sparse.linalg as spla
 
-from .assembly import DISPLACEMENT, Assembly
+from ..decomposition.assembly import DISPLACEMENT, Assembly
+from ..decomposition.interfaces import discretise_side
+from ..decomposition.qoi import ContactPressures, evaluate_qois
+from ..decomposition.result import SolveResult
+from ..errors import ModelError, NotConvergedError
+from ..fem.elasticity import FloatArray, IntArray
 from .contact_newton import contact_set, solve_contact_history, tangents
-from .errors import ModelError, NotConvergedError
-from .fem.elasticity import FloatArray, IntArray
-from .interfaces import discretise_side
-from .qoi import ContactPressures, evaluate_qois
-from .result import SolveResult
 
 
 def merge_nodes(assembly: Assembly) -> tuple[int, list[IntArray]]:

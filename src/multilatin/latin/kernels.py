@@ -22,16 +22,9 @@ from typing import Any
 import numpy as np
 import numpy.typing as npt
 
-from .fem.elasticity import FloatArray, IntArray
+from ..fem.elasticity import FloatArray, IntArray
 
 log = logging.getLogger(__name__)
-
-numba: Any
-try:  # pragma: no cover - depends on the installed extras
-    numba = importlib.import_module("numba")
-except ImportError:  # pragma: no cover
-    numba = None
-
 
 def _in_cone(source_x: float, source_y: float, normal_force: float, nx: float, ny: float,
              friction: float) -> tuple[float, float]:
@@ -238,14 +231,34 @@ def _indicator_squares(w: FloatArray, f: FloatArray, w_hat: FloatArray, f_hat: F
     return out
 
 
-contact_and_stops: Callable[..., Any] | None = None
-relax: Callable[..., Any] | None = None
-indicator_squares: Callable[..., Any] | None = None
-perfect_and_boundary: Callable[..., Any] | None = None
-if numba is not None:  # pragma: no branch
-    _in_cone = numba.njit(cache=True, inline="always")(_in_cone)
-    _series_trial = numba.njit(cache=True, inline="always")(_series_trial)
-    contact_and_stops = numba.njit(cache=True)(_contact_and_stops)
-    perfect_and_boundary = numba.njit(cache=True)(_perfect_and_boundary)
-    relax = numba.njit(cache=True)(_relax)
-    indicator_squares = numba.njit(cache=True)(_indicator_squares)
+#: the compiled kernels, or None without Numba; compiled (or loaded from Numba's cache) on
+#: first use, so that importing the solver does not import Numba (0.4 s)
+contact_and_stops: Callable[..., Any] | None
+relax: Callable[..., Any] | None
+indicator_squares: Callable[..., Any] | None
+perfect_and_boundary: Callable[..., Any] | None
+_KERNELS = ("contact_and_stops", "relax", "indicator_squares", "perfect_and_boundary")
+
+
+def _compile() -> None:
+    global _in_cone, _series_trial
+    compiled: dict[str, Callable[..., Any] | None] = dict.fromkeys(_KERNELS)
+    try:  # pragma: no cover - depends on the installed extras
+        numba = importlib.import_module("numba")
+    except ImportError:  # pragma: no cover
+        log.debug("numba is not installed: the NumPy local stage runs")
+    else:
+        jit_inline = numba.njit(cache=True, inline="always")
+        _in_cone, _series_trial = jit_inline(_in_cone), jit_inline(_series_trial)
+        jit = numba.njit(cache=True)
+        compiled = {"contact_and_stops": jit(_contact_and_stops),
+                    "perfect_and_boundary": jit(_perfect_and_boundary),
+                    "relax": jit(_relax), "indicator_squares": jit(_indicator_squares)}
+    globals().update(compiled)
+
+
+def __getattr__(name: str) -> Any:
+    if name in _KERNELS:
+        _compile()
+        return globals()[name]
+    raise AttributeError(f"module {__name__!r} has no attribute {name!r}")

@@ -7,8 +7,8 @@ from typing import Any
 
 import numpy as np
 
+from ..fem.elasticity import FloatArray
 from .assembly import Assembly
-from .fem.elasticity import FloatArray
 from .uniqueness import FreeMotion
 
 

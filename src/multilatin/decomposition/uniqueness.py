@@ -28,8 +28,8 @@ from dataclasses import dataclass
 
 import numpy as np
 
+from ..fem.elasticity import FloatArray, IntArray
 from .assembly import Assembly
-from .fem.elasticity import FloatArray, IntArray
 from .interfaces import InterfacePoints
 
 #: a free motion is reported when less than this share of the friction capacity along it is

@@ -14,11 +14,11 @@ from functools import cached_property
 import numpy as np
 import scipy.sparse as sp
 
-from .fem.elasticity import FloatArray, hooke_matrix
-from .fem.levelset import CutCells, LevelSet, cut_cells
-from .fem.mesh import RectMesh, UnstructuredMesh
-from .fem.xfem import xfem_stiffness
-from .parameters import Mu
+from ..fem.elasticity import FloatArray, hooke_matrix
+from ..fem.levelset import CutCells, LevelSet, cut_cells
+from ..fem.mesh import RectMesh, UnstructuredMesh
+from ..fem.xfem import xfem_stiffness
+from ..parameters import Mu
 
 DISPLACEMENT = "displacement"
 FORCE = "force"

@@ -4,7 +4,7 @@ from __future__ import annotations
 
 import numpy as np
 
-from .fem.elasticity import FloatArray, IntArray
+from ..fem.elasticity import FloatArray, IntArray
 
 
 class Anderson:

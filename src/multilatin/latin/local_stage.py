@@ -13,11 +13,11 @@ import numpy.typing as npt
 import scipy.linalg as sla
 import scipy.sparse as sp
 
+from ..decomposition.assembly import Assembly
+from ..decomposition.interfaces import InterfacePoints, interface_functions
+from ..errors import ModelError
+from ..fem.elasticity import FloatArray, IntArray
 from . import kernels
-from .assembly import Assembly
-from .errors import ModelError
-from .fem.elasticity import FloatArray, IntArray
-from .interfaces import InterfacePoints, interface_functions
 
 
 class LocalStage:

@@ -18,11 +18,11 @@ from collections.abc import Sequence
 
 import numpy as np
 
-from .assembly import Assembly
-from .errors import ModelError
-from .fem.levelset import Circle, LevelSet, Union
-from .fem.mesh import RectMesh, UnstructuredMesh
-from .spec import ModelSpec
+from ..decomposition.assembly import Assembly
+from ..errors import ModelError
+from ..fem.levelset import Circle, LevelSet, Union
+from ..fem.mesh import RectMesh, UnstructuredMesh
+from ..io.modelfile import ModelSpec
 
 log = logging.getLogger(__name__)
 

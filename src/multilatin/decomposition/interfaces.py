@@ -33,9 +33,9 @@ import numpy as np
 import numpy.typing as npt
 import scipy.sparse as sp
 
+from ..fem.elasticity import FloatArray, IntArray
+from ..fem.mesh import normal_axis
 from .assembly import DISPLACEMENT, FORCE, Assembly, Interface
-from .fem.elasticity import FloatArray, IntArray
-from .fem.mesh import normal_axis
 
 INTERFACE_ELEMENTS = ("nodal", "edges", "edge-pairs")
 

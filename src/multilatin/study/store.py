@@ -43,10 +43,10 @@ from typing import Any
 import numpy as np
 import xarray as xr
 
-from .errors import ModelError
-from .files import ensure_writable_folder
-from .parameters import Grid
-from .study import ChainState
+from ..errors import ModelError
+from ..io.files import ensure_writable_folder
+from ..parameters import Grid
+from .plan import ChainState
 
 log = logging.getLogger(__name__)
 

@@ -15,10 +15,10 @@ from typing import Any
 
 import numpy as np
 
+from ..errors import ModelError
+from ..fem.levelset import Circle, LevelSet, Slot, Union
+from ..parameters import Mu
 from .assembly import Substructure
-from .errors import ModelError
-from .fem.levelset import Circle, LevelSet, Slot, Union
-from .parameters import Mu
 
 HOLE_FIELDS = {"name", "substructure", "body", "shape", "centre", "radius", "start", "end"}
 SHAPES = ("circle", "slot")

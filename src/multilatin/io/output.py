@@ -12,10 +12,10 @@ from xml.sax.saxutils import quoteattr
 import meshio
 import numpy as np
 
-from .fem.elasticity import cell_stresses, von_mises
+from ..decomposition.result import SolveResult
+from ..fem.elasticity import cell_stresses, von_mises
 from .files import ensure_writable_folder
 from .plots import plot_deformed, plot_histories
-from .result import SolveResult
 
 log = logging.getLogger(__name__)
 

@@ -21,14 +21,14 @@ from typing import Any
 
 import numpy as np
 
-from .assembly import Assembly
-from .errors import ModelError
-from .fem.elasticity import FloatArray
-from .latin import LatinOptions, solve_latin, solve_latin_batch
-from .model import Model
-from .operators import LatinOperators, operator_signature
-from .parameters import Grid, Mu
-from .result import SolveResult
+from ..decomposition.assembly import Assembly
+from ..decomposition.result import SolveResult
+from ..errors import ModelError
+from ..fem.elasticity import FloatArray
+from ..latin import LatinOptions, solve_latin, solve_latin_batch
+from ..latin.operators import LatinOperators, operator_signature
+from ..model import Model
+from ..parameters import Grid, Mu
 
 log = logging.getLogger(__name__)
 

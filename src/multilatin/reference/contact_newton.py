@@ -32,10 +32,10 @@ import numpy.typing as npt
 import scipy.sparse as sp
 import scipy.sparse.linalg as spla
 
-from .assembly import Assembly
-from .errors import NotConvergedError
-from .fem.elasticity import FloatArray, IntArray
-from .interfaces import discretise_side
+from ..decomposition.assembly import Assembly
+from ..decomposition.interfaces import discretise_side
+from ..errors import NotConvergedError
+from ..fem.elasticity import FloatArray, IntArray
 
 log = logging.getLogger(__name__)
 

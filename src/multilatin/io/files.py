@@ -4,7 +4,7 @@ from __future__ import annotations
 
 from pathlib import Path
 
-from .errors import ModelError
+from ..errors import ModelError
 
 
 def ensure_writable_folder(folder: Path, option: str = "--out") -> None:

@@ -16,15 +16,14 @@ from typing import Any
 
 import xarray as xr
 
-from . import kernels
-from .errors import ModelError, NotConvergedError
-from .latin import LatinOptions, solve_latin
-from .limits import check_study
-from .model import Model
-from .parameters import Grid
-from .result import withheld
+from ..decomposition.result import withheld
+from ..errors import ModelError, NotConvergedError
+from ..latin import LatinOptions, kernels, solve_latin
+from ..limits import check_study
+from ..model import Model
+from ..parameters import Grid
+from .plan import MODES, Case, ChainState, StudyPlan, plan_study, run_chain_step
 from .store import StudyStore
-from .study import MODES, Case, ChainState, StudyPlan, plan_study, run_chain_step
 
 log = logging.getLogger(__name__)
 

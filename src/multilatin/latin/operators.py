@@ -17,15 +17,15 @@ import scipy.linalg as sla
 import scipy.sparse as sp
 import scipy.sparse.linalg as spla
 
-from .assembly import DISPLACEMENT, Assembly
-from .errors import ModelError
-from .fem.elasticity import FloatArray, IntArray
-from .fem.mesh import normal_axis
-from .interfaces import InterfacePoints, build_points, macro_basis
+from ..decomposition.assembly import DISPLACEMENT, Assembly
+from ..decomposition.interfaces import InterfacePoints, build_points, macro_basis
+from ..errors import ModelError
+from ..fem.elasticity import FloatArray, IntArray
+from ..fem.mesh import normal_axis
 from .local_stage import macro_only_map
 
 if TYPE_CHECKING:
-    from .latin import LatinOptions
+    from .options import LatinOptions
 
 
 def operator_signature(assembly: Assembly, options: LatinOptions) -> str:

@@ -1,0 +1,188 @@
+"""``[materials]``, ``[analysis]``, ``[[bodies]]`` and ``[[substructures]]`` of a model
+file: the substructures with their meshes and materials (holes placed by ``decomposition.holes``)."""
+
+from __future__ import annotations
+
+import itertools
+from collections.abc import Mapping
+from typing import Any
+
+import numpy as np
+
+from ...decomposition.assembly import Material, Substructure
+from ...decomposition.holes import place_holes
+from ...errors import ModelError
+from ...fem.elasticity import PLANE_STRAIN, PLANE_STRESS
+from ...fem.mesh import RectMesh
+from ...limits import check_meshes
+from .checks import SectionReader, check_keys, pair, positive_int, require
+
+#: Young's moduli outside this window are a units error, and would over- or underflow the
+#: solvers' norms (E² and 1/E appear in them)
+YOUNG_RANGE = (1e-100, 1e100)
+
+
+class BodySections(SectionReader):
+    """Materials, bodies and substructures."""
+
+    def materials(self) -> dict[str, tuple[float, float]]:
+        out = {}
+        for mname, table in dict(self.data.get("materials", {})).items():
+            where = f"materials.{mname}"
+            if not isinstance(table, Mapping):
+                raise ModelError(f"{where}: expected a table with E and nu")
+            check_keys(table, {"E", "nu"}, where)
+            young = self.num(require(table, "E", where), f"{where}.E")
+            poisson = self.num(require(table, "nu", where), f"{where}.nu")
+            if not young > 0.0:
+                raise ModelError(f"{where}.E: Young's modulus must be > 0, got {young:g}")
+            if not YOUNG_RANGE[0] <= young <= YOUNG_RANGE[1]:
+                raise ModelError(f"{where}.E: {young:g} is outside the range the solvers "
+                                 f"represent [{YOUNG_RANGE[0]:g}, {YOUNG_RANGE[1]:g}]; check "
+                                 "the units (e.g. MPa with mm and N)")
+            if not -1.0 < poisson < 0.5:
+                raise ModelError(f"{where}.nu: Poisson's ratio must lie in (-1, 0.5), got {poisson:g}")
+            out[mname] = (young, poisson)
+        return out
+
+    def material(self, table: Mapping[str, Any], where: str,
+                 materials: dict[str, tuple[float, float]]) -> Material:
+        mname = require(table, "material", where)
+        if mname not in materials:
+            known = ", ".join(sorted(materials)) or "none"
+            raise ModelError(
+                f"{where}.material: {mname!r} is not defined in [materials] (defined: {known})"
+            )
+        analysis = dict(self.data.get("analysis", {}))
+        check_keys(analysis, {"hypothesis", "thickness"}, "analysis")
+        hypothesis = table.get("hypothesis", analysis.get("hypothesis", PLANE_STRESS))
+        if hypothesis not in (PLANE_STRESS, PLANE_STRAIN):
+            raise ModelError(
+                f"{where}.hypothesis: expected {PLANE_STRESS!r} or {PLANE_STRAIN!r}, "
+                f"got {hypothesis!r}"
+            )
+        thickness = self.num(table.get("thickness", analysis.get("thickness", 1.0)),
+                             f"{where}.thickness")
+        if not thickness > 0.0:
+            raise ModelError(f"{where}.thickness: must be > 0, got {thickness:g}")
+        young, poisson = materials[mname]
+        return Material(young, poisson, hypothesis, thickness)
+
+    # -------------------------------------------------------------- substructures
+    def rectangle(self, table: Mapping[str, Any], where: str) -> tuple[float, float, float, float]:
+        x0, x1 = (self.num(v, f"{where}.x") for v in pair(require(table, "x", where), f"{where}.x"))
+        y0, y1 = (self.num(v, f"{where}.y") for v in pair(require(table, "y", where), f"{where}.y"))
+        if not x1 > x0:
+            raise ModelError(f"{where}.x: expected [xmin, xmax] with xmax > xmin, got {[x0, x1]}")
+        if not y1 > y0:
+            raise ModelError(f"{where}.y: expected [ymin, ymax] with ymax > ymin, got {[y0, y1]}")
+        return x0, x1, y0, y1
+
+    def substructures(self) -> tuple[list[Substructure], dict[str, tuple[float, ...]]]:
+        materials = self.materials()
+        subs: list[Substructure] = []
+        planned: list[tuple[str, str, Material, tuple[float, float, float, float], int, int]] = []
+        bodies: dict[str, tuple[float, ...]] = {}
+        common = {"name", "x", "y", "elements", "material", "hypothesis", "thickness"}
+        for b, table in enumerate(self.data.get("bodies", [])):
+            where = f"bodies[{b}]"
+            check_keys(table, common | {"split", "mesh"}, where)
+            name = str(require(table, "name", where))
+            where = f"bodies[{b}] ({name!r})"
+            if name in bodies:
+                raise ModelError(f"{where}.name: body {name!r} is defined twice")
+            x0, x1, y0, y1 = self.rectangle(table, where)
+            bodies[name] = (x0, x1, y0, y1)
+            nx, ny = (positive_int(v, f"{where}.elements")
+                      for v in pair(require(table, "elements", where), f"{where}.elements"))
+            sx, sy = self.split.get(name) or tuple(
+                positive_int(v, f"{where}.split") for v in pair(table.get("split", [1, 1]),
+                                                                   f"{where}.split"))
+            if nx % sx or ny % sy:
+                raise ModelError(
+                    f"{where}.split: {sx} x {sy} substructures do not divide the "
+                    f"{nx} x {ny} elements evenly"
+                )
+            mat = self.material(table, where, materials)
+            xs = np.linspace(x0, x1, sx + 1)
+            ys = np.linspace(y0, y1, sy + 1)
+            # a split chosen by the caller (a discretisation choice) replaces the file's
+            # per-substructure meshes of that body
+            own = ({} if name in self.split else
+                   self.own_meshes(table.get("mesh", []), where, (sx, sy)))
+            for j, i in itertools.product(range(sy), range(sx)):
+                sub_name = name if sx * sy == 1 else f"{name}[{i},{j}]"
+                ex, ey = own.get((i, j), (nx // sx, ny // sy))
+                planned.append((sub_name, name, mat, (float(xs[i]), float(xs[i + 1]),
+                                                      float(ys[j]), float(ys[j + 1])),
+                                ex * self.refine, ey * self.refine))
+        unknown = sorted(set(self.split) - set(bodies))
+        if unknown:
+            raise ModelError(f"--split {unknown[0]}: no body of that name in [[bodies]] "
+                             f"(bodies: {', '.join(bodies) or 'none'})")
+        for s, table in enumerate(self.data.get("substructures", [])):
+            where = f"substructures[{s}]"
+            check_keys(table, common | {"body"}, where)
+            name = str(require(table, "name", where))
+            where = f"substructures[{s}] ({name!r})"
+            x0, x1, y0, y1 = self.rectangle(table, where)
+            nx, ny = (positive_int(v, f"{where}.elements")
+                      for v in pair(require(table, "elements", where), f"{where}.elements"))
+            body = str(table.get("body", name))
+            planned.append((name, body, self.material(table, where, materials),
+                            (x0, x1, y0, y1), nx * self.refine, ny * self.refine))
+            lo = bodies.get(body, (x0, x1, y0, y1))
+            bodies[body] = (min(lo[0], x0), max(lo[1], x1), min(lo[2], y0), max(lo[3], y1))
+        # the size guard, before any mesh is built (a 3000 x 3000 mesh would take the
+        # machine's memory)
+        check_meshes([(name, ex, ey) for name, _, _, _, ex, ey in planned])
+        for name, body, mat, (x0, x1, y0, y1), ex, ey in planned:
+            subs.append(Substructure(name, body, RectMesh(x0, x1, y0, y1, ex, ey), mat))
+        if not subs:
+            raise ModelError("model: no [[bodies]] or [[substructures]] defined")
+        names = [s.name for s in subs]
+        for name in names:
+            if names.count(name) > 1:
+                raise ModelError(f"substructures: the name {name!r} is used twice")
+        self._check_overlaps(subs)
+        subs = place_holes(self.data.get("holes", []), subs, self.mu, self.num, check_keys)
+        return subs, bodies
+
+    @staticmethod
+    def own_meshes(tables: Any, where: str, split: tuple[int, int]
+                   ) -> dict[tuple[int, int], tuple[int, int]]:
+        """``[[bodies.mesh]]``: element counts of single substructures of a split body
+        (``substructure = [i, j]``, ``elements = [nx, ny]``); their sides then meet their
+        neighbours' with non-matching meshes (declare those interfaces ``type = "macro"``)."""
+        out = {}
+        if not isinstance(tables, list):
+            raise ModelError(f"{where}.mesh: expected a list of tables, got {tables!r}")
+        for m, table in enumerate(tables):
+            here = f"{where}.mesh[{m}]"
+            check_keys(table, {"substructure", "elements"}, here)
+            i, j = pair(require(table, "substructure", here), f"{here}.substructure")
+            if not (isinstance(i, int) and isinstance(j, int)
+                    and 0 <= i < split[0] and 0 <= j < split[1]):
+                raise ModelError(f"{here}.substructure: expected [i, j] with 0 <= i < {split[0]} "
+                                 f"and 0 <= j < {split[1]}, got {[i, j]}")
+            out[(i, j)] = tuple(positive_int(v, f"{here}.elements") for v in
+                                pair(require(table, "elements", here), f"{here}.elements"))
+        return out  # type: ignore[return-value]
+
+    @staticmethod
+    def _check_overlaps(subs: list[Substructure]) -> None:
+        box = np.array([[s.mesh.x0, s.mesh.x1, s.mesh.y0, s.mesh.y1] for s in subs])
+        scale = 1e-9 * float(np.max(box[:, [1, 3]] - box[:, [0, 2]]))
+        ox = np.minimum(box[:, None, 1], box[None, :, 1]) - np.maximum(box[:, None, 0], box[None, :, 0])
+        oy = np.minimum(box[:, None, 3], box[None, :, 3]) - np.maximum(box[:, None, 2], box[None, :, 2])
+        overlap = (ox > scale) & (oy > scale)
+        np.fill_diagonal(overlap, False)
+        if overlap.any():
+            i, j = np.argwhere(overlap)[0]
+            a, b = subs[i], subs[j]
+            raise ModelError(
+                f"substructures {a.name!r} and {b.name!r} overlap: "
+                f"x {[a.mesh.x0, a.mesh.x1]} y {[a.mesh.y0, a.mesh.y1]} and "
+                f"x {[b.mesh.x0, b.mesh.x1]} y {[b.mesh.y0, b.mesh.y1]}"
+            )
+

@@ -1,0 +1,69 @@
+"""Shared by every section of a model file: the field checks whose errors name the
+offending field and value, and ``SectionReader`` (one parameter set, numbers evaluated)."""
+
+from __future__ import annotations
+
+from collections.abc import Mapping
+from typing import Any
+
+from ...decomposition.assembly import ContactLaw
+from ...errors import ModelError
+from ...parameters import Mu
+from ..expressions import evaluate
+
+TOP_LEVEL = {"title", "description", "analysis", "parameters", "materials", "bodies",
+             "substructures", "interfaces", "boundary", "history", "qoi", "holes"}
+OPPOSITE = {"left": "right", "right": "left", "bottom": "top", "top": "bottom"}
+
+
+def require(table: Mapping[str, Any], key: str, where: str) -> Any:
+    if key not in table:
+        raise ModelError(f"{where}: missing field {key!r}")
+    return table[key]
+
+
+def check_keys(table: Mapping[str, Any], allowed: set[str], where: str) -> None:
+    unknown = set(table) - allowed
+    if unknown:
+        raise ModelError(
+            f"{where}: unknown field {sorted(unknown)[0]!r} (allowed: {', '.join(sorted(allowed))})"
+        )
+
+
+def pair(value: Any, where: str) -> tuple[Any, Any]:
+    if not isinstance(value, list) or len(value) != 2:
+        raise ModelError(f"{where}: expected a list of two values, got {value!r}")
+    return value[0], value[1]
+
+
+def positive_int(value: Any, where: str) -> int:
+    if isinstance(value, bool) or not isinstance(value, int) or value < 1:
+        raise ModelError(f"{where}: expected a positive integer, got {value!r}")
+    return value
+
+
+class SectionReader:
+    """What every section reader shares: the model table, one parameter set, the
+    discretisation choices, and evaluation of numbers and contact laws."""
+
+    def __init__(
+        self, data: Mapping[str, Any], mu: Mu, refine: int, split: dict[str, tuple[int, int]]
+    ) -> None:
+        self.data = data
+        self.mu = mu
+        self.refine = refine
+        self.split = split
+
+    def num(self, value: Any, where: str) -> float:
+        return evaluate(value, self.mu, where)
+
+    def contact_law(self, table: Mapping[str, Any], where: str) -> ContactLaw:
+        friction = self.num(table.get("friction", 0.0), f"{where}.friction")
+        gap = self.num(table.get("gap", 0.0), f"{where}.gap")
+        if friction < 0.0:
+            raise ModelError(f"{where}.friction: the friction coefficient must be >= 0, "
+                             f"got {friction:g}")
+        if gap < 0.0:
+            raise ModelError(f"{where}.gap: the initial gap must be >= 0, got {gap:g}")
+        return ContactLaw(friction, gap)
+

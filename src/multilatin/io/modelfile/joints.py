@@ -1,0 +1,88 @@
+"""``[[interfaces]]`` of a model file: perfect and contact interfaces between
+substructures, declared or found where sides face each other."""
+
+from __future__ import annotations
+
+import itertools
+
+import numpy as np
+
+from ...decomposition.assembly import ContactLaw, Interface, SideRef, Substructure
+from ...errors import ModelError
+from ...fem.mesh import SIDES
+from .checks import OPPOSITE, SectionReader, check_keys, pair, require
+
+
+class InterfaceSections(SectionReader):
+    """Interfaces between substructures."""
+
+    def interfaces(self, subs: list[Substructure]) -> list[Interface]:
+        declared: dict[frozenset[str], tuple[str, ContactLaw | None, str]] = {}
+        for d, table in enumerate(self.data.get("interfaces", [])):
+            where = f"interfaces[{d}]"
+            check_keys(table, {"between", "type", "friction", "gap"}, where)
+            a, b = pair(require(table, "between", where), f"{where}.between")
+            kind = table.get("type", "perfect")
+            if kind not in ("perfect", "contact", "macro"):
+                raise ModelError(f"{where}.type: unknown interface type {kind!r} "
+                                 "(known: perfect, contact, macro)")
+            if kind != "contact" and ({"friction", "gap"} & set(table)):
+                raise ModelError(f"{where}: friction and gap apply to type = 'contact' only")
+            known = {s.name for s in subs} | {s.body for s in subs}
+            if self.split and not {a, b} <= known:
+                continue  # names substructures that a caller's split has replaced
+            for end in (a, b):
+                if end not in known:
+                    raise ModelError(f"{where}.between: no body or substructure named {end!r}")
+            if a == b:
+                raise ModelError(f"{where}.between: an interface joins two different parts, "
+                                 f"got {a!r} twice")
+            law = self.contact_law(table, where) if kind == "contact" else None
+            declared[frozenset((a, b))] = (kind, law, where)
+        scale = 1e-9 * max(max(s.mesh.x1 - s.mesh.x0, s.mesh.y1 - s.mesh.y0) for s in subs)
+        found: list[Interface] = []
+        used_declarations: set[frozenset[str]] = set()
+        for i, j in itertools.combinations(range(len(subs)), 2):
+            for side in SIDES:
+                other = OPPOSITE[side]
+                axis, level, lo, hi = subs[i].mesh.side_line(side)
+                axis_b, level_b, lo_b, hi_b = subs[j].mesh.side_line(other)
+                if abs(level - level_b) > scale:
+                    continue
+                if min(hi, hi_b) - max(lo, lo_b) <= scale:
+                    continue  # touching at a corner at most
+                a, b = subs[i], subs[j]
+                where = f"interface between {a.name!r} ({side} side) and {b.name!r} ({other} side)"
+                if abs(lo - lo_b) > scale or abs(hi - hi_b) > scale:
+                    raise ModelError(
+                        f"{where}: sides do not match: {a.name!r} spans [{lo:g}, {hi:g}] and "
+                        f"{b.name!r} spans [{lo_b:g}, {hi_b:g}] along {'yx'[axis]}; "
+                        "an interface must be a whole side of both substructures"
+                    )
+                kind, law = "perfect", None
+                # the most specific declaration wins: body-body, then with one name, then names
+                for key in (frozenset((a.body, b.body)), frozenset((a.name, b.body)),
+                            frozenset((a.body, b.name)), frozenset((a.name, b.name))):
+                    if key in declared:
+                        kind, law, _ = declared[key]
+                        used_declarations.add(key)
+                na, nb = a.mesh.side_nodes(side), b.mesh.side_nodes(other)
+                matching = na.size == nb.size and np.allclose(a.mesh.nodes[na], b.mesh.nodes[nb],
+                                                              atol=scale)
+                if not matching and kind != "macro":
+                    raise ModelError(
+                        f"{where}: meshes do not match: {na.size - 1} and {nb.size - 1} "
+                        f"elements along the interface; a {kind} interface needs matching "
+                        "nodes (declare it type = 'macro' to transmit macro quantities only, "
+                        "paper eq. [20])"
+                    )
+                found.append(Interface(f"{a.name}|{b.name}", kind,
+                                       (SideRef(i, side), SideRef(j, other)), contact=law))
+        for key, (_, _, where) in declared.items():
+            if key not in used_declarations:
+                a, b = sorted(key)
+                raise ModelError(
+                    f"{where}.between: {a!r} and {b!r} do not face each other (they share no side)"
+                )
+        return found
+

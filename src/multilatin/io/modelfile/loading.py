@@ -1,0 +1,147 @@
+"""``[history]`` and ``[[boundary]]`` of a model file: the load history and the
+boundary conditions (prescribed displacements, forces, rigid stops)."""
+
+from __future__ import annotations
+
+from collections.abc import Mapping
+from typing import Any
+
+import numpy as np
+
+from ...decomposition.assembly import (
+    DISPLACEMENT,
+    FORCE,
+    STOP,
+    BoundaryCondition,
+    History,
+    Interface,
+    SideRef,
+    Substructure,
+)
+from ...errors import ModelError
+from ...fem.mesh import SIDES, normal_axis
+from .checks import SectionReader, check_keys, pair, require
+
+
+class LoadingSections(SectionReader):
+    """Load history and boundary conditions."""
+
+    def history(self) -> History:
+        table = dict(self.data.get("history", {}))
+        check_keys(table, {"factors"}, "history")
+        factors_raw = dict(table.get("factors", {}))
+        if "history" in self.data and not factors_raw:
+            raise ModelError("history.factors: a load history with no steps (no load factors)")
+        factors: dict[str, np.ndarray] = {}
+        n_steps = None
+        for fname, values in factors_raw.items():
+            where = f"history.factors.{fname}"
+            if not isinstance(values, list) or not values:
+                raise ModelError(f"{where}: a load history with no steps (got {values!r})")
+            arr = np.array([self.num(v, f"{where}[{t}]") for t, v in enumerate(values)])
+            if n_steps is not None and arr.size != n_steps:
+                raise ModelError(
+                    f"{where}: {arr.size} steps, but other load factors have {n_steps}"
+                )
+            n_steps = arr.size
+            factors[fname] = arr
+        return History(factors, n_steps or 1)
+
+    def boundaries(
+        self,
+        subs: list[Substructure],
+        bodies: dict[str, tuple[float, ...]],
+        history: History,
+        used: set[tuple[int, str]],
+    ) -> list[Interface]:
+        out: list[Interface] = []
+        names: set[str] = set()
+        for b, table in enumerate(self.data.get("boundary", [])):
+            where = f"boundary[{b}]"
+            check_keys(table, {"name", "face", "substructure", "side", "type", "value",
+                                "components", "factor", "friction", "gap"}, where)
+            name = str(table.get("name", f"boundary{b}"))
+            where = f"boundary[{b}] ({name!r})"
+            if name in names:
+                raise ModelError(f"{where}.name: boundary {name!r} is defined twice")
+            names.add(name)
+            kind = require(table, "type", where)
+            refs = self._select_sides(table, where, subs, bodies)
+            law = None
+            if {"friction", "gap"} & set(table) and kind != STOP:
+                raise ModelError(f"{where}: friction and gap apply to type = 'stop' only")
+            if kind in (DISPLACEMENT, FORCE):
+                kinds: tuple[str, ...] = (kind, kind)
+            elif kind == "mixed":
+                kinds = tuple(pair(require(table, "components", where), f"{where}.components"))
+                for k in kinds:
+                    if k not in (DISPLACEMENT, FORCE):
+                        raise ModelError(
+                            f"{where}.components: each component is 'displacement' or 'force', "
+                            f"got {k!r}"
+                        )
+            elif kind == "wall":
+                # smooth wall: normal displacement prescribed, tangential force zero
+                axis = normal_axis(refs[0].side) if refs else 0
+                kinds = (DISPLACEMENT, FORCE) if axis == 0 else (FORCE, DISPLACEMENT)
+                table = {**table, "value": table.get("value", [0.0, 0.0])}
+            elif kind == STOP:
+                kinds = (STOP, STOP)
+                law = self.contact_law(table, where)
+                table = {**table, "value": [0.0, 0.0]}
+            else:
+                raise ModelError(
+                    f"{where}.type: unknown boundary type {kind!r} "
+                    "(known: displacement, force, mixed, wall, stop)"
+                )
+            vx, vy = (self.num(v, f"{where}.value")
+                      for v in pair(require(table, "value", where), f"{where}.value"))
+            factor = table.get("factor")
+            if factor is not None and factor not in history.factors:
+                known = ", ".join(sorted(history.factors)) or "none"
+                raise ModelError(
+                    f"{where}.factor: {factor!r} is not a load factor of [history.factors] "
+                    f"(defined: {known})"
+                )
+            condition = BoundaryCondition(name, (kinds[0], kinds[1]), (vx, vy), factor)
+            if not refs:
+                raise ModelError(f"{where}.face: no substructure side lies on {table['face']!r}")
+            for ref in refs:
+                key = (ref.substructure, ref.side)
+                if key in used:
+                    raise ModelError(
+                        f"{where}: side {ref.side!r} of {subs[ref.substructure].name!r} already "
+                        "belongs to an interface or another boundary condition"
+                    )
+                used.add(key)
+                out.append(Interface(f"{name}@{subs[ref.substructure].name}", "boundary",
+                                     (ref,), condition, law))
+        return out
+
+    @staticmethod
+    def _select_sides(
+        table: Mapping[str, Any], where: str, subs: list[Substructure],
+        bodies: dict[str, tuple[float, ...]],
+    ) -> list[SideRef]:
+        if "face" in table:
+            body, _, side = str(table["face"]).partition(".")
+            if body not in bodies:
+                raise ModelError(f"{where}.face: no body named {body!r} in {table['face']!r}")
+            if side not in SIDES:
+                raise ModelError(f"{where}.face: side must be one of {SIDES}, got {side!r}")
+            x0, x1, y0, y1 = bodies[body]
+            level = {"left": x0, "right": x1, "bottom": y0, "top": y1}[side]
+            return [
+                SideRef(i, side) for i, s in enumerate(subs)
+                if s.body == body and abs(s.mesh.side_line(side)[1] - level) <= 1e-9 * (
+                    1.0 + abs(level))
+            ]
+        sub_name = require(table, "substructure", where)
+        side = require(table, "side", where)
+        if side not in SIDES:
+            raise ModelError(f"{where}.side: must be one of {SIDES}, got {side!r}")
+        for i, s in enumerate(subs):
+            if s.name == sub_name:
+                return [SideRef(i, side)]
+        raise ModelError(f"{where}.substructure: no substructure named {sub_name!r}")
+

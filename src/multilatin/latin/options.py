@@ -1,0 +1,113 @@
+"""Discretisation and solver choices of the LATIN iteration: ``LatinOptions`` (arguments,
+not model parameters, as pyMOR keeps them apart)."""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+from ..decomposition.interfaces import INTERFACE_ELEMENTS
+from ..errors import ModelError
+
+__all__ = ["KAPPA_RANGE", "SEARCH_MODULI", "LatinOptions"]
+
+#: admissible κ: beyond, k is so far from the stiffness that the linear stage loses the
+#: digits the answer needs (and the macro problem turns singular in floating point)
+KAPPA_RANGE = (1e-3, 1e3)
+SEARCH_MODULI = ("mean", "neighbour", "own")
+
+@dataclass(frozen=True)
+class LatinOptions:
+    """Discretisation and solver choices (arguments, not model parameters).
+
+    kappa: search direction k = κ E / L per interface side (see ``search_modulus``; L: the
+        smaller side of a body, so that splitting a body into more substructures keeps the
+        same k, measured best in ``benchmarks/b1_search_direction.py``); the converged
+        answer does not depend on it.
+    search_modulus: whose E and L set k on each side of an interface between two
+        substructures. ``"own"`` (default): each side its own substructure's;
+        ``"neighbour"``: the substructure on the other side (LMT's scills rule: E−
+        stands for the rest of the structure); ``"mean"``: both sides the mean E of the
+        two and the L of the first side's body (the rule before issue 15). All three are
+        the same for equal materials and body sizes (every bundled B model). On a block
+        against a 1 000 times stiffer foundation (``benchmarks/slide.py``) "own" converges
+        in 59–346 iterations from κ 0.1 to 2, "mean" not in 1 000 at κ ≥ 0.5
+        (docs/convergence.md).
+    held_nodes: at a node held on one side only by a prescribed displacement (or a closed
+        stop, for contact) — an interface ending on a clamped or pushed face — the pair's
+        force comes from the free side alone, against the held motion
+        (``interfaces._held_corners``): only the sum of the pair's and the holder's forces
+        is determined there, and the split was an almost neutral mode that η hardly sees
+        (a block on a 1 000 times stiffer foundation stopped 3.7 % off). False: the
+        earlier two-sided rule, for side-by-side benchmarks.
+    tol: stop when the indicator η (paper §4.3) drops below ``tol``.
+    max_iter: iteration cap; reaching it without η < tol is a failure, not an answer.
+    relaxation: ω in s ← ω s_new + (1 − ω) s_old after each linear stage (method.md §4:
+        without it, statically determined clusters give an eigenvalue −1).
+    stagnation_window: every so many iterations, a case whose smallest η of the window is
+        not below ``stagnation_ratio`` times that of the window before (the fixed point
+        cycles between contact statuses, measured on one of the 21 125 B3 cases at ω = 0.9
+        before issue 15's held-node rule; or ω is too close to 1 for a statically held
+        body) has its relaxation lowered by 0.1, down to 0.5. A slow
+        but converging tail (0.97–0.99 per iteration) gains a factor 0.2–0.4 per 100
+        iterations and is left alone. The converged answer does not depend on ω. With
+        Anderson mixing the check is off (its damping stays ω).
+    acceleration: ``"relaxation"`` alone, or ``"anderson"``: Anderson mixing of the last
+        ``anderson_depth`` iterates of the fixed point s ↦ linear(local(s)), damped by ω
+        (combinations of admissible fields stay admissible).
+    tangential_ratio: k_T / k_N on contact interfaces and stops (separate normal and
+        tangential search directions).
+    macro: solve the macro problem (eq. [14]–[15]); False gives the one-scale LATIN.
+    interface_elements: see ``multilatin.interfaces``.
+    dirichlet_stiffening: factor on k for prescribed-displacement components.
+    """
+
+    kappa: float = 0.5
+    tol: float = 3e-6
+    max_iter: int = 1000
+    relaxation: float = 0.9
+    macro: bool = True
+    interface_elements: str = "nodal"
+    dirichlet_stiffening: float = 10.0
+    acceleration: str = "relaxation"
+    anderson_depth: int = 3
+    tangential_ratio: float = 1.0
+    search_modulus: str = "own"
+    held_nodes: bool = True
+    stagnation_window: int = 100
+    stagnation_ratio: float = 0.7
+
+    def __post_init__(self) -> None:
+        if not KAPPA_RANGE[0] <= self.kappa <= KAPPA_RANGE[1]:
+            raise ModelError(f"kappa: the search direction k = κ E / L needs κ in "
+                             f"[{KAPPA_RANGE[0]:g}, {KAPPA_RANGE[1]:g}] (useful: 0.1 to 2), "
+                             f"got {self.kappa!r}")
+        if not 0 < self.tol < 1:
+            raise ModelError(f"tol: must lie in (0, 1), got {self.tol!r}")
+        if self.max_iter < 1:
+            raise ModelError(f"max_iter: must be >= 1, got {self.max_iter!r}")
+        if not 0 < self.relaxation <= 1:
+            raise ModelError(f"relaxation: must lie in (0, 1], got {self.relaxation!r}")
+        if self.interface_elements not in INTERFACE_ELEMENTS:
+            raise ModelError(
+                f"interface_elements: expected one of {INTERFACE_ELEMENTS}, "
+                f"got {self.interface_elements!r}"
+            )
+        if self.acceleration not in ("relaxation", "anderson"):
+            raise ModelError(f"acceleration: expected 'relaxation' or 'anderson', "
+                             f"got {self.acceleration!r}")
+        if self.search_modulus not in SEARCH_MODULI:
+            raise ModelError(f"search_modulus: expected one of {SEARCH_MODULI}, "
+                             f"got {self.search_modulus!r}")
+        if not self.tangential_ratio > 0:
+            raise ModelError(f"tangential_ratio: must be > 0, got {self.tangential_ratio!r}")
+        if self.stagnation_window < 2:
+            raise ModelError(f"stagnation_window: must be >= 2, got {self.stagnation_window!r}")
+        if not 0 < self.stagnation_ratio <= 1:
+            raise ModelError(f"stagnation_ratio: must lie in (0, 1], got "
+                             f"{self.stagnation_ratio!r}")
+        if self.anderson_depth < 1:
+            raise ModelError(f"anderson_depth: must be >= 1, got {self.anderson_depth!r}")
+        if not self.dirichlet_stiffening >= 1:
+            raise ModelError(
+                f"dirichlet_stiffening: must be >= 1, got {self.dirichlet_stiffening!r}"
+            )
