@@ -1,0 +1,70 @@
+"""The gallery's scripts (``examples/``, shown in the docs) run, and their answers hold
+against something independent: the monolithic solution, a conforming mesh, a closed form,
+beam theory."""
+
+from __future__ import annotations
+
+import importlib.util
+import sys
+from pathlib import Path
+from types import ModuleType
+
+import pytest
+
+EXAMPLES = Path(__file__).resolve().parents[1] / "examples"
+
+
+def _example(name: str) -> ModuleType:
+    spec = importlib.util.spec_from_file_location(f"gallery_{name}", EXAMPLES / f"{name}.py")
+    assert spec is not None and spec.loader is not None
+    module = importlib.util.module_from_spec(spec)
+    sys.modules[spec.name] = module
+    spec.loader.exec_module(module)
+    return module
+
+
+def test_b0_cantilever_equals_the_monolithic_solution_and_beam_theory(tmp_path: Path) -> None:
+    found = _example("b0_cantilever").run(tmp_path, split=(5, 1))
+    assert found["v_tip"] == pytest.approx(found["v_tip_reference"], rel=1e-5)
+    assert found["v_tip"] == pytest.approx(found["v_tip_timoshenko"], rel=0.02)
+    assert (tmp_path / "vtk" / "b0.pvd").exists() and (tmp_path / "deformed.png").exists()
+
+
+def test_slide_reaches_the_closed_form_push_force(tmp_path: Path) -> None:
+    module = _example("slide_block")
+    pushes = module.run(tmp_path, ratios=(1.0, 1000.0))
+    for values in pushes.values():
+        assert values[-1] == pytest.approx(module.MU * module.PRESSURE * module.WIDTH, rel=1e-3)
+    assert (tmp_path / "slide.png").exists()
+
+
+def test_b1_friction_line_agrees_cold_warm_and_with_the_newton_reference(tmp_path: Path) -> None:
+    found = _example("b1_friction_line").run(tmp_path, count=5)
+    for warm, cold in zip(found["R_stop_multiresolution"], found["R_stop_cold"], strict=True):
+        assert warm == pytest.approx(cold, rel=1e-3, abs=0.05)
+    mu2, reference = found["reference"]
+    assert mu2 == pytest.approx(0.15)
+    assert found["R_stop_multiresolution"][1] == pytest.approx(reference, rel=1e-3)
+    assert (tmp_path / "table.csv").exists() and (tmp_path / "report.html").exists()
+
+
+def test_b2_hole_by_level_set_matches_the_conforming_mesh(tmp_path: Path) -> None:
+    pytest.importorskip("gmsh")
+    found = _example("b2_plate_hole").run(tmp_path, radii=(0.0, 0.3))
+    assert found["u_A_xfem"][0] == pytest.approx(0.3, rel=1e-5)  # no hole: σ L / E
+    for xfem, conforming in zip(found["u_A_xfem"], found["u_A_conforming"], strict=True):
+        assert xfem == pytest.approx(conforming, rel=1e-3)
+    assert found["u_A_xfem"][1] > found["u_A_xfem"][0]
+    assert (tmp_path / "b2_radius.png").exists()
+
+
+def test_b3_warm_started_hole_positions_equal_standalone_solves(tmp_path: Path) -> None:
+    import multilatin as ml
+
+    found = _example("b3_hole_in_contact").run(tmp_path, positions=(10.0, 40.0))
+    assert all(found["converged"])
+    model = ml.load_model("b3")
+    for xc, value in zip(found["xc"], found["R_stop"], strict=True):
+        alone = float(model.solve({"xc": xc, "rc": 5.0}).qoi["R_stop"])
+        assert value == pytest.approx(alone, rel=1e-3)
+    assert (tmp_path / "deformed.png").exists()
