@@ -21,7 +21,7 @@ from .io.files import ensure_writable_folder
 from .latin import LatinOptions
 from .limits import MEMORY_ENVIRONMENT
 from .model import REFERENCE_MESHES, Model, bundled_models, load_model
-from .parameters import parse_assignments
+from .parameters import label, parse_assignments
 
 EXIT_BAD_INPUT = 2
 EXIT_NOT_CONVERGED = 3
@@ -169,13 +169,16 @@ def _report(result: SolveResult, args: argparse.Namespace,
     for motion in result.free_motions:
         if motion.reaches_last_step:
             print(f"  NOT UNIQUE: {motion.describe()}")
-    for label, res in [("", result)] + ([("reference ", reference)] if reference else []):
+    units = {q.name: q.unit for q in result.assembly.qois}
+    for which, res in [("", result)] + ([("reference ", reference)] if reference else []):
         for name, value in res.qoi.items():
+            unit = units.get(name, "")
+            unit = "" if unit in ("", "1", "-") else f" {unit}"
             if isinstance(value, list):
                 shown = ", ".join(f"{v:.6g}" for v in value)
-                print(f"  {label}{name} = [{shown}]")
+                print(f"  {which}{name} = [{shown}]{unit}")
             else:
-                print(f"  {label}{name} = {value:.9g}")
+                print(f"  {which}{name} = {value:.9g}{unit}")
     if args.out is not None:
         print(f"results written to {args.out}")
 
@@ -184,8 +187,8 @@ def _show(model: Model) -> None:
     print(f"{model.name}: {model.title}")
     print("parameters:")
     for p in model.parameters.values():
-        print(f"  {p.name} = {p.default:g} {p.unit}  range [{p.minimum:g}, {p.maximum:g}]"
-              f"  {p.description}")
+        shown = label(f"{p.default:g}", p.unit)
+        print(f"  {p.name} = {shown}  range [{p.minimum:g}, {p.maximum:g}]  {p.description}")
     assembly = model.assemble()
     print(f"substructures: {len(assembly.substructures)}, dofs: {assembly.n_dofs}, "
           f"load steps: {assembly.n_steps}")
@@ -197,7 +200,7 @@ def _show(model: Model) -> None:
         if sub.cut is not None:
             print(f"hole in {sub.name}: {sub.hole!r} ({sub.cut.cut.size} cut cells, "
                   f"{sub.cut.void.size} void cells, {sub.cut.inactive_nodes.size} nodes removed)")
-    print("quantities of interest: " + ", ".join(q.name for q in assembly.qois))
+    print("quantities of interest: " + ", ".join(label(q.name, q.unit) for q in assembly.qois))
 
 
 def _latin_options(args: argparse.Namespace) -> LatinOptions:

@@ -40,6 +40,11 @@ class Model:
         return self.spec.title
 
     @property
+    def units(self) -> dict[str, str]:
+        """The unit of each parameter and quantity of interest ("" where the file gives none)."""
+        return self.spec.units
+
+    @property
     def parameters(self) -> Parameters:
         return self.spec.parameters
 

@@ -17,6 +17,14 @@ from .errors import ModelError
 from .limits import check_grid_count
 
 
+def label(name: str, unit: str) -> str:
+    """An axis or column label with its unit: ``R_stop [N]``, ``mu1 [–]`` (unit "1" or "-":
+    dimensionless); the name alone where no unit was given."""
+    if not unit:
+        return name
+    return f"{name} [{'–' if unit in ('1', '-', '–') else unit}]"
+
+
 @dataclass(frozen=True)
 class Parameter:
     """A named scalar parameter with a default and an admissible closed range."""

@@ -145,6 +145,7 @@ class QuantityOfInterest:
     step: int | None = None
     bodies: tuple[str, str] | None = None
     segment: tuple[float, float] | None = None
+    unit: str = ""
 
 
 @dataclass(frozen=True)

@@ -14,6 +14,7 @@ import numpy as np
 
 from ..decomposition.result import SolveResult
 from ..fem.elasticity import cell_stresses, von_mises
+from ..parameters import label
 from .files import ensure_writable_folder
 from .plots import plot_deformed, plot_histories
 
@@ -79,12 +80,13 @@ def plot_convergence(results: dict[str, SolveResult], path: Path, tol: float | N
     import matplotlib.pyplot as plt
 
     fig, ax = plt.subplots(figsize=(6, 4))
-    for label, res in results.items():
-        ax.semilogy(np.arange(1, res.history.size + 1), res.history, label=label)
+    for name, res in results.items():
+        ax.semilogy(np.arange(1, res.history.size + 1), res.history, label=name)
     if tol is not None:
         ax.axhline(tol, color="k", lw=0.8, ls="--", label=f"tolerance {tol:g}")
     ax.set_xlabel("LATIN iteration")
-    ax.set_ylabel("error indicator η")
+    ax.set_ylabel("error indicator η [–]")
+    ax.set_title(f"{', '.join(results)}: convergence of the LATIN iteration", fontsize=10)
     ax.grid(True, which="both", alpha=0.3)
     ax.legend()
     fig.tight_layout()
@@ -112,8 +114,8 @@ def write_result(result: SolveResult, folder: Path) -> list[Path]:
     table = folder / "qoi.csv"
     with table.open("w", newline="", encoding="utf-8") as fh:
         writer = csv.writer(fh)
-        names = list(result.qoi)
-        writer.writerow(["step", *names])
+        units = {q.name: q.unit for q in result.assembly.qois}
+        writer.writerow(["step", *(label(n, units.get(n, "")) for n in result.qoi)])
         for step in range(result.assembly.n_steps):
             writer.writerow([step + 1, *(
                 v[step] if isinstance(v, list) else v for v in result.qoi.values())])

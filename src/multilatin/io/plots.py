@@ -12,6 +12,7 @@ import numpy.typing as npt
 
 from ..decomposition.result import SolveResult
 from ..fem.elasticity import FloatArray
+from ..parameters import label
 
 STATUS_COLOURS = {"open": "tab:blue", "stick": "tab:green", "slip": "tab:red"}
 
@@ -124,7 +125,7 @@ def plot_deformed(result: SolveResult, path: Path, step: int | None = None,
         for xy, macro in _macro_part(result, step):
             shown = xy + amp * macro
             ax_macro.plot(shown[:, 0], shown[:, 1], color="tab:orange", lw=2.0)
-    ax.set_title(f"deformed (×{amp:.3g}), step {step + 1}: contact status")
+    ax.set_title(f"{result.assembly.name}: deformed (×{amp:.3g}), step {step + 1}, contact status")
     ax_macro.set_title("macro displacements of the interfaces (orange)")
     for axis in (ax, ax_macro):
         axis.set_aspect("equal")
@@ -160,12 +161,14 @@ def plot_histories(results: dict[str, SolveResult], path: Path,
     factor = factor or driving_factor(first)
     x = (first.assembly.history.factors[factor] if factor
          else np.arange(1, first.assembly.n_steps + 1))
+    units = {q.name: q.unit for q in first.assembly.qois}
     fig, axes = plt.subplots(1, len(names), figsize=(5 * len(names), 4), squeeze=False)
     for ax, name in zip(axes[0], names, strict=True):
-        for label, res in results.items():
-            ax.plot(x, res.qoi[name], marker="o", ms=3, label=label)
-        ax.set_xlabel(factor or "load step")
-        ax.set_ylabel(name)
+        for legend, res in results.items():
+            ax.plot(x, res.qoi[name], marker="o", ms=3, label=legend)
+        ax.set_xlabel(f"load factor {factor} [–]" if factor else "load step")
+        ax.set_ylabel(label(name, units.get(name, "")))
+        ax.set_title(f"{first.assembly.name}: {name} over the load history", fontsize=10)
         ax.grid(True, alpha=0.3)
         ax.legend()
     fig.tight_layout()

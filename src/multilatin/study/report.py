@@ -16,6 +16,7 @@ import matplotlib.pyplot as plt  # noqa: E402
 import numpy as np  # noqa: E402
 import xarray as xr  # noqa: E402
 
+from ..parameters import label  # noqa: E402
 from .runner import StudyResult  # noqa: E402
 
 
@@ -29,10 +30,12 @@ def case_table(result: StudyResult) -> tuple[list[str], list[list[Any]]]:
     unit = (cold[0]["wall_s"] if 0 in cold else rows_main[0]["wall_s"])
     names = list(result.plan.grid)
     scalar_qois = [k for k, v in rows_main[0]["qoi"].items() if not isinstance(v, list)]
-    header = ["case", *names, "iterations", "time / first cold"]
+    units = {str(n): str(v.attrs.get("units", "")) for n, v in result.dataset.variables.items()}
+    header = ["case", *[label(n, units.get(n, "")) for n in names], "iterations",
+              "time / first cold"]
     if main == "multiresolution" and cold:
         header += ["cold iterations", "cold time / first cold"]
-    header += scalar_qois + ["converged", "unique", "start"]
+    header += [label(q, units.get(q, "")) for q in scalar_qois] + ["converged", "unique", "start"]
     rows = []
     for record in rows_main:
         row: list[Any] = [record["number"] + 1, *[record["params"][n] for n in names],
@@ -134,6 +137,10 @@ def plot_response(dataset: xr.Dataset, folder: Path, mode: str) -> list[Path]:
                                "converged", "unique", "log", "start")
                and "step" not in var.dims]
     paths = []
+
+    def axis(name: str) -> str:
+        return label(name, str(data[name].attrs.get("units", "")))
+
     for name in scalars:
         values = data[name].where(data["converged"])
         path = folder / f"response_{name}.png"
@@ -143,8 +150,8 @@ def plot_response(dataset: xr.Dataset, folder: Path, mode: str) -> list[Path]:
             fig, ax = plt.subplots(figsize=(6, 4))
             curve = values.squeeze(drop=True)
             ax.plot(curve[varied[0]], curve.values, "o-")
-            ax.set_xlabel(varied[0])
-            ax.set_ylabel(name)
+            ax.set_xlabel(axis(varied[0]))
+            ax.set_ylabel(axis(name))
             ax.grid(alpha=0.3)
         elif len(varied) == 2:
             fig = plt.figure(figsize=(11, 4.5))
@@ -153,14 +160,14 @@ def plot_response(dataset: xr.Dataset, folder: Path, mode: str) -> list[Path]:
                                indexing="ij")
             ax3 = fig.add_subplot(1, 2, 1, projection="3d")
             ax3.plot_surface(x, y, surface.values, cmap="viridis", edgecolor="k", linewidth=0.2)
-            ax3.set_xlabel(varied[0])
-            ax3.set_ylabel(varied[1])
-            ax3.set_zlabel(name)
+            ax3.set_xlabel(axis(varied[0]))
+            ax3.set_ylabel(axis(varied[1]))
+            ax3.set_zlabel(axis(name))
             ax = fig.add_subplot(1, 2, 2)
             contour = ax.contourf(x, y, surface.values, levels=15, cmap="viridis")
-            fig.colorbar(contour, ax=ax, label=name)
-            ax.set_xlabel(varied[0])
-            ax.set_ylabel(varied[1])
+            fig.colorbar(contour, ax=ax, label=axis(name))
+            ax.set_xlabel(axis(varied[0]))
+            ax.set_ylabel(axis(varied[1]))
         else:
             # maps over the two parameters with the most values, one panel per value of
             # the others (B2: u_A over the hole position, one map per radius, paper fig. 13)
@@ -187,10 +194,11 @@ def plot_response(dataset: xr.Dataset, folder: Path, mode: str) -> list[Path]:
             for ax in axes.ravel()[len(panels):]:
                 ax.set_visible(False)
             if contour is not None:
-                fig.colorbar(contour, ax=axes.ravel().tolist(), label=name)
-            fig.supxlabel(inner[0])
-            fig.supylabel(inner[1])
-        fig.suptitle(f"{dataset.attrs.get('model', '')}: {name}")
+                fig.colorbar(contour, ax=axes.ravel().tolist(), label=axis(name))
+            fig.supxlabel(axis(inner[0]))
+            fig.supylabel(axis(inner[1]))
+        fig.suptitle(f"{dataset.attrs.get('model', '')}: {name} over "
+                     f"{' × '.join(varied)} ({mode} study)")
         if len(varied) <= 2:
             fig.tight_layout()
         fig.savefig(path, dpi=110)
@@ -210,9 +218,10 @@ def plot_iterations(result: StudyResult, folder: Path) -> Path:
         ax1.plot(numbers, [r["iterations"] for r in records], style, ms=3, label=mode)
         ax2.plot(numbers, [r["wall_s"] for r in records], style, ms=3, label=mode)
     ax1.set_xlabel("case (traversal order)")
-    ax1.set_ylabel("LATIN iterations")
+    ax1.set_ylabel("LATIN iterations [–]")
     ax2.set_xlabel("case (traversal order)")
-    ax2.set_ylabel("wall time per case (s)")
+    ax2.set_ylabel("wall time per case [s]")
+    fig.suptitle(f"{result.dataset.attrs.get('model', '')}: iterations and time per case")
     for ax in (ax1, ax2):
         ax.grid(alpha=0.3)
         ax.legend()

@@ -173,7 +173,7 @@ def run_study(
     store = StudyStore(folder, identity, record_fits=_record_fits(plan))
     attrs = {"model": model.name, "title": model.title, "command": command,
              "tolerance": options.tol, "chains": len(plan.chains),
-             "geometric_parameters": list(plan.geometric)}
+             "geometric_parameters": list(plan.geometric), "units": model.spec.units}
     elapsed: dict[str, float] = {}
     try:  # the store (and its folder's lock) is closed however the study ends
         if not (workers or scheduler) and any(not store.finished(mode, case.number)

@@ -303,11 +303,14 @@ def _difference_message(folder: Path, existing: dict[str, Any],
 def to_dataset(grid: Grid, records: Iterable[dict[str, Any]], attrs: dict[str, Any]
                ) -> xr.Dataset:
     """The labelled results: dimensions ``mode``, one per grid parameter, and ``step`` for
-    quantities of interest given per load step. Cases not computed, and cases that did not
+    quantities of interest given per load step; parameters and quantities of interest carry
+    their model-file units (``attrs["units"]``). Cases not computed, and cases that did not
     converge, have NaN quantities of interest (``finished`` and ``converged`` say which);
     ``unique`` is False where the discrete problem did not determine the answer
     (``multilatin.uniqueness``)."""
     records = list(records)
+    attrs = dict(attrs)
+    units: dict[str, str] = dict(attrs.pop("units", {}))  # netCDF's per-variable "units"
     modes = [m for m in ("multiresolution", "cold") if any(r["mode"] == m for r in records)]
     names = list(grid)
     shape = (len(modes), *grid.shape)
@@ -346,6 +349,9 @@ def to_dataset(grid: Grid, records: Iterable[dict[str, Any]], attrs: dict[str, A
     dataset["iterations"].attrs["long_name"] = "LATIN iterations to the tolerance"
     for name in qoi_values:
         dataset[name].attrs["note"] = "NaN where the case did not converge (see converged)"
+    for name in [*qoi_values, *names]:
+        if units.get(name):
+            dataset[name].attrs["units"] = units[name]
     return dataset
 
 

@@ -20,7 +20,7 @@ from ...errors import ModelError
 from ...parameters import Mu, Parameter, Parameters
 from ..expressions import evaluate
 from .builder import Builder
-from .checks import TOP_LEVEL, check_keys, positive_int, require
+from .checks import TOP_LEVEL, check_keys, positive_int, require, unit_text
 
 if sys.version_info >= (3, 11):
     import tomllib
@@ -80,13 +80,21 @@ class ModelSpec:
                 minimum=evaluate(table.get("min", -math.inf), {}, f"{where}.min", infinite=True),
                 maximum=evaluate(table.get("max", math.inf), {}, f"{where}.max", infinite=True),
                 description=str(table.get("description", "")),
-                unit=str(table.get("unit", "")),
+                unit=unit_text(table.get("unit", ""), f"{where}.unit"),
             )
             param.check(param.default)
             params[pname] = param
         spec = ModelSpec(name, data, Parameters(params), source)
         spec.build()  # validate everything once, with the defaults
         return spec
+
+    @property
+    def units(self) -> dict[str, str]:
+        """The unit of each parameter and quantity of interest ("" where none is given)."""
+        units = {name: p.unit for name, p in self.parameters.items()}
+        units.update({str(t["name"]): str(t.get("unit", "")).strip()
+                      for t in self.data.get("qoi", [])})
+        return units
 
     @property
     def title(self) -> str:

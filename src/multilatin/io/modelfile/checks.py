@@ -42,6 +42,15 @@ def positive_int(value: Any, where: str) -> int:
     return value
 
 
+def unit_text(value: Any, where: str) -> str:
+    """A ``unit`` field: a short text such as "mm", "N", "MPa", or "1" for a dimensionless
+    quantity (shown as [–])."""
+    if not isinstance(value, str) or len(value) > 20 or "\n" in value:
+        raise ModelError(f"{where}: expected a short text such as \"mm\", \"N\" or \"1\", "
+                         f"got {value!r}")
+    return value.strip()
+
+
 class SectionReader:
     """What every section reader shares: the model table, one parameter set, the
     discretisation choices, and evaluation of numbers and contact laws."""

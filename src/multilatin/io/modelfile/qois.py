@@ -6,7 +6,7 @@ import numpy as np
 
 from ...decomposition.assembly import History, QuantityOfInterest, Substructure
 from ...errors import ModelError
-from .checks import SectionReader, check_keys, pair, require
+from .checks import SectionReader, check_keys, pair, require, unit_text
 
 
 class QoiSections(SectionReader):
@@ -18,9 +18,10 @@ class QoiSections(SectionReader):
         for q, table in enumerate(self.data.get("qoi", [])):
             where = f"qoi[{q}]"
             check_keys(table, {"name", "type", "point", "component", "boundary", "scale",
-                                "step", "between", "segment"}, where)
+                                "step", "between", "segment", "unit"}, where)
             name = str(require(table, "name", where))
             where = f"qoi[{q}] ({name!r})"
+            unit = unit_text(table.get("unit", ""), f"{where}.unit")
             scale = self.num(table.get("scale", 1.0), f"{where}.scale")
             step = table.get("step")
             if step is not None:
@@ -42,7 +43,7 @@ class QoiSections(SectionReader):
                     raise ModelError(f"{where}.segment: expected [start, end] with end > start, "
                                      f"got {[lo, hi]}")
                 out.append(QuantityOfInterest(name, kind, 0, scale=scale, step=step,
-                                              bodies=(a, b), segment=(lo, hi)))
+                                              bodies=(a, b), segment=(lo, hi), unit=unit))
                 continue
             comp = require(table, "component", where)
             if comp not in ("x", "y"):
@@ -56,13 +57,13 @@ class QoiSections(SectionReader):
                        and float(s.hole(np.array([px, py]))) < 0.0 for s in subs):
                     raise ModelError(f"{where}.point: {[px, py]} lies in a hole")
                 out.append(QuantityOfInterest(name, kind, "xy".index(comp), (px, py), None, scale,
-                                              step))
+                                              step, unit=unit))
             elif kind == "reaction":
                 bname = require(table, "boundary", where)
                 if bname not in boundary_names:
                     raise ModelError(f"{where}.boundary: no boundary named {bname!r}")
                 out.append(QuantityOfInterest(name, kind, "xy".index(comp), None, bname, scale,
-                                              step))
+                                              step, unit=unit))
             else:
                 raise ModelError(f"{where}.type: unknown kind {kind!r} "
                                  "(known: displacement, reaction, contact_pressure)")

@@ -1,0 +1,58 @@
+"""Units from the model file to every output a reader opens: study.nc attributes, table.csv
+and qoi.csv headers, plot axes (through the same labels), report.html, ``show``."""
+
+from __future__ import annotations
+
+import csv
+from pathlib import Path
+
+import pytest
+import xarray as xr
+
+import multilatin as ml
+from multilatin.cli import main
+from multilatin.parameters import label
+
+
+def test_labels_say_the_unit_and_dimensionless_reads_as_a_dash() -> None:
+    assert label("R_stop", "N") == "R_stop [N]"
+    assert label("mu1", "1") == "mu1 [–]"
+    assert label("free", "") == "free"
+
+
+def test_a_unit_that_is_not_a_short_text_is_refused_with_its_field() -> None:
+    text = (Path(ml.__file__).parent / "models" / "b0.toml").read_text()
+    bad = text.replace('unit = "mm"', "unit = 3", 1)
+    assert bad != text
+    with pytest.raises(ml.ModelError, match=r"qoi\[0\] \('v_tip'\)\.unit: expected a short text"):
+        ml.ModelSpec.from_string(bad)
+
+
+def test_study_outputs_carry_the_units(tmp_path: Path) -> None:
+    model = ml.load_model("b1")
+    assert model.units["R_stop"] == "N" and model.units["mu2"] == "1"
+    grid = ml.Grid({"mu1": [0.3], "mu2": [0.1, 0.2]})
+    study = ml.run_study(model, grid, out=tmp_path, progress=False)
+    from multilatin.study.report import write_study_outputs
+
+    write_study_outputs(study, tmp_path)
+    with xr.open_dataset(tmp_path / "study.nc", engine="scipy") as stored:
+        assert stored["R_stop"].attrs["units"] == "N"
+        assert stored["u_A"].attrs["units"] == "mm"
+        assert stored["mu2"].attrs["units"] == "1"
+        assert stored["wall_s"].attrs["units"] == "s"
+    with (tmp_path / "table.csv").open(encoding="utf-8") as stream:
+        header = next(csv.reader(stream))
+    assert "R_stop [N]" in header and "mu2 [–]" in header
+    assert "R_stop [N]" in (tmp_path / "report.html").read_text(encoding="utf-8")
+
+
+def test_solve_outputs_carry_the_units(tmp_path: Path, capsys: pytest.CaptureFixture[str]
+                                       ) -> None:
+    assert main(["solve", "b0", "--out", str(tmp_path)]) == 0
+    with (tmp_path / "qoi.csv").open(encoding="utf-8") as stream:
+        assert next(csv.reader(stream)) == ["step", "v_tip [mm]", "R_clamp [N]"]
+    assert " mm" in capsys.readouterr().out
+    assert main(["show", "b1"]) == 0
+    shown = capsys.readouterr().out
+    assert "mu1 = 0.3 [–]" in shown and "R_stop [N]" in shown
