@@ -47,7 +47,7 @@ def test_not_converged_exits_3_and_says_so(capsys):
 def test_out_writes_vtk_plot_and_tables(tmp_path, capsys):
     assert main(["solve", "b0", "--out", str(tmp_path)]) == 0
     assert (tmp_path / "convergence.png").stat().st_size > 1000
-    assert (tmp_path / "qoi.csv").read_text().startswith("step,v_tip,R_clamp")
+    assert (tmp_path / "qoi.csv").read_text().startswith("step,v_tip [mm],R_clamp [N]")
     pvd = (tmp_path / "vtk" / "b0.pvd").read_text()
     assert pvd.count("<DataSet") == 10
     mesh = meshio.read(tmp_path / "vtk" / "beam_9_0__step001.vtu")
