@@ -248,6 +248,9 @@ def main(argv: list[str] | None = None) -> int:
     level = logging.WARNING - 10 * args.verbose
     logging.basicConfig(level=level, format="%(levelname)s %(name)s: %(message)s",
                         stream=sys.stderr)
+    # a study's progress: a bar on a terminal, else a log line every few seconds, shown
+    # without -v (multilatin.study.runner._LoggedProgress)
+    logging.getLogger("multilatin.progress").setLevel(min(level, logging.INFO))
     try:
         if args.max_memory_gb is not None:
             if not args.max_memory_gb > 0 or args.max_memory_gb == float("inf"):

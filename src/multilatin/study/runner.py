@@ -186,7 +186,8 @@ def run_study(
                 log.info("%s: %d of %d cases to compute (%s)", model.name, len(pending),
                          plan.size, mode)
             runner = _run_dask if (workers or scheduler) else _run_serial
-            bar = _progress_bar(plan.size, plan.size - len(pending), mode, progress)
+            bar = _progress_bar(plan.size, plan.size - len(pending), mode, progress,
+                                model.name)
             start = time.perf_counter()
 
             def finished(records: list[dict[str, Any]], state: ChainState | None,
@@ -267,13 +268,52 @@ def _elapsed(store: StudyStore, mode: str) -> float:
                default=0.0)
 
 
-def _progress_bar(total: int, done: int, mode: str, enabled: bool) -> Any:
+#: where progress goes when stderr is no terminal (a log file, CI): a line every
+#: ``PROGRESS_INTERVAL_S`` seconds and one at the end (the CLI shows this logger at INFO)
+progress_log = logging.getLogger("multilatin.progress")
+PROGRESS_INTERVAL_S = 5.0
+
+
+class _LoggedProgress:
+    """tqdm's ``update``/``set_postfix_str``/``close`` for a stderr that is no terminal:
+    cases done, rate and the time left, as log lines every few seconds."""
+
+    def __init__(self, total: int, done: int, mode: str, name: str) -> None:
+        self.total, self.done, self.mode, self.name = total, done, mode, name
+        self.start_done, self.start = done, time.perf_counter()
+        self.last, self.postfix = self.start, ""
+
+    def set_postfix_str(self, text: str) -> None:
+        self.postfix = text
+
+    def update(self, count: int) -> None:
+        self.done += count
+        now = time.perf_counter()
+        if now - self.last >= PROGRESS_INTERVAL_S:
+            self.last = now
+            self._line(now)
+
+    def close(self) -> None:
+        self._line(time.perf_counter())
+
+    def _line(self, now: float) -> None:
+        elapsed = now - self.start
+        rate = (self.done - self.start_done) / elapsed if elapsed > 0 else 0.0
+        left = (self.total - self.done) / rate if rate > 0 else float("nan")
+        progress_log.info("%s %s: %d/%d cases, %.1f s, %.2f cases/s, %.0f s left%s",
+                          self.name, self.mode, self.done, self.total, elapsed, rate, left,
+                          f" (last: {self.postfix})" if self.postfix else "")
+
+
+def _progress_bar(total: int, done: int, mode: str, enabled: bool, name: str = "") -> Any:
     if not enabled:
         return None
+    if not sys.stderr.isatty():  # a log or CI: lines every few seconds, not a bar
+        return _LoggedProgress(total, done, mode, name)
     from tqdm import tqdm
-    # disable=None: no bar when stderr is not a terminal (logs, CI)
+
     return tqdm(total=total, initial=done, desc=mode, unit="case", file=sys.stderr,
-                dynamic_ncols=True, disable=None)
+                dynamic_ncols=True)
 
 
 def _pending_batches(plan: StudyPlan, chain: tuple[Case, ...], mode: str, store: StudyStore,
@@ -320,6 +360,9 @@ def _run_dask(model: Model, grid: Grid, plan: StudyPlan, mode: str, options: Lat
         environ = {name: value for name, value in
                    dask.config.get("distributed.nanny.pre-spawn-environ", {}).items()
                    if name != "MALLOC_TRIM_THRESHOLD_"}
+        if not log.isEnabledFor(logging.INFO):  # Dask's INFO chatter only with -v
+            environ["DASK_LOGGING__DISTRIBUTED"] = "warning"
+            logging.getLogger("distributed").setLevel(logging.WARNING)
         with dask.config.set({"distributed.nanny.pre-spawn-environ": environ}):
             cluster = LocalCluster(n_workers=workers, threads_per_worker=1, processes=True,
                                    dashboard_address=None)
