@@ -49,14 +49,22 @@ def test_out_writes_vtk_plot_and_tables(tmp_path, capsys):
     assert (tmp_path / "convergence.png").stat().st_size > 1000
     assert (tmp_path / "qoi.csv").read_text().startswith("step,v_tip [mm],R_clamp [N]")
     pvd = (tmp_path / "vtk" / "b0.pvd").read_text()
-    assert pvd.count("<DataSet") == 10
-    mesh = meshio.read(tmp_path / "vtk" / "beam_9_0__step001.vtu")
-    assert mesh.points.shape == (81, 3)
+    assert pvd.count("<DataSet") == 1  # one step, every substructure in one file
+    mesh = meshio.read(tmp_path / "vtk" / "b0_step001.vtu")
+    assert mesh.points.shape == (10 * 81, 3)  # each substructure its own points
+    assert np.unique(mesh.cell_data["substructure"][0]).size == 10
     tip = np.argmin(np.abs(mesh.points[:, 0] - 200) + np.abs(mesh.points[:, 1] - 10))
     result = json.loads((tmp_path / "result.json").read_text())
     assert mesh.point_data["displacement"][tip, 1] == pytest.approx(result["qoi"]["v_tip"],
                                                                     rel=1e-9)
     assert "von_mises" in mesh.cell_data
+    # strains beside stresses: plane stress, σ = D ε cell by cell
+    e, nu = 2e5, 0.3
+    exx, eyy = mesh.cell_data["strain_xx"][0], mesh.cell_data["strain_yy"][0]
+    np.testing.assert_allclose(mesh.cell_data["stress_xx"][0], e / (1 - nu**2) * (exx + nu * eyy),
+                               rtol=1e-9, atol=1e-9)
+    np.testing.assert_allclose(mesh.cell_data["stress_xy"][0],
+                               e / (1 + nu) * mesh.cell_data["strain_xy"][0], rtol=1e-9, atol=1e-9)
 
 
 def test_console_script_is_installed():
@@ -75,7 +83,23 @@ def test_b1_figures_and_reference_overlay(tmp_path, capsys):
     assert data["qoi"]["R_stop"] == pytest.approx(data["reference"]["qoi"]["R_stop"], rel=5e-3)
     for name in ("deformed.png", "history.png", "convergence.png"):
         assert (tmp_path / name).stat().st_size > 10_000
-    assert (tmp_path / "vtk" / "b1.pvd").read_text().count("<DataSet") == 3 * 15
+    assert (tmp_path / "vtk" / "b1.pvd").read_text().count("<DataSet") == 2 * 15
+    # the contact tractions as interface fields: on the stop's points they sum to R_stop
+    contact = meshio.read(tmp_path / "vtk" / "b1_contact_step015.vtu")
+    stop = np.abs(contact.point_data["normal"][:, 0]) > 0.5
+    total = np.sum(contact.point_data["pressure"][stop] * contact.point_data["area"][stop])
+    assert total == pytest.approx(data["qoi"]["R_stop"], rel=1e-9)
+    status = contact.point_data["status"]
+    assert set(np.unique(status)) <= {0.0, 1.0, 2.0} and (status == 2.0).any()
+    assert np.all(np.abs(contact.point_data["pressure"][status == 0.0]) < 1e-6)
+
+
+def test_vtk_has_no_orphan_points_where_a_hole_removed_cells(tmp_path):
+    assert main(["solve", "b2", "--set", "rc=0.5", "--out", str(tmp_path)]) == 0
+    mesh = meshio.read(tmp_path / "vtk" / "b2_step001.vtu")
+    used = np.unique(np.concatenate([block.data.ravel() for block in mesh.cells]))
+    assert used.size == mesh.points.shape[0]
+    assert mesh.cell_data["material_fraction"][0].min() > 0.0
 
 
 def test_contact_status_partitions_the_contact_points():

@@ -150,6 +150,16 @@ def body_force_vector(
     return out
 
 
+def cell_strains(nodes: FloatArray, cells: IntArray, displacement: FloatArray) -> FloatArray:
+    """Strain (xx, yy, engineering γ_xy) at each cell centre, for displacements
+    (..., n_nodes, 2). Returns an array (..., n_cells, 3)."""
+    centre = Quadrature(np.zeros((1, 1, 2)), np.full((1, 1), 4.0))
+    _, grad, _ = physical_gradients(nodes[cells], centre)
+    b = strain_matrices(grad)[:, 0]  # (c, 3, 8)
+    ue = displacement[..., cells, :].reshape(displacement.shape[:-2] + (cells.shape[0], 8))
+    return np.asarray(np.einsum("cjk,...ck->...cj", b, ue), dtype=np.float64)
+
+
 def cell_stresses(
     nodes: FloatArray,
     cells: IntArray,
@@ -160,11 +170,8 @@ def cell_stresses(
 
     Returns an array (..., n_cells, 3).
     """
-    centre = Quadrature(np.zeros((1, 1, 2)), np.full((1, 1), 4.0))
-    _, grad, _ = physical_gradients(nodes[cells], centre)
-    b = strain_matrices(grad)[:, 0]  # (c, 3, 8)
-    ue = displacement[..., cells, :].reshape(displacement.shape[:-2] + (cells.shape[0], 8))
-    return np.asarray(np.einsum("ij,cjk,...ck->...ci", hooke, b, ue), dtype=np.float64)
+    strain = cell_strains(nodes, cells, displacement)
+    return np.asarray(np.einsum("ij,...cj->...ci", hooke, strain), dtype=np.float64)
 
 
 def von_mises(stress: FloatArray, poisson: float, hypothesis: str) -> FloatArray:

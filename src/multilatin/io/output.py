@@ -1,5 +1,5 @@
-"""Files a user opens: VTK fields per substructure (ParaView, via meshio), a ParaView
-collection over the load steps, the convergence plot, and the JSON/CSV of the result."""
+"""Files a user opens: a ParaView time series (via meshio) of the fields and of the contact
+tractions and status, the convergence plot, and the JSON/CSV of the result."""
 
 from __future__ import annotations
 
@@ -13,10 +13,10 @@ import meshio
 import numpy as np
 
 from ..decomposition.result import SolveResult
-from ..fem.elasticity import cell_stresses, von_mises
+from ..fem.elasticity import FloatArray, IntArray, cell_strains, cell_stresses, von_mises
 from ..parameters import label
 from .files import ensure_writable_folder
-from .plots import plot_deformed, plot_histories
+from .plots import plot_deformed, plot_histories, status_indices
 
 log = logging.getLogger(__name__)
 
@@ -25,43 +25,128 @@ def _safe(name: str) -> str:
     return "".join(c if c.isalnum() or c in "-_" else "_" for c in name)
 
 
-def write_vtk(result: SolveResult, folder: Path) -> Path:
-    """One .vtu per substructure and load step, and ``<model>.pvd`` that opens them all in
-    ParaView (load steps as time 1, 2, …). Point data: displacement; cell data: stresses,
-    von Mises stress, the substructure index and the material fraction (void cells of a
-    hole are left out)."""
-    folder.mkdir(parents=True, exist_ok=True)
-    datasets = []
+#: contact status codes in the VTK interface fields
+STATUS_CODES = {"open": 0, "stick": 1, "slip": 2}
+
+
+def _solid(result: SolveResult) -> tuple[FloatArray, list[tuple[str, IntArray]], FloatArray,
+                                          dict[str, FloatArray]]:
+    """All substructures as one mesh: points (each substructure's own, so that contact
+    openings show; no point that no cell uses, e.g. nodes of a hole's void cells), cell
+    blocks, displacement (n_steps, n_points, 2) and cell data (n_steps, n_cells) each."""
+    points, blocks, displacement = [], [], []
+    data: dict[str, list[FloatArray]] = {}
+    offset = 0
     for s, sub in enumerate(result.assembly.substructures):
         mesh = sub.mesh
-        points = np.column_stack([mesh.nodes, np.zeros(mesh.n_nodes)])
         u = result.displacements[sub.name]
         # void cells of a hole are left out; cut cells carry their material fraction
         fraction = np.ones(mesh.n_cells) if sub.cut is None else sub.cut.material_fraction
         kept = fraction > 0.0
         cells = mesh.cells[kept]
+        used, renumbered = np.unique(cells, return_inverse=True)
+        strain = cell_strains(mesh.nodes, cells, u)
         stress = cell_stresses(mesh.nodes, cells, sub.material.hooke, u)
-        vm = von_mises(stress, sub.material.poisson, sub.material.hypothesis)
-        for step in range(u.shape[0]):
-            name = f"{_safe(sub.name)}_step{step + 1:03d}.vtu"
-            meshio.write(
-                folder / name,
-                meshio.Mesh(
-                    points,
-                    [("quad", cells)],
-                    point_data={"displacement": np.column_stack([u[step], np.zeros(mesh.n_nodes)])},
-                    cell_data={
-                        "stress_xx": [stress[step, :, 0]],
-                        "stress_yy": [stress[step, :, 1]],
-                        "stress_xy": [stress[step, :, 2]],
-                        "von_mises": [vm[step]],
-                        "substructure": [np.full(cells.shape[0], s, dtype=np.int32)],
-                        "material_fraction": [fraction[kept]],
-                    },
-                ),
-            )
-            datasets.append((step + 1, s, name))
-    pvd = folder / f"{_safe(result.assembly.name)}.pvd"
+        n_steps, n_cells = stress.shape[0], cells.shape[0]
+        columns = {
+            "stress_xx": stress[..., 0], "stress_yy": stress[..., 1], "stress_xy": stress[..., 2],
+            "strain_xx": strain[..., 0], "strain_yy": strain[..., 1],
+            "strain_xy": 0.5 * strain[..., 2],  # tensor component: half the engineering γ_xy
+            "von_mises": von_mises(stress, sub.material.poisson, sub.material.hypothesis),
+            "substructure": np.full((n_steps, n_cells), float(s)),
+            "material_fraction": np.broadcast_to(fraction[kept], (n_steps, n_cells)),
+        }
+        for name, values in columns.items():
+            data.setdefault(name, []).append(values)
+        points.append(mesh.nodes[used])
+        displacement.append(u[:, used])
+        kind = "quad" if cells.shape[1] == 4 else "triangle"
+        blocks.append((kind, renumbered.reshape(cells.shape) + offset))
+        offset += used.size
+    merged: list[tuple[str, IntArray]] = []
+    for kind, cells in blocks:  # one block per cell type, as VTK readers like
+        if merged and merged[-1][0] == kind:
+            merged[-1] = (kind, np.vstack([merged[-1][1], cells]))
+        else:
+            merged.append((kind, cells))
+    return (np.vstack(points), merged, np.concatenate(displacement, axis=1),
+            {name: np.concatenate(v, axis=1) for name, v in data.items()})
+
+
+def _contact(result: SolveResult) -> dict[str, FloatArray] | None:
+    """Contact interfaces and stops, on the first side's points: coordinates, outward
+    normal, traction F̂ (force per unit area), normal pressure (positive in compression),
+    tangential traction, displacement jump and status (0 open, 1 stick, 2 slip) per step."""
+    itf = result.interface
+    if itf is None:
+        return None
+    chosen, normals = [], []
+    for i, interface in enumerate(result.assembly.interfaces):
+        if interface.contact is None:
+            continue
+        pts = np.flatnonzero(itf.interface == i)
+        first = pts[itf.substructure[pts] == interface.sides[0].substructure]
+        normal = result.assembly.substructures[interface.sides[0].substructure].mesh \
+            .outward_normal(interface.sides[0].side)
+        chosen.append(first)
+        normals.append(np.tile(normal, (first.size, 1)))
+    if not chosen:
+        return None
+    index = np.concatenate(chosen)
+    normal = np.vstack(normals)
+    n_steps = itf.force_hat.shape[0]
+    status = np.zeros((n_steps, itf.coords.shape[0]))
+    for step in range(n_steps):
+        for name, points in status_indices(result, step).items():
+            status[step, points] = STATUS_CODES[name]
+    traction = itf.force_hat[:, index]
+    pressure = -np.einsum("tpd,pd->tp", traction, normal)
+    tangent = np.column_stack([-normal[:, 1], normal[:, 0]])
+    return {"coords": itf.coords[index], "normal": normal, "traction": traction,
+            "pressure": pressure, "tangential_traction": np.einsum("tpd,pd->tp", traction, tangent),
+            "status": status[:, index], "weights": itf.weights[index]}
+
+
+def _planar(vectors: FloatArray) -> FloatArray:
+    return np.column_stack([vectors, np.zeros(vectors.shape[0])])
+
+
+def write_vtk(result: SolveResult, folder: Path) -> Path:
+    """``<model>.pvd``, one time series that ParaView opens at once (load steps as time 1,
+    2, …): per step ``<model>_stepNNN.vtu`` (every substructure; point data displacement;
+    cell data stresses, strains (tensor components), von Mises stress, substructure index,
+    material fraction; a hole's void cells and their nodes left out) and, for a LATIN result
+    with contact, ``<model>_contact_stepNNN.vtu`` (the contact points with traction,
+    pressure, tangential traction, normal, area and status: 0 open, 1 stick, 2 slip)."""
+    folder.mkdir(parents=True, exist_ok=True)
+    points, blocks, displacement, cell_data = _solid(result)
+    contact = _contact(result)
+    name = _safe(result.assembly.name)
+    datasets = []
+    sizes = [cells.shape[0] for _, cells in blocks]
+    splits = np.cumsum(sizes)[:-1]
+    for step in range(displacement.shape[0]):
+        solid = f"{name}_step{step + 1:03d}.vtu"
+        meshio.write(folder / solid, meshio.Mesh(
+            _planar(points), blocks,
+            point_data={"displacement": _planar(displacement[step])},
+            cell_data={key: np.split(values[step], splits) for key, values in cell_data.items()},
+        ))
+        datasets.append((step + 1, 0, solid))
+        if contact is not None:
+            file = f"{name}_contact_step{step + 1:03d}.vtu"
+            n = contact["coords"].shape[0]
+            meshio.write(folder / file, meshio.Mesh(
+                _planar(contact["coords"]), [("vertex", np.arange(n)[:, None])],
+                point_data={"traction": _planar(contact["traction"][step]),
+                            "pressure": contact["pressure"][step],
+                            "tangential_traction": contact["tangential_traction"][step],
+                            "status": contact["status"][step],
+                            "normal": _planar(contact["normal"]),
+                            "area": contact["weights"]},
+            ))
+            datasets.append((step + 1, 1, file))
+    pvd = folder / f"{name}.pvd"
     lines = ['<?xml version="1.0"?>',
              '<VTKFile type="Collection" version="0.1" byte_order="LittleEndian">',
              "  <Collection>"]

@@ -26,7 +26,7 @@ def _pyplot() -> Any:
     return plt
 
 
-def _status_points(result: SolveResult, step: int,
+def status_indices(result: SolveResult, step: int,
                    slip_tol: float = 1e-6) -> dict[str, npt.NDArray[np.int64]]:
     """Interface point indices (side E of contact interfaces and stops) by status at
     ``step``: open (no contact force), stick (no tangential slip increment) or slip."""
@@ -62,7 +62,7 @@ def contact_status(result: SolveResult, step: int, slip_tol: float = 1e-6) -> di
     """Coordinates of the contact points (side E) by status at ``step``: open, stick, slip."""
     assert result.interface is not None
     coords = result.interface.coords
-    return {k: coords[v] for k, v in _status_points(result, step, slip_tol).items()}
+    return {k: coords[v] for k, v in status_indices(result, step, slip_tol).items()}
 
 
 def _macro_part(result: SolveResult, step: int) -> list[tuple[FloatArray, FloatArray]]:
@@ -116,7 +116,7 @@ def plot_deformed(result: SolveResult, path: Path, step: int | None = None,
         ax.add_collection(PolyCollection(quads, facecolor="none", edgecolor="0.8", lw=0.3))
     if result.interface is not None:
         itf = result.interface
-        for status, index in _status_points(result, step).items():
+        for status, index in status_indices(result, step).items():
             if not index.size:
                 continue
             shown = itf.coords[index] + amp * itf.displacement_hat[step, index]
