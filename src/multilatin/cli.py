@@ -3,6 +3,9 @@
 Exit status: 0 success, 2 bad input (message names the field and value), 3 the LATIN
 iteration did not converge within its cap (the unconverged state is reported, never as an
 answer).
+
+The top room: may import every other; imports the solvers, the study engine and the plots
+only when a command needs them, so that ``multilatin models`` or ``--help`` stay quick.
 """
 
 from __future__ import annotations

@@ -1,4 +1,4 @@
-"""Exceptions raised by multilatin."""
+"""Exceptions raised by multilatin (the base room: imports nothing of the package)."""
 
 from __future__ import annotations
 

@@ -12,6 +12,8 @@ calibrated on square Q4 substructures (24² to 192² elements: factor entries pe
 the sparse factor of K_E + Tᵀ M0 k T (≈ 25 log2(n) entries of 12 bytes per unknown), the
 dense right-hand side and solution of the condensation (n × q doubles, twice) and the dense
 condensed operator (q² doubles), with n the unknowns and q the interface unknowns.
+
+Base room: imports only ``errors`` at run time (the solver's types for type checking only).
 """
 
 from __future__ import annotations

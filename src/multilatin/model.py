@@ -1,4 +1,8 @@
-"""The public model object: a validated model file with ``solve(mu)`` and ``reference(mu)``."""
+"""The public model object: a validated model file with ``solve(mu)`` and ``reference(mu)``.
+
+Joins the rooms below it (``io`` for the file, ``latin`` and ``reference`` for the solvers,
+imported when first used); ``study`` and ``cli`` build on it.
+"""
 
 from __future__ import annotations
 

@@ -3,6 +3,8 @@
 A model declares its parameters with defaults and admissible ranges; a ``Mu`` is one
 complete, validated assignment of values. Discretisation choices (mesh refinement, search
 direction, tolerance) are solver arguments, never parameters.
+
+Base room: imports only ``errors`` and ``limits``; every other room may import it.
 """
 
 from __future__ import annotations
