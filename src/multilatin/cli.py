@@ -17,6 +17,8 @@ import os
 import sys
 from pathlib import Path
 
+import numpy as np
+
 from . import __version__
 from .decomposition.result import SolveResult
 from .errors import ModelError, NotConvergedError
@@ -177,11 +179,16 @@ def _report(result: SolveResult, args: argparse.Namespace,
         for name, value in res.qoi.items():
             unit = units.get(name, "")
             unit = "" if unit in ("", "1", "-") else f" {unit}"
+            error = res.qoi_error.get(name)
+            # the estimated remaining error of the iteration (multilatin.latin.tracking)
+            note = (f"  (estimated error {max(np.atleast_1d(error)):.2g}{unit}"
+                    f"{' at most' if isinstance(error, list) else ''})"
+                    if error is not None else "")
             if isinstance(value, list):
                 shown = ", ".join(f"{v:.6g}" for v in value)
-                print(f"  {which}{name} = [{shown}]{unit}")
+                print(f"  {which}{name} = [{shown}]{unit}{note}")
             else:
-                print(f"  {which}{name} = {value:.9g}{unit}")
+                print(f"  {which}{name} = {value:.9g}{unit}{note}")
     if args.out is not None:
         print(f"results written to {args.out}")
 

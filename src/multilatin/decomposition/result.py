@@ -50,6 +50,10 @@ class SolveResult:
     free_motions: tuple[FreeMotion, ...] = ()
     #: why the solve failed, when it did ("" when converged)
     failure: str = ""
+    #: estimated |QoI − its converged value| (LATIN: ``multilatin.latin.tracking``; None
+    #: where not estimated, e.g. a warm start of fewer than 6 iterations; empty for the
+    #: monolithic reference, which is solved directly)
+    qoi_error: dict[str, float | list[float] | None] = field(default_factory=dict)
 
     @property
     def wall_s(self) -> float:
@@ -77,6 +81,7 @@ class SolveResult:
             "wall_s": self.wall_s,
             # no answer from a failed solve: the QoIs are withheld (null)
             "qoi": self.qoi if self.converged else withheld(self.qoi),
+            "qoi_error": self.qoi_error if self.converged else withheld(self.qoi_error),
             "n_steps": self.assembly.n_steps,
             "n_substructures": len(self.assembly.substructures),
             "n_dofs": self.assembly.n_dofs,

@@ -30,6 +30,7 @@ from .acceleration import Anderson
 from .local_stage import LocalStage
 from .operators import LatinOperators, operator_signature
 from .options import LatinOptions
+from .tracking import QoiFunctionals, error_estimates, qoi_functionals
 
 __all__ = ["IterationObserver", "solve_latin", "solve_latin_batch"]
 
@@ -125,9 +126,10 @@ def solve_latin_batch(
     # the iteration is many small dense products: BLAS threads cost more than they give
     # (measured 3x slower per iteration with 2 OpenBLAS threads on b1-9)
     # overflow and NaN are detected in η and end the case as a failure (``_outcome``)
+    functionals = _functionals(ops, assemblies, points)
     with threadpool_limits(limits=1, user_api="blas"), np.errstate(over="ignore",
                                                                     invalid="ignore"):
-        state = _iterate(ops, local, options, w_hat, f_hat, observer)
+        state = _iterate(ops, local, options, w_hat, f_hat, observer, functionals)
     t_iter = time.perf_counter() - t1
 
     t2 = time.perf_counter()
@@ -148,6 +150,7 @@ def solve_latin_batch(
         )
         qoi = evaluate_qois(assembly, fields, reactions, pressures)
         converged, failure = _outcome(history, qoi, options)
+        estimates = error_estimates(np.array(state.qoi_series[c]), history)
         motions = (tuple(free_motions(assembly, pts, state.w_hat[c], state.f_hat[c]))
                    if converged else ())
         results.append(SolveResult(
@@ -166,6 +169,7 @@ def solve_latin_batch(
             options=asdict(options),
             free_motions=motions,
             failure=failure,
+            qoi_error=_per_qoi(assembly, estimates),
         ))
     t_post = time.perf_counter() - t2
     timings = {
@@ -223,6 +227,7 @@ class _IterationState:
     w_hat: FloatArray
     f_hat: FloatArray
     histories: list[list[float]]
+    qoi_series: list[list[FloatArray]]  # per case, the tracked QoIs (n_qoi, n_steps) per iteration
     t_linear: float = 0.0  # linear stage, macro problem included
     t_local: float = 0.0
     t_macro: float = 0.0
@@ -230,14 +235,17 @@ class _IterationState:
 
 def _iterate(ops: LatinOperators, local: LocalStage, options: LatinOptions,
              w_hat: FloatArray, f_hat: FloatArray,
-             observer: IterationObserver | None = None) -> _IterationState:
+             observer: IterationObserver | None = None,
+             functionals: list[QoiFunctionals] | None = None) -> _IterationState:
     """Batched LATIN iterations from ŝ = (``w_hat``, ``f_hat``), shapes ``(n_cases, n_steps,
     n_points, 2)``, each case until its η < tol or the cap."""
     pts = ops.points
     k = ops.search_direction
     n_cases, n_steps = w_hat.shape[:2]
     out = _IterationState(np.zeros_like(w_hat), np.zeros_like(w_hat), np.zeros_like(w_hat),
-                          np.zeros_like(w_hat), [[] for _ in range(n_cases)])
+                          np.zeros_like(w_hat), [[] for _ in range(n_cases)],
+                          [[] for _ in range(n_cases)])
+    shared = functionals is not None and all(f is functionals[0] for f in functionals)
     active = np.arange(n_cases)
     macro_data = None
     if ops.macro_basis is not None:  # F_dᴹ per case and step: (n_cases, n_steps, n_macro)
@@ -279,6 +287,12 @@ def _iterate(ops: LatinOperators, local: LocalStage, options: LatinOptions,
         tb = time.perf_counter()
         w_hat, f_hat = local(w, f)
         out.t_local += time.perf_counter() - tb
+        if functionals is not None:  # the QoIs, for their error estimate (tracking.py)
+            values = (functionals[0].values(w, f, f_hat) if shared else
+                      [functionals[c].values(w[i:i + 1], f[i:i + 1], f_hat[i:i + 1])[0]
+                       for i, c in enumerate(active)])
+            for c, value in zip(active, values, strict=True):
+                out.qoi_series[c].append(value)
         out.t_linear += tb - ta
         # η = ‖s − ŝ‖ / ½(‖s‖ + ‖ŝ‖), ‖s‖² = Σ_t Σ_points ∫ (k⁻¹ F·F + k W·W) dΓ (§4.3)
         if kernels.indicator_squares is not None and local.compiled:
@@ -317,6 +331,33 @@ def _iterate(ops: LatinOperators, local: LocalStage, options: LatinOptions,
             local = local.subset(keep)
             if mixer is not None:
                 mixer.subset(keep)
+    return out
+
+
+def _functionals(ops: LatinOperators, assemblies: Sequence[Assembly],
+                 points: list[InterfacePoints]) -> list[QoiFunctionals]:
+    """The QoI functionals of each case, built once per distinct set of QoIs."""
+    built: dict[str, QoiFunctionals] = {}
+    out = []
+    for assembly, pts in zip(assemblies, points, strict=True):
+        key = repr(assembly.qois)
+        if key not in built:
+            built[key] = qoi_functionals(ops, assembly, pts)
+        out.append(built[key])
+    return out
+
+
+def _per_qoi(assembly: Assembly, estimates: FloatArray) -> dict[str, float | list[float] | None]:
+    """The estimates (n_qoi, n_steps) in the shape of ``qoi``: one number for a QoI of one
+    step (or with ``step``), a list over the steps otherwise; None where not estimated."""
+    out: dict[str, float | list[float] | None] = {}
+    for i, q in enumerate(assembly.qois):
+        row = estimates[i] if q.step is None else estimates[i, q.step - 1:q.step]
+        values = [float(v) for v in row]
+        if not all(np.isfinite(values)):
+            out[q.name] = None
+        else:
+            out[q.name] = values[0] if len(values) == 1 else values
     return out
 
 

@@ -361,6 +361,7 @@ def _record(grid: Grid, case: Case, mode: str, result: SolveResult, wall_s: floa
         "batch": batch,
         "peak_rss_mb": peak_memory_mb(),
         "qoi": result.qoi,
+        "qoi_error": result.qoi_error,
         "log": (f"{mode} #{case.number + 1} ({text}): {status} in "
                 f"{iterations} iterations, eta={result.indicator:.2e}, "
                 f"{wall_s:.3f} s{f' (share of a batch of {batch})' if batch > 1 else ''}, "

@@ -30,12 +30,15 @@ def case_table(result: StudyResult) -> tuple[list[str], list[list[Any]]]:
     unit = (cold[0]["wall_s"] if 0 in cold else rows_main[0]["wall_s"])
     names = list(result.plan.grid)
     scalar_qois = [k for k, v in rows_main[0]["qoi"].items() if not isinstance(v, list)]
+    errors = [q for q in scalar_qois if q in rows_main[0].get("qoi_error", {})]
     units = {str(n): str(v.attrs.get("units", "")) for n, v in result.dataset.variables.items()}
     header = ["case", *[label(n, units.get(n, "")) for n in names], "iterations",
               "time / first cold"]
     if main == "multiresolution" and cold:
         header += ["cold iterations", "cold time / first cold"]
-    header += [label(q, units.get(q, "")) for q in scalar_qois] + ["converged", "unique", "start"]
+    header += [label(q, units.get(q, "")) for q in scalar_qois]
+    header += [label(f"{q}_err", units.get(q, "")) for q in errors]
+    header += ["converged", "unique", "start"]
     rows = []
     for record in rows_main:
         row: list[Any] = [record["number"] + 1, *[record["params"][n] for n in names],
@@ -45,9 +48,15 @@ def case_table(result: StudyResult) -> tuple[list[str], list[list[Any]]]:
             row += ([other["iterations"], other["wall_s"] / unit] if other else ["", ""])
         # no answer from a case that did not converge: masked, as in study.nc
         row += [record["qoi"][q] if record["converged"] else float("nan") for q in scalar_qois]
+        row += [_or_nan(record["qoi_error"].get(q)) if record["converged"] else float("nan")
+                for q in errors]
         row += [record["converged"], record.get("unique", True), record["start"]]
         rows.append(row)
     return header, rows
+
+
+def _or_nan(value: Any) -> float:
+    return float("nan") if value is None else float(value)
 
 
 def summary_lines(result: StudyResult) -> list[str]:
@@ -135,7 +144,7 @@ def plot_response(dataset: xr.Dataset, folder: Path, mode: str) -> list[Path]:
     scalars = [str(name) for name, var in data.data_vars.items()
                if name not in ("iterations", "indicator", "wall_s", "setup_s", "finished",
                                "converged", "unique", "log", "start")
-               and "step" not in var.dims]
+               and not str(name).endswith("_err") and "step" not in var.dims]
     paths = []
 
     def axis(name: str) -> str:

@@ -110,8 +110,10 @@ def _case_json(record: dict[str, Any]) -> dict[str, Any]:
     out = {key: record[key] for key in ("params", "iterations", "wall_s", "converged", "qoi",
                                          "setup_s", "start")}
     out["unique"] = record.get("unique", True)
+    out["qoi_error"] = record.get("qoi_error", {})
     if not record["converged"]:  # no answer: masked, as in study.nc
         out["qoi"] = withheld(record["qoi"])
+        out["qoi_error"] = withheld(out["qoi_error"])
     return out
 
 

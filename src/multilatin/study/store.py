@@ -334,6 +334,14 @@ def to_dataset(grid: Grid, records: Iterable[dict[str, Any]], attrs: dict[str, A
             if name not in qoi_values:
                 qoi_values[name] = np.full(shape + value.shape, np.nan)
             qoi_values[name][at] = value if record["converged"] else np.nan
+        for name, error in record.get("qoi_error", {}).items():  # tracking.error_estimates
+            shape_of = np.shape(record["qoi"].get(name))
+            error = np.broadcast_to(np.asarray(error if error is not None else np.nan,
+                                               dtype=float), shape_of)
+            key = f"{name}_err"
+            if key not in qoi_values:
+                qoi_values[key] = np.full(shape + shape_of, np.nan)
+            qoi_values[key][at] = error if record["converged"] else np.nan
     variables: dict[str, Any] = {name: (dims, values) for name, values in scalars.items()}
     variables.update({name: (dims, values) for name, values in flags.items()})
     variables.update({name: (dims, values) for name, values in texts.items()})
@@ -349,9 +357,13 @@ def to_dataset(grid: Grid, records: Iterable[dict[str, Any]], attrs: dict[str, A
     dataset["iterations"].attrs["long_name"] = "LATIN iterations to the tolerance"
     for name in qoi_values:
         dataset[name].attrs["note"] = "NaN where the case did not converge (see converged)"
+        if name.endswith("_err"):
+            dataset[name].attrs["long_name"] = (
+                f"estimated |{name[:-4]} - its converged value| (multilatin.latin.tracking)")
     for name in [*qoi_values, *names]:
-        if units.get(name):
-            dataset[name].attrs["units"] = units[name]
+        unit = units.get(name[:-4] if name.endswith("_err") and name not in units else name)
+        if unit:
+            dataset[name].attrs["units"] = unit
     return dataset
 
 

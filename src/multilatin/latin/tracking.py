@@ -1,0 +1,148 @@
+"""Quantities of interest followed through the LATIN iteration, and the estimate of their
+remaining error (issue 16).
+
+Every quantity of interest is a linear functional of the interface fields at each load
+step, taken from the same fields as the reported value: a reaction is a weighted sum of F̂
+on a boundary, a mean contact pressure a weighted sum of F̂·n (the consistent recovery is
+linear), both from the local stage's ŝ; a displacement at a point, from the admissible s, is
+φᵀ u_E = φᵀ S_E⁻¹ T_Eᵀ M0 (F + k W) = (T_E S_E⁻¹ φ)ᵀ M0 (F + k W), one solve with the
+substructure's factorisation per QoI (``QoiFunctionals``). Their values after each
+iteration cost a few dot products.
+
+The estimate (``error_estimates``): over the last ``WINDOW`` iterations, the largest change
+of the QoI over two iterations, |q_i − q_{i−2}|max, summed as a geometric series with the
+slower of two measured rates over two iterations, the indicator's (η_n / η_{n−W})^{2/W} and
+the QoI's own (the decay of the envelope of its increments over the window):
+
+    error ≈ |q_i − q_{i−2}|max / (1 − ρ²),   ρ² = max(ρ_η², ρ_q²) ≤ 0.999.
+
+It is an estimate of |q_n − q_∞|, not a proof: measured against tightly converged solves
+in docs/tolerance.md (``benchmarks/qoi_error.py``).
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass, field
+
+import numpy as np
+
+from ..decomposition.assembly import Assembly
+from ..decomposition.interfaces import InterfacePoints
+from ..decomposition.qoi import ContactPressures
+from ..fem.elasticity import FloatArray, IntArray, shape_functions
+from .operators import LatinOperators
+
+#: iterations the estimate looks back over
+WINDOW = 10
+#: a two-iteration rate this close to 1 is taken as 1 − 1e-3: the estimate stays finite
+MAX_RATE = 0.999
+
+
+@dataclass(frozen=True)
+class QoiFunctionals:
+    """q[i, t] = Σ_p (on_w[i, p] · W[t, p] + on_f[i, p] · F[t, p] + on_f_hat[i, p] ·
+    F̂[t, p]) for QoI ``names[i]``, up to a constant (the load's share, which does not change
+    during the iteration). Kept sparse: each QoI reads a few points."""
+
+    names: tuple[str, ...]
+    on_w: FloatArray  # (n_qoi, n_points, 2)
+    on_f: FloatArray  # (n_qoi, n_points, 2)
+    on_f_hat: FloatArray  # (n_qoi, n_points, 2)
+    #: per field (W, F, F̂): the flat (point, component) columns read and their coefficients
+    parts: tuple[tuple[IntArray, FloatArray], ...] = field(init=False, repr=False)
+
+    def __post_init__(self) -> None:
+        parts = []
+        for coefficients in (self.on_w, self.on_f, self.on_f_hat):
+            flat = coefficients.reshape(len(self.names), coefficients[0].size
+                                        if len(self.names) else 0)
+            used = np.flatnonzero(np.any(flat != 0.0, axis=0))
+            parts.append((used, np.ascontiguousarray(flat[:, used].T)))
+        object.__setattr__(self, "parts", tuple(parts))
+
+    def values(self, w: FloatArray, f: FloatArray, f_hat: FloatArray) -> FloatArray:
+        """(n_cases, n_qoi, n_steps) from fields shaped (n_cases, n_steps, n_points, 2)."""
+        n_cases, n_steps = w.shape[:2]
+        total = np.zeros((n_cases * n_steps, len(self.names)))
+        for (used, coefficients), values in zip(self.parts, (w, f, f_hat), strict=True):
+            if used.size:
+                total += values.reshape(n_cases * n_steps, -1)[:, used] @ coefficients
+        return np.asarray(total.reshape(n_cases, n_steps, len(self.names)).transpose(0, 2, 1),
+                          dtype=np.float64)
+
+
+def qoi_functionals(ops: LatinOperators, assembly: Assembly,
+                    points: InterfacePoints) -> QoiFunctionals:
+    """The functionals of ``assembly``'s quantities of interest on the operators' points."""
+    n_points = points.n_points
+    on_w = np.zeros((len(assembly.qois), n_points, 2))
+    on_f = np.zeros_like(on_w)
+    on_f_hat = np.zeros_like(on_w)
+    k = ops.search_direction.reshape(n_points, 2)
+    for i, q in enumerate(assembly.qois):
+        if q.kind == "reaction":
+            for j, itf in enumerate(assembly.interfaces):
+                if itf.condition is not None and itf.condition.name == q.boundary:
+                    side = points.side_points[(j, 0)]
+                    on_f_hat[i, side, q.component] += q.scale * points.weights[side]
+        elif q.kind == "contact_pressure":
+            assert q.bodies is not None and q.segment is not None
+            first = points.contact_pairs[0]
+            bodies = [frozenset(assembly.substructures[r.substructure].body
+                                for r in assembly.interfaces[j].sides)
+                      for j in points.interface[first]]
+            unit = ContactPressures(bodies, points.extents[first], np.eye(first.size))
+            weights = unit.mean(frozenset(q.bodies), q.segment)  # mean = weights · pressure
+            # pressure = −F·n at the contact pair's first-side points
+            on_f_hat[i, first] -= q.scale * weights[:, None] * points.normals[first]
+        elif q.kind == "displacement":
+            assert q.point is not None
+            s = next(s for s, sub in enumerate(assembly.substructures)
+                     if sub.mesh.contains(q.point))
+            mesh = assembly.substructures[s].mesh
+            cell, ref = mesh.locate(q.point)
+            shape, _ = shape_functions(np.asarray(ref, dtype=float)[None])
+            phi = np.zeros(2 * mesh.n_nodes)
+            phi[2 * mesh.cells[cell] + q.component] = np.ravel(shape)[: mesh.cells.shape[1]]
+            response = np.ravel(ops.factors[s].solve(phi[:, None]))  # S_E⁻¹ φ (S symmetric)
+            lo, hi = points.offsets[s], points.offsets[s + 1]
+            trace = (points.traces[s] @ response).reshape(hi - lo, 2)
+            weights = q.scale * ops.m0[2 * lo:2 * hi].reshape(hi - lo, 2) * trace
+            on_f[i, lo:hi] += weights
+            on_w[i, lo:hi] += weights * k[lo:hi]
+    return QoiFunctionals(tuple(q.name for q in assembly.qois), on_w, on_f, on_f_hat)
+
+
+def error_estimates(series: FloatArray, eta: FloatArray, window: int = WINDOW) -> FloatArray:
+    """Estimated |q_n − q_∞| per QoI and step from the tracked values ``series`` (n_iter,
+    n_qoi, n_steps) and the indicator history ``eta``; NaN with fewer than 6 iterations.
+
+    On two-iteration increments d_i = q_i − q_{i−2}, over the last ``window`` iterations:
+    |d|max / (1 − ρ²), ρ² the slower of the indicator's rate over two iterations and the
+    decay of max |d| from the window's older half to its newer half. Two-iteration steps
+    make every mode of the iteration non-alternating (ρ² > 0), so that an oscillating mode
+    (the LATIN relaxation's, ρ ≈ −0.8 on B0) neither hides a slow monotone one nor is summed
+    as if it were monotone. An envelope that grows over the window (increments of two modes
+    of opposite signs cancelling in its older half) shows no convergence of the QoI yet: the
+    rate is then taken as 0.999, a large estimate rather than a small wrong one.
+    """
+    n = series.shape[0]
+    width = min(window, n - 5)
+    if width < 2:
+        return np.full(series.shape[1:], np.nan)
+    recent = series[-(width + 4):]
+    steps2 = recent[2:] - recent[:-2]  # width + 2 two-iteration increments
+    with np.errstate(divide="ignore", invalid="ignore", over="ignore"):
+        rate_eta = ((eta[-1] / eta[-1 - width]) ** (2.0 / width) if eta[-1 - width] > 0
+                    else 0.0)
+        # the QoI's own rate from the decay of the increments' envelope over the window
+        # (older half against newer half): unlike ratios of single increments, robust to an
+        # increment that passes through zero when two modes of opposite signs meet
+        half = (steps2.shape[0] - 2) // 2
+        older = np.abs(steps2[2:2 + half]).max(axis=0)
+        newer = np.abs(steps2[-half:]).max(axis=0)
+        gap = steps2.shape[0] - 2 - half
+        rate_q = (newer / np.where(older > 0.0, older, 1e-300)) ** (2.0 / gap)
+    rate = np.clip(np.maximum(np.nan_to_num(rate_q, nan=MAX_RATE),
+                              np.nan_to_num(rate_eta, nan=MAX_RATE)), 0.0, MAX_RATE)
+    return np.asarray(np.abs(steps2[2:]).max(axis=0) / (1.0 - rate), dtype=np.float64)
