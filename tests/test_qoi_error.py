@@ -131,3 +131,22 @@ def test_estimates_reach_json_study_nc_and_table(tmp_path: Path) -> None:
     with (tmp_path / "table.csv").open(encoding="utf-8") as stream:
         header = next(csv.reader(stream))
     assert "R_stop_err [N]" in header
+
+
+def test_stopping_on_the_qoi_estimates_stops_earlier_and_keeps_r_stop(capsys) -> None:
+    model = ml.load_model("b1")
+    mu = {"mu1": 0.1, "mu2": 0.3}
+    on_eta = model.solve(mu)
+    on_qoi = model.solve(mu, options=ml.LatinOptions(qoi_rtol=1e-3))
+    tight = model.solve(mu, options=TIGHT)
+    assert on_qoi.converged and on_qoi.stopped_on_qoi and not on_eta.stopped_on_qoi
+    assert on_qoi.iterations < on_eta.iterations and on_qoi.indicator >= 3e-6
+    assert on_qoi.qoi["R_stop"] == pytest.approx(tight.qoi["R_stop"], rel=1e-3)
+    assert on_qoi.to_json_dict()["stopped_on_qoi"] is True
+    from multilatin.cli import main
+
+    assert main(["solve", "b1", "--set", "mu1=0.1", "--set", "mu2=0.3", "--qoi-rtol",
+                 "1e-3"]) == 0
+    assert "converged on its QoIs' estimated errors" in capsys.readouterr().out
+    with pytest.raises(ml.ModelError, match="qoi_rtol: must lie in"):
+        ml.LatinOptions(qoi_rtol=0.0)

@@ -24,6 +24,7 @@ from .decomposition.result import SolveResult
 from .errors import ModelError, NotConvergedError
 from .io.files import ensure_writable_folder
 from .latin import LatinOptions
+from .latin.options import STUDY_QOI_RTOL
 from .limits import MEMORY_ENVIRONMENT
 from .model import REFERENCE_MESHES, Model, bundled_models, load_model
 from .parameters import label, parse_assignments
@@ -66,12 +67,20 @@ def _add_memory_argument(parser: argparse.ArgumentParser, default: object = argp
                         "(default: 80%% of the memory available; or MULTILATIN_MAX_MEMORY_GB)")
 
 
-def _add_latin_arguments(parser: argparse.ArgumentParser) -> None:
+def _optional_rtol(text: str) -> float | None:
+    return None if text.strip().lower() in ("none", "off") else float(text)
+
+
+def _add_latin_arguments(parser: argparse.ArgumentParser, qoi_rtol: float | None = None
+                         ) -> None:
     d = LatinOptions()
     parser.add_argument("--kappa", type=float, default=d.kappa,
                         help="search direction k = κE/L (default: %(default)s)")
     parser.add_argument("--tol", type=float, default=d.tol,
                         help="tolerance on the indicator η (default: %(default)s)")
+    parser.add_argument("--qoi-rtol", type=_optional_rtol, default=qoi_rtol, metavar="RTOL",
+                        help="also stop a case once every QoI's estimated error is below RTOL "
+                        "times its value; 'none': on η alone (default: %(default)s)")
     parser.add_argument("--max-iter", type=int, default=d.max_iter,
                         help="iteration cap (default: %(default)s)")
     parser.add_argument("--relaxation", type=float, default=d.relaxation,
@@ -137,7 +146,7 @@ def build_parser() -> argparse.ArgumentParser:
                             "default: %(default)s)")
     study.add_argument("--no-progress", action="store_true", help="no progress bar")
     _add_memory_argument(study)
-    _add_latin_arguments(study)
+    _add_latin_arguments(study, qoi_rtol=STUDY_QOI_RTOL)
     sub.add_parser("models", help="list the bundled models")
     show = sub.add_parser("show", help="describe a model: parameters, substructures, QoIs")
     show.add_argument("model")
@@ -164,7 +173,9 @@ def _report(result: SolveResult, args: argparse.Namespace,
             data["reference"] = {"qoi": reference.qoi, "wall_s": reference.wall_s}
         print(json.dumps(data))
         return
-    status = "converged" if result.converged else f"NOT CONVERGED ({result.failure})"
+    status = ("converged" + (" on its QoIs' estimated errors (--qoi-rtol)"
+                             if result.stopped_on_qoi else "")
+              if result.converged else f"NOT CONVERGED ({result.failure})")
     print(f"{result.assembly.name} ({result.method}): {status}, {result.iterations} iterations, "
           f"indicator {result.indicator:.2e}, {result.wall_s:.3f} s")
     print("parameters: " + ", ".join(f"{k} = {v:g}" for k, v in result.assembly.mu.items()))
@@ -215,6 +226,7 @@ def _show(model: Model) -> None:
 
 def _latin_options(args: argparse.Namespace) -> LatinOptions:
     return LatinOptions(kappa=args.kappa, tol=args.tol, max_iter=args.max_iter,
+                        qoi_rtol=args.qoi_rtol,
                         relaxation=args.relaxation, macro=not args.no_macro,
                         interface_elements=args.interface_elements)
 

@@ -54,6 +54,9 @@ class SolveResult:
     #: where not estimated, e.g. a warm start of fewer than 6 iterations; empty for the
     #: monolithic reference, which is solved directly)
     qoi_error: dict[str, float | list[float] | None] = field(default_factory=dict)
+    #: LATIN stopped this case on its QoIs' estimated errors (``LatinOptions.qoi_rtol``)
+    #: before η reached ``tol``
+    stopped_on_qoi: bool = False
 
     @property
     def wall_s(self) -> float:
@@ -82,6 +85,7 @@ class SolveResult:
             # no answer from a failed solve: the QoIs are withheld (null)
             "qoi": self.qoi if self.converged else withheld(self.qoi),
             "qoi_error": self.qoi_error if self.converged else withheld(self.qoi_error),
+            "stopped_on_qoi": self.stopped_on_qoi,
             "n_steps": self.assembly.n_steps,
             "n_substructures": len(self.assembly.substructures),
             "n_dofs": self.assembly.n_dofs,

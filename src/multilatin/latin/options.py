@@ -8,7 +8,11 @@ from dataclasses import dataclass
 from ..decomposition.interfaces import INTERFACE_ELEMENTS
 from ..errors import ModelError
 
-__all__ = ["KAPPA_RANGE", "SEARCH_MODULI", "LatinOptions"]
+__all__ = ["KAPPA_RANGE", "SEARCH_MODULI", "STUDY_QOI_RTOL", "LatinOptions"]
+
+#: studies stop each case on its QoIs' estimated errors at this relative tolerance (or at
+#: η < tol before); chosen from ``benchmarks/qoi_stopping.py`` (docs/tolerance.md)
+STUDY_QOI_RTOL = 1e-3
 
 #: admissible κ: beyond, k is so far from the stiffness that the linear stage loses the
 #: digits the answer needs (and the macro problem turns singular in floating point)
@@ -58,6 +62,11 @@ class LatinOptions:
         tangential search directions).
     macro: solve the macro problem (eq. [14]–[15]); False gives the one-scale LATIN.
     interface_elements: see ``multilatin.interfaces``.
+    qoi_rtol: also stop a case, before η < tol, once the estimated error of every quantity
+        of interest at every step (``multilatin.latin.tracking``) is below ``qoi_rtol``
+        times its value, or times 1 % of the largest magnitude it took during the iteration
+        for a QoI near zero; looked at after ``tracking.WINDOW`` + 5 iterations. None: η
+        alone. Such a case is converged on its QoIs (``SolveResult.stopped_on_qoi``).
     dirichlet_stiffening: factor on k for prescribed-displacement components.
     """
 
@@ -75,8 +84,11 @@ class LatinOptions:
     held_nodes: bool = True
     stagnation_window: int = 100
     stagnation_ratio: float = 0.7
+    qoi_rtol: float | None = None
 
     def __post_init__(self) -> None:
+        if self.qoi_rtol is not None and not 0 < self.qoi_rtol < 1:
+            raise ModelError(f"qoi_rtol: must lie in (0, 1), got {self.qoi_rtol!r}")
         if not KAPPA_RANGE[0] <= self.kappa <= KAPPA_RANGE[1]:
             raise ModelError(f"kappa: the search direction k = κ E / L needs κ in "
                              f"[{KAPPA_RANGE[0]:g}, {KAPPA_RANGE[1]:g}] (useful: 0.1 to 2), "

@@ -15,6 +15,7 @@ from collections.abc import Callable, Sequence
 from dataclasses import asdict, dataclass
 
 import numpy as np
+import numpy.typing as npt
 from threadpoolctl import threadpool_limits
 
 from ..decomposition.assembly import Assembly
@@ -30,7 +31,7 @@ from .acceleration import Anderson
 from .local_stage import LocalStage
 from .operators import LatinOperators, operator_signature
 from .options import LatinOptions
-from .tracking import QoiFunctionals, error_estimates, qoi_functionals
+from .tracking import WINDOW, QoiFunctionals, error_estimates, qoi_functionals
 
 __all__ = ["IterationObserver", "solve_latin", "solve_latin_batch"]
 
@@ -149,7 +150,7 @@ def solve_latin_batch(
             pressure=-np.sum(state.f_hat[c][:, a] * pts.normals[a], axis=2),
         )
         qoi = evaluate_qois(assembly, fields, reactions, pressures)
-        converged, failure = _outcome(history, qoi, options)
+        converged, failure = _outcome(history, qoi, options, bool(state.stopped_on_qoi[c]))
         estimates = error_estimates(np.array(state.qoi_series[c]), history)
         motions = (tuple(free_motions(assembly, pts, state.w_hat[c], state.f_hat[c]))
                    if converged else ())
@@ -170,6 +171,7 @@ def solve_latin_batch(
             free_motions=motions,
             failure=failure,
             qoi_error=_per_qoi(assembly, estimates),
+            stopped_on_qoi=bool(state.stopped_on_qoi[c]),
         ))
     t_post = time.perf_counter() - t2
     timings = {
@@ -201,8 +203,20 @@ def solve_latin_batch(
     return results
 
 
+def _qoi_settled(state: _IterationState, active: IntArray, rtol: float) -> npt.NDArray[np.bool_]:
+    """Per active case: every QoI's estimated error (``tracking.error_estimates``) below
+    ``rtol`` × max(|value|, 1 % of the largest magnitude it took)."""
+    length = WINDOW + 5
+    recent = np.stack([np.stack(state.qoi_series[c][-length:]) for c in active], axis=1)
+    eta = np.array([state.histories[c][-length:] for c in active]).T
+    estimates = error_estimates(recent, eta[:, :, None, None])  # (n_active, n_qoi, n_steps)
+    scale = 1e-2 * state.qoi_scale[active][:, :, None]
+    bound = rtol * np.maximum(np.abs(recent[-1]), scale)
+    return np.asarray(np.all(estimates <= bound, axis=(1, 2)), dtype=bool)
+
+
 def _outcome(history: FloatArray, qoi: dict[str, float | list[float]],
-             options: LatinOptions) -> tuple[bool, str]:
+             options: LatinOptions, stopped_on_qoi: bool = False) -> tuple[bool, str]:
     """Converged or not, and why not: the cap reached, or non-finite fields (an overflow or
     a NaN is a failure, never an answer)."""
     eta = float(history[-1])
@@ -212,7 +226,7 @@ def _outcome(history: FloatArray, qoi: dict[str, float | list[float]],
     bad = [name for name, value in qoi.items() if not np.all(np.isfinite(value))]
     if bad:
         return False, f"non-finite quantities of interest ({', '.join(bad)})"
-    if eta >= options.tol:
+    if eta >= options.tol and not stopped_on_qoi:
         return False, (f"eta = {eta:.3e} >= tol = {options.tol:g} after {history.size} "
                        "iterations (max_iter)")
     return True, ""
@@ -228,6 +242,8 @@ class _IterationState:
     f_hat: FloatArray
     histories: list[list[float]]
     qoi_series: list[list[FloatArray]]  # per case, the tracked QoIs (n_qoi, n_steps) per iteration
+    qoi_scale: FloatArray  # per case and QoI, the largest magnitude seen
+    stopped_on_qoi: FloatArray  # per case: stopped by ``qoi_rtol`` before η < tol
     t_linear: float = 0.0  # linear stage, macro problem included
     t_local: float = 0.0
     t_macro: float = 0.0
@@ -244,7 +260,9 @@ def _iterate(ops: LatinOperators, local: LocalStage, options: LatinOptions,
     n_cases, n_steps = w_hat.shape[:2]
     out = _IterationState(np.zeros_like(w_hat), np.zeros_like(w_hat), np.zeros_like(w_hat),
                           np.zeros_like(w_hat), [[] for _ in range(n_cases)],
-                          [[] for _ in range(n_cases)])
+                          [[] for _ in range(n_cases)],
+                          np.zeros((n_cases, len(functionals[0].names) if functionals else 0)),
+                          np.zeros(n_cases, dtype=bool))
     shared = functionals is not None and all(f is functionals[0] for f in functionals)
     active = np.arange(n_cases)
     macro_data = None
@@ -293,6 +311,8 @@ def _iterate(ops: LatinOperators, local: LocalStage, options: LatinOptions,
                        for i, c in enumerate(active)])
             for c, value in zip(active, values, strict=True):
                 out.qoi_series[c].append(value)
+                out.qoi_scale[c] = np.maximum(out.qoi_scale[c], np.abs(value).max(axis=1,
+                                                                              initial=0.0))
         out.t_linear += tb - ta
         # η = ‖s − ŝ‖ / ½(‖s‖ + ‖ŝ‖), ‖s‖² = Σ_t Σ_points ∫ (k⁻¹ F·F + k W·W) dΓ (§4.3)
         if kernels.indicator_squares is not None and local.compiled:
@@ -318,6 +338,10 @@ def _iterate(ops: LatinOperators, local: LocalStage, options: LatinOptions,
             _damp_stagnating(out.histories, active, relaxation, options)
         done = ((eta < options.tol) | ~np.isfinite(eta) if iteration < options.max_iter
                 else np.ones_like(eta, bool))
+        if options.qoi_rtol is not None and functionals and iteration >= WINDOW + 5:
+            on_qoi = _qoi_settled(out, active, options.qoi_rtol) & ~done & np.isfinite(eta)
+            out.stopped_on_qoi[active[on_qoi]] = True
+            done |= on_qoi
         if done.any():
             leaving = active[done]
             out.w[leaving], out.f[leaving] = w[done], f[done]

@@ -115,7 +115,9 @@ def qoi_functionals(ops: LatinOperators, assembly: Assembly,
 
 def error_estimates(series: FloatArray, eta: FloatArray, window: int = WINDOW) -> FloatArray:
     """Estimated |q_n − q_∞| per QoI and step from the tracked values ``series`` (n_iter,
-    n_qoi, n_steps) and the indicator history ``eta``; NaN with fewer than 6 iterations.
+    n_qoi, n_steps) and the indicator history ``eta`` (n_iter,); NaN with fewer than 6
+    iterations. Cases may be stacked after the iteration axis, ``series`` (n_iter, n_cases,
+    n_qoi, n_steps) with ``eta`` (n_iter, n_cases, 1, 1).
 
     On two-iteration increments d_i = q_i − q_{i−2}, over the last ``window`` iterations:
     |d|max / (1 − ρ²), ρ² the slower of the indicator's rate over two iterations and the
@@ -133,8 +135,9 @@ def error_estimates(series: FloatArray, eta: FloatArray, window: int = WINDOW) -
     recent = series[-(width + 4):]
     steps2 = recent[2:] - recent[:-2]  # width + 2 two-iteration increments
     with np.errstate(divide="ignore", invalid="ignore", over="ignore"):
-        rate_eta = ((eta[-1] / eta[-1 - width]) ** (2.0 / width) if eta[-1 - width] > 0
-                    else 0.0)
+        rate_eta = np.where(eta[-1 - width] > 0.0,
+                            (eta[-1] / np.where(eta[-1 - width] > 0.0, eta[-1 - width], 1.0))
+                            ** (2.0 / width), 0.0)
         # the QoI's own rate from the decay of the increments' envelope over the window
         # (older half against newer half): unlike ratios of single increments, robust to an
         # increment that passes through zero when two modes of opposite signs meet

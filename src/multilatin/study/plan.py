@@ -362,6 +362,7 @@ def _record(grid: Grid, case: Case, mode: str, result: SolveResult, wall_s: floa
         "peak_rss_mb": peak_memory_mb(),
         "qoi": result.qoi,
         "qoi_error": result.qoi_error,
+        "stopped_on_qoi": bool(result.stopped_on_qoi),
         "log": (f"{mode} #{case.number + 1} ({text}): {status} in "
                 f"{iterations} iterations, eta={result.indicator:.2e}, "
                 f"{wall_s:.3f} s{f' (share of a batch of {batch})' if batch > 1 else ''}, "

@@ -1,0 +1,56 @@
+"""Stopping on the QoIs' estimated errors (``LatinOptions.qoi_rtol``) against stopping on
+η alone, on a study grid: iterations, study time, and R_stop's error against tight solves
+(η < 1e-10), for multiresolution and cold; prints a markdown table.
+
+    python benchmarks/qoi_stopping.py --model b1 --rtols 3e-3 1e-3
+    python benchmarks/qoi_stopping.py --model b3 --grid xc=23:27:5 yc=73:77:5 rc=3 --rtols 1e-3
+"""
+
+from __future__ import annotations
+
+import argparse
+import tempfile
+
+import numpy as np
+
+import multilatin as ml
+
+
+def main() -> None:
+    parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    parser.add_argument("--model", default="b1")
+    parser.add_argument("--grid", nargs="*", default=["mu1=0:0.6:13", "mu2=0:0.6:13"],
+                        help="grid items as on the command line (default: B1's 13 x 13)")
+    parser.add_argument("--rtols", nargs="*", type=float, default=[1e-3])
+    args = parser.parse_args()
+    model = ml.load_model(args.model)
+    grid = ml.Grid.parse(args.grid)
+    names = list(grid)
+    tight_options = ml.LatinOptions(tol=1e-10, max_iter=10000)
+    tight = np.empty(grid.shape)
+    for index in np.ndindex(*grid.shape):
+        mu = {n: grid[n][i] for n, i in zip(names, index, strict=True)}
+        tight[index] = float(model.solve(mu, options=tight_options).qoi["R_stop"])  # type: ignore[arg-type]
+    print(f"{args.model}, grid {' '.join(args.grid)}, R_stop against η < 1e-10")
+    print("| stopping | mode | iterations | mean per case | study (s) | R_stop within 0.1 % "
+          "| worst R_stop error | stopped on QoIs |")
+    print("|---|---|---|---|---|---|---|---|")
+    for rtol in [None, *args.rtols]:
+        options = ml.LatinOptions(qoi_rtol=rtol)
+        with tempfile.TemporaryDirectory() as folder:
+            study = ml.run_study(model, grid, options=options, modes=("multiresolution", "cold"),
+                                 out=folder, progress=False)
+        for mode in ("multiresolution", "cold"):
+            records = study.mode_records(mode)
+            found = study.dataset["R_stop"].sel(mode=mode).transpose(*names).values
+            error = np.abs(found - tight) / np.maximum(np.abs(tight), 1.0)
+            iterations = sum(r["iterations"] for r in records)
+            on_qoi = sum(bool(r.get("stopped_on_qoi")) for r in records)
+            label = "η < 3e-6" if rtol is None else f"qoi_rtol {rtol:g} (or η < 3e-6)"
+            print(f"| {label} | {mode} | {iterations} | {iterations / len(records):.0f} | "
+                  f"{study.elapsed_s[mode]:.2f} | {int(np.sum(error <= 1e-3))}/{error.size} | "
+                  f"{100 * float(np.nanmax(error)):.3f} % | {on_qoi} |")
+
+
+if __name__ == "__main__":
+    main()
