@@ -59,7 +59,10 @@ def test_good_model_is_accepted():
         (lambda d: d["boundary"][1].update(side="left"),
          "boundary[1] ('pull'): side 'left' of 'b' already belongs to an interface"),
         (lambda d: d["boundary"].pop(0),
-         "no displacement is prescribed anywhere"),
+         "boundary: nothing holds 'a', 'b': no prescribed displacement and no rigid stop"),
+        (lambda d: d["substructures"].append(
+            {"name": "c", "x": [30, 40], "y": [0, 10], "elements": [4, 4], "material": "steel"}),
+         "boundary: nothing holds 'c'"),
         (lambda d: d["boundary"][1].update(value=[1, "2 * Q"]),
          "boundary[1] ('pull').value: expression '2 * Q' uses unknown parameter 'Q'"),
         (lambda d: d["boundary"][1].update(factor="push"),

@@ -151,6 +151,12 @@ def solve_latin_batch(
         )
         qoi = evaluate_qois(assembly, fields, reactions, pressures)
         converged, failure = _outcome(history, qoi, options, bool(state.stopped_on_qoi[c]))
+        if state.drifting[c]:
+            converged, failure = False, (
+                f"no equilibrium: the interface fields grow at a steady rate over the last "
+                f"{DRIFT_WINDOW} iterations (eta = {history[-1]:.2e}, falling only because "
+                "they grow): a body slides without end, the load exceeding what friction, "
+                "contact and stops can hold (or the iteration is too slow to finish)")
         estimates = error_estimates(np.array(state.qoi_series[c]), history)
         motions = (tuple(free_motions(assembly, pts, state.w_hat[c], state.f_hat[c]))
                    if converged else ())
@@ -203,6 +209,23 @@ def solve_latin_batch(
     return results
 
 
+#: every so many iterations, a case whose ½(‖s‖ + ‖ŝ‖) grew by as much in the second half of
+#: the window as in the first (and by more than 0.1 %) is stopped as having no equilibrium
+DRIFT_WINDOW = 100
+
+
+def _drifts(sizes: list[float]) -> bool:
+    """The state's norm grows at a steady rate over the last ``DRIFT_WINDOW`` iterations: a
+    rigid sliding that never ends, not a convergence (whose growth decays geometrically:
+    B1's slowest tails, 0.985 per iteration, halve it over half a window)."""
+    if len(sizes) < DRIFT_WINDOW + 1:
+        return False
+    half = DRIFT_WINDOW // 2
+    first = sizes[-1 - half] - sizes[-1 - DRIFT_WINDOW]
+    second = sizes[-1] - sizes[-1 - half]
+    return bool(first > 0.0 and second >= 0.9 * first and second > 1e-3 * sizes[-1])
+
+
 def _qoi_settled(state: _IterationState, active: IntArray, rtol: float) -> npt.NDArray[np.bool_]:
     """Per active case: every QoI's estimated error (``tracking.error_estimates``) below
     ``rtol`` × max(|value|, 1 % of the largest magnitude it took)."""
@@ -244,6 +267,8 @@ class _IterationState:
     qoi_series: list[list[FloatArray]]  # per case, the tracked QoIs (n_qoi, n_steps) per iteration
     qoi_scale: FloatArray  # per case and QoI, the largest magnitude seen
     stopped_on_qoi: FloatArray  # per case: stopped by ``qoi_rtol`` before η < tol
+    sizes: list[list[float]]  # per case, ½(‖s‖ + ‖ŝ‖) after each iteration
+    drifting: FloatArray  # per case: stopped because s grows without bound (no equilibrium)
     t_linear: float = 0.0  # linear stage, macro problem included
     t_local: float = 0.0
     t_macro: float = 0.0
@@ -262,6 +287,7 @@ def _iterate(ops: LatinOperators, local: LocalStage, options: LatinOptions,
                           np.zeros_like(w_hat), [[] for _ in range(n_cases)],
                           [[] for _ in range(n_cases)],
                           np.zeros((n_cases, len(functionals[0].names) if functionals else 0)),
+                          np.zeros(n_cases, dtype=bool), [[] for _ in range(n_cases)],
                           np.zeros(n_cases, dtype=bool))
     shared = functionals is not None and all(f is functionals[0] for f in functionals)
     active = np.arange(n_cases)
@@ -329,8 +355,9 @@ def _iterate(ops: LatinOperators, local: LocalStage, options: LatinOptions,
         finite = np.isfinite(gap) & np.isfinite(size)
         np.divide(gap, size, out=eta, where=finite & (size > 0))
         eta[finite & (size == 0)] = 0.0  # then gap = 0 too (gap ≤ ‖s‖ + ‖ŝ‖)
-        for c, value in zip(active, eta, strict=True):
+        for c, value, norm in zip(active, eta, size, strict=True):
             out.histories[c].append(float(value))
+            out.sizes[c].append(float(norm))
         if iteration % 50 == 0:
             log.debug("iteration %d: eta = %.3e (worst of %d cases)", iteration, eta.max(),
                       active.size)
@@ -338,6 +365,10 @@ def _iterate(ops: LatinOperators, local: LocalStage, options: LatinOptions,
             _damp_stagnating(out.histories, active, relaxation, options)
         done = ((eta < options.tol) | ~np.isfinite(eta) if iteration < options.max_iter
                 else np.ones_like(eta, bool))
+        if iteration % DRIFT_WINDOW == 0:
+            drifting = np.array([_drifts(out.sizes[c]) for c in active]) & ~done
+            out.drifting[active[drifting]] = True
+            done |= drifting
         if options.qoi_rtol is not None and functionals and iteration >= WINDOW + 5:
             on_qoi = _qoi_settled(out, active, options.qoi_rtol) & ~done & np.isfinite(eta)
             out.stopped_on_qoi[active[on_qoi]] = True
