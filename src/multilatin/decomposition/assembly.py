@@ -14,7 +14,7 @@ from functools import cached_property
 import numpy as np
 import scipy.sparse as sp
 
-from ..fem.elasticity import FloatArray, hooke_matrix
+from ..fem.elasticity import FloatArray, IntArray, hooke_matrix
 from ..fem.levelset import CutCells, LevelSet, cut_cells
 from ..fem.mesh import RectMesh, UnstructuredMesh
 from ..fem.xfem import xfem_stiffness
@@ -70,10 +70,23 @@ class Substructure:
 
 @dataclass(frozen=True)
 class SideRef:
-    """One side (``bottom``/``right``/``top``/``left``) of one substructure."""
+    """One side (``bottom``/``right``/``top``/``left``) of one substructure, or the part of
+    it that ``segment`` spans along the side (an interface with a shorter neighbour)."""
 
     substructure: int
     side: str
+    segment: tuple[float, float] | None = None
+
+    def nodes(self, mesh: RectMesh | UnstructuredMesh) -> IntArray:
+        """The side's nodes (ordered along it) that the reference covers."""
+        nodes = mesh.side_nodes(self.side)
+        if self.segment is None:
+            return nodes
+        axis, _, lo, hi = mesh.side_line(self.side)
+        along = mesh.nodes[nodes, 1 - axis]
+        tolerance = 1e-9 * (hi - lo)
+        keep = (along >= self.segment[0] - tolerance) & (along <= self.segment[1] + tolerance)
+        return np.asarray(nodes[keep], dtype=np.int64)
 
 
 @dataclass(frozen=True)

@@ -148,7 +148,7 @@ def build_points(assembly: Assembly, kind: str = "nodal", *,
     for i, itf in enumerate(assembly.interfaces):
         for side_index, ref in enumerate(itf.sides):
             sub = assembly.substructures[ref.substructure]
-            disc = discretise_side(sub.mesh.nodes, sub.mesh.side_nodes(ref.side), kind,
+            disc = discretise_side(sub.mesh.nodes, ref.nodes(sub.mesh), kind,
                                    sub.material.thickness)
             per_sub[ref.substructure].append((i, side_index, disc))
 

@@ -73,7 +73,7 @@ def contact_set(assembly: Assembly, maps: list[IntArray]) -> ContactSet:
             continue
         ref = itf.sides[0]
         sub = assembly.substructures[ref.substructure]
-        nodes = sub.mesh.side_nodes(ref.side)
+        nodes = ref.nodes(sub.mesh)
         cells = discretise_side(sub.mesh.nodes, nodes, "nodal", sub.material.thickness)
         weight = cells.weights
         lo, hi = cells.extents[:, 0], cells.extents[:, 1]
@@ -81,7 +81,7 @@ def contact_set(assembly: Assembly, maps: list[IntArray]) -> ContactSet:
         if len(itf.sides) == 2:
             other = itf.sides[1]
             second = maps[other.substructure][
-                assembly.substructures[other.substructure].mesh.side_nodes(other.side)]
+                other.nodes(assembly.substructures[other.substructure].mesh)]
             bodies = frozenset((sub.body, assembly.substructures[other.substructure].body))
             boundary = None
         else:

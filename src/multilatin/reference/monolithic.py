@@ -38,8 +38,8 @@ def merge_nodes(assembly: Assembly) -> tuple[int, list[IntArray]]:
         a, b = itf.sides
         mesh_a = assembly.substructures[a.substructure].mesh
         mesh_b = assembly.substructures[b.substructure].mesh
-        rows.append(offsets[a.substructure] + mesh_a.side_nodes(a.side))
-        cols.append(offsets[b.substructure] + mesh_b.side_nodes(b.side))
+        rows.append(offsets[a.substructure] + a.nodes(mesh_a))
+        cols.append(offsets[b.substructure] + b.nodes(mesh_b))
     n = int(offsets[-1])
     if rows:
         r, c = np.concatenate(rows), np.concatenate(cols)
@@ -82,7 +82,7 @@ def solve_monolithic(assembly: Assembly) -> SolveResult:
             continue
         ref = itf.sides[0]
         sub = assembly.substructures[ref.substructure]
-        side = sub.mesh.side_nodes(ref.side)
+        side = ref.nodes(sub.mesh)
         gnodes = maps[ref.substructure][side]
         factor = assembly.history.factor(cond.factor)
         # consistent loads of a uniform traction: half of each edge to each of its nodes

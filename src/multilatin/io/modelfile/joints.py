@@ -53,12 +53,11 @@ class InterfaceSections(SectionReader):
                     continue  # touching at a corner at most
                 a, b = subs[i], subs[j]
                 where = f"interface between {a.name!r} ({side} side) and {b.name!r} ({other} side)"
-                if abs(lo - lo_b) > scale or abs(hi - hi_b) > scale:
-                    raise ModelError(
-                        f"{where}: sides do not match: {a.name!r} spans [{lo:g}, {hi:g}] and "
-                        f"{b.name!r} spans [{lo_b:g}, {hi_b:g}] along {'yx'[axis]}; "
-                        "an interface must be a whole side of both substructures"
-                    )
+                start, end = max(lo, lo_b), min(hi, hi_b)  # the part both sides share
+                ref_a = SideRef(i, side, None if abs(start - lo) + abs(end - hi) <= 2 * scale
+                                else (start, end))
+                ref_b = SideRef(j, other, None if abs(start - lo_b) + abs(end - hi_b)
+                                <= 2 * scale else (start, end))
                 kind, law = "perfect", None
                 # the most specific declaration wins: body-body, then with one name, then names
                 for key in (frozenset((a.body, b.body)), frozenset((a.name, b.body)),
@@ -66,7 +65,19 @@ class InterfaceSections(SectionReader):
                     if key in declared:
                         kind, law, _ = declared[key]
                         used_declarations.add(key)
-                na, nb = a.mesh.side_nodes(side), b.mesh.side_nodes(other)
+                na, nb = ref_a.nodes(a.mesh), ref_b.nodes(b.mesh)
+                for ref, mesh, nodes in ((ref_a, a.mesh, na), (ref_b, b.mesh, nb)):
+                    ends = mesh.nodes[nodes[[0, -1]], 1 - axis] if nodes.size else np.zeros(2)
+                    if ref.segment is not None and (
+                            nodes.size < 2 or np.abs(ends - [start, end]).max() > scale):
+                        owner = subs[ref.substructure].name
+                        raise ModelError(
+                            f"{where}: the shared part [{start:g}, {end:g}] along "
+                            f"{'yx'[axis]} does not start and end on nodes of {owner!r}; "
+                            "place nodes of both meshes where the interface ends")
+                if (ref_a.segment is not None or ref_b.segment is not None) and kind == "macro":
+                    raise ModelError(f"{where}: a macro interface must be a whole side of both "
+                                     "substructures")
                 matching = na.size == nb.size and np.allclose(a.mesh.nodes[na], b.mesh.nodes[nb],
                                                               atol=scale)
                 if not matching and kind != "macro":
@@ -77,7 +88,7 @@ class InterfaceSections(SectionReader):
                         "paper eq. [20])"
                     )
                 found.append(Interface(f"{a.name}|{b.name}", kind,
-                                       (SideRef(i, side), SideRef(j, other)), contact=law))
+                                       (ref_a, ref_b), contact=law))
         for key, (_, _, where) in declared.items():
             if key not in used_declarations:
                 a, b = sorted(key)
