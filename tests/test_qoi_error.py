@@ -121,9 +121,11 @@ def test_estimates_reach_json_study_nc_and_table(tmp_path: Path) -> None:
     assert data["qoi_error"]["R_stop"] > 0 and len(data["qoi_error"]["u_A"]) == 15
     study = ml.run_study(model, ml.Grid({"mu1": [0.1], "mu2": [0.2, 0.3]}), out=tmp_path,
                          progress=False)
-    from multilatin.study.report import write_study_outputs
+    from multilatin.study.report import summary_lines, write_study_outputs
 
     write_study_outputs(study, tmp_path)
+    assert any(line.startswith("estimated errors (largest over the converged cases): R_stop ≤ ")
+               and line.split("≤ ")[1].endswith(" N") for line in summary_lines(study))
     with xr.open_dataset(tmp_path / "study.nc", engine="scipy") as stored:
         assert stored["R_stop_err"].attrs["units"] == "N"
         assert np.all(stored["R_stop_err"].sel(mode="multiresolution").values >= 0)

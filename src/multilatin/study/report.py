@@ -86,6 +86,7 @@ def summary_lines(result: StudyResult) -> list[str]:
                          f"paper's definition (cases x first cold time / study time) = "
                          f"{gains['paper_gain']:.2f}; iterations ratio (cold / "
                          f"multiresolution) = {gains['iterations_ratio']:.2f}{over}")
+    lines += _error_lines(result, records)
     lines.append("converged: all" if not failed else
                  f"NOT CONVERGED: {len(failed)} case(s) (no answer: QoIs masked, left out of "
                  "the gain): " + "; ".join(r["log"] for r in failed[:5]))
@@ -100,6 +101,30 @@ def summary_lines(result: StudyResult) -> list[str]:
     for repair in result.repairs:
         lines.append(f"repaired on resume: {repair}")
     return lines
+
+
+def _error_lines(result: StudyResult, records: list[dict[str, Any]]) -> list[str]:
+    """The largest estimated error of each scalar QoI over the converged cases."""
+    converged = [r for r in records if r["converged"]]
+    if not converged:
+        return []
+    units = {str(n): str(v.attrs.get("units", "")) for n, v in result.dataset.variables.items()}
+    parts, missing = [], 0
+    for name, value in converged[0]["qoi"].items():
+        if isinstance(value, list):
+            continue
+        errors = [r.get("qoi_error", {}).get(name) for r in converged]
+        known = [e for e in errors if e is not None]
+        missing = max(missing, len(errors) - len(known))
+        if known:
+            unit = units.get(name, "")
+            shown = "" if unit in ("", "1", "-") else f" {unit}"
+            parts.append(f"{name} ≤ {max(known):.3g}{shown}")
+    if not parts:
+        return []
+    return ["estimated errors (largest over the converged cases): " + ", ".join(parts)
+            + (f"; {missing} case(s) converged in too few iterations to estimate"
+               if missing else "")]
 
 
 def format_table(header: list[str], rows: list[list[Any]], max_rows: int = 40) -> str:
