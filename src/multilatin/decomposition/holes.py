@@ -17,6 +17,7 @@ import numpy as np
 
 from ..errors import ModelError
 from ..fem.levelset import Circle, LevelSet, Slot, Union
+from ..fem.mesh import RectMesh
 from ..parameters import Mu
 from .assembly import Substructure
 
@@ -106,6 +107,10 @@ def place_holes(tables: Sequence[Mapping[str, Any]], subs: list[Substructure], m
         if level_set is None:
             continue
         sub = subs[index]
+        if not isinstance(sub.mesh, RectMesh):
+            raise ModelError(f"{where}: substructure {sub.name!r} is meshed from a file; a "
+                             "level-set hole needs a structured mesh (cut the hole out of the "
+                             "file's mesh instead)")
         holed = dataclasses.replace(sub, hole=level_set)
         assert holed.cut is not None
         if not np.any(holed.cut.material_fraction > 0.0):

@@ -61,6 +61,11 @@ class ModelSpec:
         except RecursionError:
             raise ModelError(f"model file {source or name!r}: arrays or tables nested too "
                              "deeply") from None
+        # mesh files are named relative to the model file (to the working folder without one)
+        base = Path(source).parent if source else Path.cwd()
+        for table in data.get("substructures", []):
+            if isinstance(table, dict) and isinstance(table.get("mesh_file"), str):
+                table["mesh_file"] = str(base / table["mesh_file"])
         return ModelSpec.from_dict(data, name=name, source=source)
 
     @staticmethod

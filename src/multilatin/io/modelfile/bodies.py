@@ -13,8 +13,9 @@ from ...decomposition.assembly import Material, Substructure
 from ...decomposition.holes import place_holes
 from ...errors import ModelError
 from ...fem.elasticity import PLANE_STRAIN, PLANE_STRESS
-from ...fem.mesh import RectMesh
+from ...fem.mesh import RectMesh, UnstructuredMesh
 from ...limits import check_meshes
+from ..meshfile import read_quad_mesh
 from .checks import SectionReader, check_keys, pair, positive_int, require
 
 #: Young's moduli outside this window are a units error, and would over- or underflow the
@@ -82,6 +83,7 @@ class BodySections(SectionReader):
         materials = self.materials()
         subs: list[Substructure] = []
         planned: list[tuple[str, str, Material, tuple[float, float, float, float], int, int]] = []
+        read: dict[str, UnstructuredMesh] = {}  # substructures meshed from a file
         bodies: dict[str, tuple[float, ...]] = {}
         common = {"name", "x", "y", "elements", "material", "hypothesis", "thickness"}
         for b, table in enumerate(self.data.get("bodies", [])):
@@ -122,22 +124,30 @@ class BodySections(SectionReader):
                              f"(bodies: {', '.join(bodies) or 'none'})")
         for s, table in enumerate(self.data.get("substructures", [])):
             where = f"substructures[{s}]"
-            check_keys(table, common | {"body"}, where)
+            check_keys(table, common | {"body", "mesh_file"}, where)
             name = str(require(table, "name", where))
             where = f"substructures[{s}] ({name!r})"
-            x0, x1, y0, y1 = self.rectangle(table, where)
-            nx, ny = (positive_int(v, f"{where}.elements")
-                      for v in pair(require(table, "elements", where), f"{where}.elements"))
+            if "mesh_file" in table:
+                mesh = self.file_mesh(table, where)
+                read[name] = mesh
+                x0, x1, y0, y1 = mesh.x0, mesh.x1, mesh.y0, mesh.y1
+                nx, ny = mesh.n_cells, 1
+            else:
+                x0, x1, y0, y1 = self.rectangle(table, where)
+                nx, ny = (positive_int(v, f"{where}.elements")
+                          for v in pair(require(table, "elements", where), f"{where}.elements"))
             body = str(table.get("body", name))
+            refine = 1 if name in read else self.refine
             planned.append((name, body, self.material(table, where, materials),
-                            (x0, x1, y0, y1), nx * self.refine, ny * self.refine))
+                            (x0, x1, y0, y1), nx * refine, ny * refine))
             lo = bodies.get(body, (x0, x1, y0, y1))
             bodies[body] = (min(lo[0], x0), max(lo[1], x1), min(lo[2], y0), max(lo[3], y1))
         # the size guard, before any mesh is built (a 3000 x 3000 mesh would take the
         # machine's memory)
         check_meshes([(name, ex, ey) for name, _, _, _, ex, ey in planned])
         for name, body, mat, (x0, x1, y0, y1), ex, ey in planned:
-            subs.append(Substructure(name, body, RectMesh(x0, x1, y0, y1, ex, ey), mat))
+            subs.append(Substructure(name, body, read.get(name) or
+                                     RectMesh(x0, x1, y0, y1, ex, ey), mat))
         if not subs:
             raise ModelError("model: no [[bodies]] or [[substructures]] defined")
         names = [s.name for s in subs]
@@ -147,6 +157,25 @@ class BodySections(SectionReader):
         self._check_overlaps(subs)
         subs = place_holes(self.data.get("holes", []), subs, self.mu, self.num, check_keys)
         return subs, bodies
+
+    def file_mesh(self, table: Mapping[str, Any], where: str) -> UnstructuredMesh:
+        """``mesh_file``: a Q4 mesh read with meshio; its bounding box is the substructure's
+        rectangle (``x`` and ``y``, when given, must be that box), whose sides carry the
+        interfaces and boundary conditions."""
+        if "elements" in table:
+            raise ModelError(f"{where}: give either elements or mesh_file, not both")
+        if self.refine != 1:
+            raise ModelError(f"{where}.mesh_file: a mesh read from a file cannot be refined "
+                             f"(refine = {self.refine})")
+        nodes, cells = read_quad_mesh(str(table["mesh_file"]), f"{where}.mesh_file")
+        (x0, y0), (x1, y1) = nodes.min(axis=0), nodes.max(axis=0)
+        if "x" in table or "y" in table:
+            given = self.rectangle(table, where)
+            size = max(x1 - x0, y1 - y0)
+            if np.abs(np.array(given) - [x0, x1, y0, y1]).max() > 1e-9 * size:
+                raise ModelError(f"{where}: x {list(given[:2])} and y {list(given[2:])} are not "
+                                 f"the mesh's extent x [{x0:g}, {x1:g}] y [{y0:g}, {y1:g}]")
+        return UnstructuredMesh(float(x0), float(x1), float(y0), float(y1), nodes, cells)
 
     @staticmethod
     def own_meshes(tables: Any, where: str, split: tuple[int, int]

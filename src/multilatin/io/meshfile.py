@@ -1,0 +1,52 @@
+"""Meshes a user brings: a quadrilateral (Q4) mesh read with meshio from any format it
+knows (gmsh ``.msh``, VTK, …) for one substructure, checked before use."""
+
+from __future__ import annotations
+
+from pathlib import Path
+
+import numpy as np
+
+from ..errors import ModelError
+from ..fem.elasticity import FloatArray, IntArray
+
+#: 2-D cell types meshio may return that the Q4 elements cannot use yet (issue 18)
+_UNSUPPORTED = ("triangle", "triangle6", "quad8", "quad9", "polygon")
+
+
+def read_quad_mesh(path: str | Path, where: str) -> tuple[FloatArray, IntArray]:
+    """Nodes (n, 2) and counter-clockwise Q4 cells (c, 4) of the mesh in ``path``; nodes no
+    cell uses are dropped. Errors name ``where`` (the model-file field) and the file."""
+    import meshio
+
+    try:
+        mesh = meshio.read(path)
+    except (OSError, meshio.ReadError, ValueError, KeyError) as exc:
+        raise ModelError(f"{where}: cannot read mesh file {str(path)!r}: {exc}") from None
+    found = {block.type for block in mesh.cells}
+    unsupported = sorted(found & set(_UNSUPPORTED))
+    if unsupported:
+        raise ModelError(f"{where}: mesh file {str(path)!r} holds {', '.join(unsupported)} "
+                         "cells; only 4-node quadrilaterals (Q4) are supported so far "
+                         "(gmsh: Mesh.RecombineAll = 1)")
+    quads = [block.data for block in mesh.cells if block.type == "quad"]
+    if not quads:
+        raise ModelError(f"{where}: mesh file {str(path)!r} holds no quadrilateral cells "
+                         f"(cell types: {', '.join(sorted(found)) or 'none'})")
+    cells = np.vstack(quads).astype(np.int64)
+    points = np.asarray(mesh.points, dtype=np.float64)
+    if points.shape[1] == 3 and np.ptp(points[:, 2]) > 1e-9 * max(np.ptp(points[:, :2]), 1e-300):
+        raise ModelError(f"{where}: mesh file {str(path)!r} is not plane (z varies)")
+    used = np.unique(cells)
+    renumber = np.full(points.shape[0], -1, dtype=np.int64)
+    renumber[used] = np.arange(used.size)
+    nodes, cells = points[used, :2].copy(), renumber[cells]
+    xy = nodes[cells]
+    area = 0.5 * np.sum(xy[:, :, 0] * np.roll(xy[:, :, 1], -1, axis=1)
+                        - np.roll(xy[:, :, 0], -1, axis=1) * xy[:, :, 1], axis=1)
+    scale = np.ptp(nodes, axis=0).prod()
+    if np.any(np.abs(area) <= 1e-12 * scale):
+        bad = int(np.flatnonzero(np.abs(area) <= 1e-12 * scale)[0])
+        raise ModelError(f"{where}: mesh file {str(path)!r}: cell {bad} has no area")
+    cells[area < 0] = cells[area < 0][:, ::-1]  # counter-clockwise: positive Jacobian
+    return nodes, cells

@@ -1,0 +1,154 @@
+"""Substructures meshed from a file (meshio: gmsh .msh here): exact patch test on an
+unstructured Q4 mesh, a file mesh beside a structured one equal to the monolithic solution,
+and clear errors for meshes the elements cannot use."""
+
+from __future__ import annotations
+
+from pathlib import Path
+
+import numpy as np
+import pytest
+
+import multilatin as ml
+
+gmsh = pytest.importorskip("gmsh")
+TIGHT = ml.LatinOptions(tol=1e-10, max_iter=10000)
+
+
+def _gmsh_rectangle(path: Path, width: float, height: float, per_side: int | None,
+                    recombine: bool = True) -> Path:
+    """An unstructured mesh of [0, width] × [0, height]; ``per_side``: uniform nodes on the
+    right side (to match a neighbour)."""
+    gmsh.initialize()
+    try:
+        gmsh.option.setNumber("General.Verbosity", 0)
+        gmsh.model.add("plate")
+        gmsh.model.occ.addRectangle(0.0, 0.0, 0.0, width, height)
+        gmsh.model.occ.synchronize()
+        if per_side is not None:
+            for _, tag in gmsh.model.getEntities(1):
+                x0, _, _, x1, _, _ = gmsh.model.getBoundingBox(1, tag)
+                if abs(x0 - width) < 1e-9 and abs(x1 - width) < 1e-9:
+                    gmsh.model.mesh.setTransfiniteCurve(tag, per_side + 1)
+        gmsh.option.setNumber("Mesh.MeshSizeMax", 0.15 * height)
+        gmsh.option.setNumber("Mesh.RecombineAll", 1 if recombine else 0)
+        gmsh.option.setNumber("Mesh.Algorithm", 8)
+        gmsh.model.mesh.generate(2)
+        gmsh.write(str(path))
+    finally:
+        gmsh.finalize()
+    return path
+
+
+HEAD = """
+[materials.m]
+E = 1000.0
+nu = 0.25
+[[substructures]]
+name = "plate"
+mesh_file = "plate.msh"
+material = "m"
+"""
+
+TENSION = HEAD + """
+[[boundary]]
+name = "roller_left"
+face = "plate.left"
+type = "mixed"
+components = ["displacement", "force"]
+value = [0.0, 0.0]
+[[boundary]]
+name = "roller_bottom"
+face = "plate.bottom"
+type = "mixed"
+components = ["force", "displacement"]
+value = [0.0, 0.0]
+[[boundary]]
+name = "pull"
+face = "plate.right"
+type = "force"
+value = [5.0, 0.0]
+[[qoi]]
+name = "ux"
+type = "displacement"
+point = [20.0, 10.0]
+component = "x"
+[[qoi]]
+name = "uy"
+type = "displacement"
+point = [20.0, 10.0]
+component = "y"
+"""
+
+
+def test_patch_test_is_exact_on_an_unstructured_mesh_from_gmsh(tmp_path: Path) -> None:
+    _gmsh_rectangle(tmp_path / "plate.msh", 20.0, 10.0, None)
+    (tmp_path / "plate.toml").write_text(TENSION)
+    model = ml.Model(ml.ModelSpec.from_toml(tmp_path / "plate.toml"))  # mesh beside the file
+    assert model.assemble().substructures[0].mesh.n_cells > 50
+    result = model.solve(options=TIGHT)
+    assert result.qoi["ux"] == pytest.approx(5.0 * 20.0 / 1000.0, rel=1e-8)
+    assert result.qoi["uy"] == pytest.approx(-0.25 * 5.0 * 10.0 / 1000.0, rel=1e-8)
+
+
+def test_a_file_mesh_beside_a_structured_one_equals_the_monolithic_solution(tmp_path) -> None:
+    _gmsh_rectangle(tmp_path / "plate.msh", 20.0, 10.0, per_side=8)
+    (tmp_path / "beam.toml").write_text(HEAD + """
+[[substructures]]
+name = "tip"
+x = [20.0, 30.0]
+y = [0.0, 10.0]
+elements = [8, 8]
+material = "m"
+[[boundary]]
+name = "clamp"
+face = "plate.left"
+type = "displacement"
+value = [0.0, 0.0]
+[[boundary]]
+name = "shear"
+face = "tip.right"
+type = "force"
+value = [0.0, -1.0]
+[[qoi]]
+name = "v_tip"
+type = "displacement"
+point = [30.0, 5.0]
+component = "y"
+""")
+    model = ml.Model(ml.ModelSpec.from_toml(tmp_path / "beam.toml"))
+    kinds = [itf.kind for itf in model.assemble().interfaces if len(itf.sides) == 2]
+    assert kinds == ["perfect"]
+    latin, reference = model.solve(options=TIGHT), model.reference()
+    assert latin.qoi["v_tip"] == pytest.approx(reference.qoi["v_tip"], rel=1e-7)
+    assert np.isfinite(latin.qoi["v_tip"]) and latin.qoi["v_tip"] < 0
+
+
+def test_meshes_the_elements_cannot_use_are_refused(tmp_path: Path) -> None:
+    _gmsh_rectangle(tmp_path / "plate.msh", 20.0, 10.0, None, recombine=False)
+    (tmp_path / "plate.toml").write_text(TENSION)
+    with pytest.raises(ml.ModelError, match=r"substructures\[0\] \('plate'\)\.mesh_file: .*"
+                                            "triangle cells; only 4-node quadrilaterals"):
+        ml.ModelSpec.from_toml(tmp_path / "plate.toml")
+    (tmp_path / "missing.toml").write_text(TENSION.replace("plate.msh", "nowhere.msh"))
+    with pytest.raises(ml.ModelError, match="cannot read mesh file"):
+        ml.ModelSpec.from_toml(tmp_path / "missing.toml")
+    (tmp_path / "both.toml").write_text(TENSION.replace('mesh_file = "plate.msh"',
+                                                        'mesh_file = "plate.msh"\nelements = [2, 2]'))
+    with pytest.raises(ml.ModelError, match="either elements or mesh_file"):
+        ml.ModelSpec.from_toml(tmp_path / "both.toml")
+
+
+def test_a_level_set_hole_in_a_file_mesh_is_refused_by_name(tmp_path: Path) -> None:
+    _gmsh_rectangle(tmp_path / "plate.msh", 20.0, 10.0, None)
+    (tmp_path / "holed.toml").write_text(TENSION + """
+[[holes]]
+name = "hole"
+body = "plate"
+shape = "circle"
+centre = [10.0, 5.0]
+radius = 2.0
+""")
+    with pytest.raises(ml.ModelError, match=r"holes\[0\] \('hole'\): substructure 'plate' is "
+                                            "meshed from a file"):
+        ml.ModelSpec.from_toml(tmp_path / "holed.toml")
