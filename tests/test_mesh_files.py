@@ -16,7 +16,7 @@ TIGHT = ml.LatinOptions(tol=1e-10, max_iter=10000)
 
 
 def _gmsh_rectangle(path: Path, width: float, height: float, per_side: int | None,
-                    recombine: bool = True) -> Path:
+                    recombine: bool = True, order: int = 1) -> Path:
     """An unstructured mesh of [0, width] × [0, height]; ``per_side``: uniform nodes on the
     right side (to match a neighbour)."""
     gmsh.initialize()
@@ -30,10 +30,14 @@ def _gmsh_rectangle(path: Path, width: float, height: float, per_side: int | Non
                 x0, _, _, x1, _, _ = gmsh.model.getBoundingBox(1, tag)
                 if abs(x0 - width) < 1e-9 and abs(x1 - width) < 1e-9:
                     gmsh.model.mesh.setTransfiniteCurve(tag, per_side + 1)
-        gmsh.option.setNumber("Mesh.MeshSizeMax", 0.15 * height)
+        # a size that divides the height: the side matches the neighbour's nodes either way
+        gmsh.option.setNumber("Mesh.MeshSizeMax", height / per_side if per_side else
+                              0.15 * height)
         gmsh.option.setNumber("Mesh.RecombineAll", 1 if recombine else 0)
-        gmsh.option.setNumber("Mesh.Algorithm", 8)
+        gmsh.option.setNumber("Mesh.Algorithm", 8 if recombine else 6)
         gmsh.model.mesh.generate(2)
+        if order > 1:
+            gmsh.model.mesh.setOrder(order)
         gmsh.write(str(path))
     finally:
         gmsh.finalize()
@@ -81,18 +85,23 @@ component = "y"
 """
 
 
-def test_patch_test_is_exact_on_an_unstructured_mesh_from_gmsh(tmp_path: Path) -> None:
-    _gmsh_rectangle(tmp_path / "plate.msh", 20.0, 10.0, None)
+@pytest.mark.parametrize("recombine", [True, False], ids=["Q4", "T3"])
+def test_patch_test_is_exact_on_an_unstructured_mesh_from_gmsh(tmp_path: Path,
+                                                                recombine: bool) -> None:
+    _gmsh_rectangle(tmp_path / "plate.msh", 20.0, 10.0, None, recombine=recombine)
     (tmp_path / "plate.toml").write_text(TENSION)
     model = ml.Model(ml.ModelSpec.from_toml(tmp_path / "plate.toml"))  # mesh beside the file
-    assert model.assemble().substructures[0].mesh.n_cells > 50
+    mesh = model.assemble().substructures[0].mesh
+    assert mesh.n_cells > 50 and mesh.cells.shape[1] == (4 if recombine else 3)
     result = model.solve(options=TIGHT)
     assert result.qoi["ux"] == pytest.approx(5.0 * 20.0 / 1000.0, rel=1e-8)
     assert result.qoi["uy"] == pytest.approx(-0.25 * 5.0 * 10.0 / 1000.0, rel=1e-8)
 
 
-def test_a_file_mesh_beside_a_structured_one_equals_the_monolithic_solution(tmp_path) -> None:
-    _gmsh_rectangle(tmp_path / "plate.msh", 20.0, 10.0, per_side=8)
+@pytest.mark.parametrize("recombine", [True, False], ids=["Q4", "T3"])
+def test_a_file_mesh_beside_a_structured_one_equals_the_monolithic_solution(tmp_path,
+                                                                            recombine) -> None:
+    _gmsh_rectangle(tmp_path / "plate.msh", 20.0, 10.0, per_side=8, recombine=recombine)
     (tmp_path / "beam.toml").write_text(HEAD + """
 [[substructures]]
 name = "tip"
@@ -125,10 +134,10 @@ component = "y"
 
 
 def test_meshes_the_elements_cannot_use_are_refused(tmp_path: Path) -> None:
-    _gmsh_rectangle(tmp_path / "plate.msh", 20.0, 10.0, None, recombine=False)
+    _gmsh_rectangle(tmp_path / "plate.msh", 20.0, 10.0, None, order=2)
     (tmp_path / "plate.toml").write_text(TENSION)
     with pytest.raises(ml.ModelError, match=r"substructures\[0\] \('plate'\)\.mesh_file: .*"
-                                            "triangle cells; only 4-node quadrilaterals"):
+                                            "quad8|quad9"):
         ml.ModelSpec.from_toml(tmp_path / "plate.toml")
     (tmp_path / "missing.toml").write_text(TENSION.replace("plate.msh", "nowhere.msh"))
     with pytest.raises(ml.ModelError, match="cannot read mesh file"):

@@ -60,12 +60,45 @@ class Quadrature:
         weights = np.outer(w, w).ravel()[None]
         return Quadrature(points, weights)
 
+    @staticmethod
+    def triangle(degree: int = 1) -> Quadrature:
+        """Rules on the reference triangle (0, 0), (1, 0), (0, 1), exact to degree 1, 2 or 4
+        (the centroid; three interior points; Dunavant's six points, also for any higher
+        ``degree`` asked)."""
+        if degree <= 1:
+            points, weights = np.array([[1 / 3, 1 / 3]]), np.array([0.5])
+        elif degree == 2:
+            points = np.array([[1 / 6, 1 / 6], [2 / 3, 1 / 6], [1 / 6, 2 / 3]])
+            weights = np.full(3, 1 / 6)
+        else:
+            a, b = 0.445948490915965, 0.091576213509771
+            wa, wb = 0.223381589678011 / 2, 0.109951743655322 / 2
+            points = np.array([[a, a], [1 - 2 * a, a], [a, 1 - 2 * a],
+                               [b, b], [1 - 2 * b, b], [b, 1 - 2 * b]])
+            weights = np.array([wa, wa, wa, wb, wb, wb])
+        return Quadrature(points[None], weights[None])
 
-def shape_functions(ref_points: FloatArray) -> tuple[FloatArray, FloatArray]:
-    """Q4 shape functions and their reference gradients at ``ref_points`` (..., 2).
+    @staticmethod
+    def for_cells(n_nodes: int, degree: int) -> Quadrature:
+        """A rule exact to ``degree`` (at least) on the element with ``n_nodes`` (Q4, T3)."""
+        if n_nodes == 3:
+            return Quadrature.triangle(degree)
+        return Quadrature.gauss(max(1, (degree + 2) // 2))
 
-    Returns ``N`` (..., 4) and ``dN`` (..., 4, 2).
+
+def shape_functions(ref_points: FloatArray, n_nodes: int = 4
+                    ) -> tuple[FloatArray, FloatArray]:
+    """Q4 (``n_nodes`` 4, reference square) or T3 (3, reference triangle) shape functions and
+    their reference gradients at ``ref_points`` (..., 2).
+
+    Returns ``N`` (..., n_nodes) and ``dN`` (..., n_nodes, 2).
     """
+    if n_nodes == 3:
+        xi, eta = ref_points[..., 0], ref_points[..., 1]
+        n = np.stack([1.0 - xi - eta, xi, eta], axis=-1)
+        dn = np.broadcast_to(np.array([[-1.0, -1.0], [1.0, 0.0], [0.0, 1.0]]),
+                             ref_points.shape[:-1] + (3, 2))
+        return n, np.array(dn)
     xi = ref_points[..., 0]
     eta = ref_points[..., 1]
     sx = np.array([-1.0, 1.0, 1.0, -1.0])
@@ -79,14 +112,15 @@ def shape_functions(ref_points: FloatArray) -> tuple[FloatArray, FloatArray]:
 def physical_gradients(
     cell_coords: FloatArray, quadrature: Quadrature
 ) -> tuple[FloatArray, FloatArray, FloatArray]:
-    """Shape functions ``N`` (c, q, 4), physical gradients (c, q, 4, 2) and ``w·det J`` (c, q)."""
-    n, dn = shape_functions(quadrature.points)
+    """Shape functions ``N`` (c, q, a), physical gradients (c, q, a, 2) and ``w·det J`` (c, q)
+    for cells of ``a`` nodes (4: Q4, 3: T3)."""
+    n, dn = shape_functions(quadrature.points, cell_coords.shape[1])
     n = np.broadcast_to(n, (cell_coords.shape[0],) + n.shape[1:])
     dn = np.broadcast_to(dn, (cell_coords.shape[0],) + dn.shape[1:])
     jac = np.einsum("cqad,cae->cqde", dn, cell_coords)  # d x_e / d xi_d
     det = jac[..., 0, 0] * jac[..., 1, 1] - jac[..., 0, 1] * jac[..., 1, 0]
     if np.any(det <= 0.0):
-        raise ValueError("a Q4 element is degenerate or inverted (det J <= 0)")
+        raise ValueError("an element is degenerate or inverted (det J <= 0)")
     inv = np.stack(
         [
             np.stack([jac[..., 1, 1], -jac[..., 0, 1]], axis=-1),
@@ -99,8 +133,8 @@ def physical_gradients(
 
 
 def strain_matrices(grad: FloatArray) -> FloatArray:
-    """Strain-displacement matrices B (c, q, 3, 8) for interleaved element dofs."""
-    b = np.zeros(grad.shape[:2] + (3, 8))
+    """Strain-displacement matrices B (c, q, 3, 2a) for interleaved element dofs."""
+    b = np.zeros(grad.shape[:2] + (3, 2 * grad.shape[2]))
     b[..., 0, 0::2] = grad[..., 0]
     b[..., 1, 1::2] = grad[..., 1]
     b[..., 2, 0::2] = grad[..., 1]
@@ -109,8 +143,8 @@ def strain_matrices(grad: FloatArray) -> FloatArray:
 
 
 def element_dofs(cells: IntArray) -> IntArray:
-    """Interleaved dofs (c, 8) of each cell."""
-    return np.stack([2 * cells, 2 * cells + 1], axis=-1).reshape(cells.shape[0], 8)
+    """Interleaved dofs (c, 2a) of each cell of ``a`` nodes."""
+    return np.stack([2 * cells, 2 * cells + 1], axis=-1).reshape(cells.shape[0], -1)
 
 
 def stiffness_matrix(
@@ -121,13 +155,14 @@ def stiffness_matrix(
     quadrature: Quadrature | None = None,
 ) -> sp.csr_matrix:
     """Global stiffness K = Σ_e ∫ Bᵀ D B t dΩ (eq. [2]–[3]), assembled without element loops."""
-    quadrature = quadrature or Quadrature.gauss(2)
+    quadrature = quadrature or Quadrature.for_cells(cells.shape[1], 2)
     _, grad, wdet = physical_gradients(nodes[cells], quadrature)
     b = strain_matrices(grad)
     ke = thickness * np.einsum("cqji,jk,cqkl,cq->cil", b, hooke, b, wdet, optimize=True)
     dofs = element_dofs(cells)
-    rows = np.repeat(dofs, 8, axis=1).ravel()
-    cols = np.tile(dofs, (1, 8)).ravel()
+    per_cell = dofs.shape[1]
+    rows = np.repeat(dofs, per_cell, axis=1).ravel()
+    cols = np.tile(dofs, (1, per_cell)).ravel()
     n = 2 * nodes.shape[0]
     return sp.csr_matrix((ke.ravel(), (rows, cols)), shape=(n, n))
 
@@ -140,7 +175,7 @@ def body_force_vector(
     quadrature: Quadrature | None = None,
 ) -> FloatArray:
     """Load vector ∫ N f t dΩ of a body force density ``force(x) -> (..., 2)``."""
-    quadrature = quadrature or Quadrature.gauss(3)
+    quadrature = quadrature or Quadrature.for_cells(cells.shape[1], 4)
     n, _, wdet = physical_gradients(nodes[cells], quadrature)
     x = np.einsum("cqa,cad->cqd", n, nodes[cells])
     f = force(x)
@@ -153,10 +188,11 @@ def body_force_vector(
 def cell_strains(nodes: FloatArray, cells: IntArray, displacement: FloatArray) -> FloatArray:
     """Strain (xx, yy, engineering γ_xy) at each cell centre, for displacements
     (..., n_nodes, 2). Returns an array (..., n_cells, 3)."""
-    centre = Quadrature(np.zeros((1, 1, 2)), np.full((1, 1), 4.0))
+    centre = (Quadrature.triangle(1) if cells.shape[1] == 3 else
+              Quadrature(np.zeros((1, 1, 2)), np.full((1, 1), 4.0)))
     _, grad, _ = physical_gradients(nodes[cells], centre)
-    b = strain_matrices(grad)[:, 0]  # (c, 3, 8)
-    ue = displacement[..., cells, :].reshape(displacement.shape[:-2] + (cells.shape[0], 8))
+    b = strain_matrices(grad)[:, 0]  # (c, 3, 2a)
+    ue = displacement[..., cells, :].reshape(displacement.shape[:-2] + (cells.shape[0], -1))
     return np.asarray(np.einsum("cjk,...ck->...cj", b, ue), dtype=np.float64)
 
 
@@ -187,7 +223,7 @@ def interpolate(
     nodes: FloatArray, cells: IntArray, displacement: FloatArray, cell: int, ref: FloatArray
 ) -> FloatArray:
     """Displacement (..., 2) at reference point ``ref`` of ``cell``."""
-    n, _ = shape_functions(ref[None])
+    n, _ = shape_functions(ref[None], cells.shape[1])
     return np.asarray(np.einsum("a,...ad->...d", n[0], displacement[..., cells[cell], :]),
                       dtype=np.float64)
 
@@ -207,10 +243,10 @@ def error_norms(
     ``exact(x) -> (..., 2)`` and ``exact_gradient(x) -> (..., 2, 2)`` with
     ``grad[..., i, j] = d u_i / d x_j``.
     """
-    quadrature = quadrature or Quadrature.gauss(4)
+    quadrature = quadrature or Quadrature.for_cells(cells.shape[1], 6)
     n, grad, wdet = physical_gradients(nodes[cells], quadrature)
     x = np.einsum("cqa,cad->cqd", n, nodes[cells])
-    ue = displacement[cells]  # (c, 4, 2)
+    ue = displacement[cells]  # (c, a, 2)
     uh = np.einsum("cqa,cad->cqd", n, ue)
     gh = np.einsum("cqaj,cai->cqij", grad, ue)
     du = uh - exact(x)

@@ -129,8 +129,9 @@ class RectMesh(RectangleSides):
 
 @dataclass(frozen=True, eq=False, repr=False)
 class UnstructuredMesh(RectangleSides):
-    """A Q4 mesh of (part of) the rectangle ``[x0, x1] × [y0, y1]``, e.g. with holes; its
-    side nodes are the nodes on the rectangle's sides."""
+    """A Q4 or T3 mesh (``cells`` of 4 or 3 nodes, counter-clockwise) of (part of) the
+    rectangle ``[x0, x1] × [y0, y1]``, e.g. with holes; its side nodes are the nodes on the
+    rectangle's sides."""
 
     x0: float
     x1: float
@@ -167,6 +168,13 @@ class UnstructuredMesh(RectangleSides):
         scale = 1e-9 * max(self.x1 - self.x0, self.y1 - self.y0)
         inside = np.flatnonzero(np.all((corners.min(axis=1) - scale <= x)
                                        & (x <= corners.max(axis=1) + scale), axis=1))
+        if self.cells.shape[1] == 3:  # T3: barycentric coordinates
+            for cell in inside:
+                a, b, c = corners[cell]
+                ref = np.linalg.solve(np.column_stack([b - a, c - a]), x - a)
+                if ref.min() >= -1e-9 and ref.sum() <= 1.0 + 1e-9:
+                    return int(cell), ref
+            raise ValueError(f"point {x.tolist()} lies in no cell of {self!r}")
         sx = np.array([-1.0, 1.0, 1.0, -1.0])
         sy = np.array([-1.0, -1.0, 1.0, 1.0])
         for cell in inside:

@@ -1,5 +1,6 @@
-"""Meshes a user brings: a quadrilateral (Q4) mesh read with meshio from any format it
-knows (gmsh ``.msh``, VTK, …) for one substructure, checked before use."""
+"""Meshes a user brings: a mesh of 4-node quadrilaterals (Q4) or of 3-node triangles (T3),
+read with meshio from any format it knows (gmsh ``.msh``, VTK, …) for one substructure,
+checked before use."""
 
 from __future__ import annotations
 
@@ -11,12 +12,13 @@ from ..errors import ModelError
 from ..fem.elasticity import FloatArray, IntArray
 
 #: 2-D cell types meshio may return that the Q4 elements cannot use yet (issue 18)
-_UNSUPPORTED = ("triangle", "triangle6", "quad8", "quad9", "polygon")
+_UNSUPPORTED = ("triangle6", "triangle7", "quad8", "quad9", "polygon")
 
 
 def read_quad_mesh(path: str | Path, where: str) -> tuple[FloatArray, IntArray]:
-    """Nodes (n, 2) and counter-clockwise Q4 cells (c, 4) of the mesh in ``path``; nodes no
-    cell uses are dropped. Errors name ``where`` (the model-file field) and the file."""
+    """Nodes (n, 2) and counter-clockwise cells of the mesh in ``path``: Q4 (c, 4) or T3
+    (c, 3), one kind per substructure; nodes no cell uses are dropped. Errors name ``where``
+    (the model-file field) and the file."""
     import meshio
 
     try:
@@ -27,13 +29,18 @@ def read_quad_mesh(path: str | Path, where: str) -> tuple[FloatArray, IntArray]:
     unsupported = sorted(found & set(_UNSUPPORTED))
     if unsupported:
         raise ModelError(f"{where}: mesh file {str(path)!r} holds {', '.join(unsupported)} "
-                         "cells; only 4-node quadrilaterals (Q4) are supported so far "
-                         "(gmsh: Mesh.RecombineAll = 1)")
-    quads = [block.data for block in mesh.cells if block.type == "quad"]
-    if not quads:
-        raise ModelError(f"{where}: mesh file {str(path)!r} holds no quadrilateral cells "
-                         f"(cell types: {', '.join(sorted(found)) or 'none'})")
-    cells = np.vstack(quads).astype(np.int64)
+                         "cells; only linear elements are supported so far: 4-node "
+                         "quadrilaterals (Q4) or 3-node triangles (T3)")
+    if {"quad", "triangle"} <= found:
+        raise ModelError(f"{where}: mesh file {str(path)!r} mixes quadrilaterals and "
+                         "triangles; one kind per substructure (gmsh: Mesh.RecombineAll = 1 "
+                         "for quadrilaterals only)")
+    kind = "quad" if "quad" in found else "triangle"
+    blocks = [block.data for block in mesh.cells if block.type == kind]
+    if not blocks:
+        raise ModelError(f"{where}: mesh file {str(path)!r} holds no quadrilateral or "
+                         f"triangle cells (cell types: {', '.join(sorted(found)) or 'none'})")
+    cells = np.vstack(blocks).astype(np.int64)
     points = np.asarray(mesh.points, dtype=np.float64)
     if points.shape[1] == 3 and np.ptp(points[:, 2]) > 1e-9 * max(np.ptp(points[:, :2]), 1e-300):
         raise ModelError(f"{where}: mesh file {str(path)!r} is not plane (z varies)")

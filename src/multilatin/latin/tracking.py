@@ -101,9 +101,9 @@ def qoi_functionals(ops: LatinOperators, assembly: Assembly,
                      if sub.mesh.contains(q.point))
             mesh = assembly.substructures[s].mesh
             cell, ref = mesh.locate(q.point)
-            shape, _ = shape_functions(np.asarray(ref, dtype=float)[None])
+            shape, _ = shape_functions(np.asarray(ref, dtype=float)[None], mesh.cells.shape[1])
             phi = np.zeros(2 * mesh.n_nodes)
-            phi[2 * mesh.cells[cell] + q.component] = np.ravel(shape)[: mesh.cells.shape[1]]
+            phi[2 * mesh.cells[cell] + q.component] = np.ravel(shape)
             response = np.ravel(ops.factors[s].solve(phi[:, None]))  # S_E⁻¹ φ (S symmetric)
             lo, hi = points.offsets[s], points.offsets[s + 1]
             trace = (points.traces[s] @ response).reshape(hi - lo, 2)
