@@ -10,6 +10,7 @@ import numpy as np
 
 from ..fem.elasticity import FloatArray, interpolate
 from .assembly import Assembly
+from .interfaces import InterfacePoints
 
 #: how a mean contact pressure is recovered from the nodal contact forces
 PRESSURE_RECOVERIES = ("consistent", "lumped")
@@ -112,6 +113,18 @@ def _integral(nodes: FloatArray, values: FloatArray, segment: tuple[float, float
     left, right = values[:, :-1], values[:, 1:]
     at_a, at_b = left + ta * (right - left), left + tb * (right - left)
     return np.asarray(((b - a) * 0.5 * (at_a + at_b)).sum(axis=1), dtype=np.float64)
+
+
+def latin_contact_pressures(assembly: Assembly, points: InterfacePoints,
+                            pressure: FloatArray) -> ContactPressures:
+    """``ContactPressures`` on the first side of every contact pair of the interface
+    ``points``, with ``pressure`` (n, n_pairs) there (LATIN's fields, or unit columns for the
+    mean's weights)."""
+    first = points.contact_pairs[0]
+    bodies = [frozenset(assembly.substructures[ref.substructure].body
+                        for ref in assembly.interfaces[j].sides)
+              for j in points.interface[first]]
+    return ContactPressures(bodies, points.extents[first], pressure)
 
 
 def evaluate_qois(

@@ -15,7 +15,7 @@ from ..fem.elasticity import FloatArray, IntArray
 _UNSUPPORTED = ("triangle6", "triangle7", "quad8", "quad9", "polygon")
 
 
-def read_quad_mesh(path: str | Path, where: str) -> tuple[FloatArray, IntArray]:
+def read_mesh(path: str | Path, where: str) -> tuple[FloatArray, IntArray]:
     """Nodes (n, 2) and counter-clockwise cells of the mesh in ``path``: Q4 (c, 4) or T3
     (c, 3), one kind per substructure; nodes no cell uses are dropped. Errors name ``where``
     (the model-file field) and the file."""

@@ -20,7 +20,7 @@ from threadpoolctl import threadpool_limits
 
 from ..decomposition.assembly import Assembly
 from ..decomposition.interfaces import InterfacePoints, with_contact_data
-from ..decomposition.qoi import ContactPressures, evaluate_qois
+from ..decomposition.qoi import evaluate_qois, latin_contact_pressures
 from ..decomposition.result import InterfaceFields, SolveResult
 from ..decomposition.uniqueness import free_motions
 from ..errors import ModelError, NotConvergedError
@@ -144,11 +144,8 @@ def solve_latin_batch(
                   for name, u in displacements.items()}
         reactions = _reactions(assembly, pts, state.f_hat[c])
         a = pts.contact_pairs[0]
-        pressures = ContactPressures(
-            bodies=[_body_pair(assembly, pts, i) for i in pts.interface[a]],
-            extents=pts.extents[a],
-            pressure=-np.sum(state.f_hat[c][:, a] * pts.normals[a], axis=2),
-        )
+        pressures = latin_contact_pressures(
+            assembly, pts, -np.sum(state.f_hat[c][:, a] * pts.normals[a], axis=2))
         qoi = evaluate_qois(assembly, fields, reactions, pressures)
         converged, failure = _outcome(history, qoi, options, bool(state.stopped_on_qoi[c]))
         if state.drifting[c]:
@@ -157,7 +154,7 @@ def solve_latin_batch(
                 f"{DRIFT_WINDOW} iterations (eta = {history[-1]:.2e}, falling only because "
                 "they grow): a body slides without end, the load exceeding what friction, "
                 "contact and stops can hold (or the iteration is too slow to finish)")
-        estimates = error_estimates(np.array(state.qoi_series[c]), history)
+        estimates = error_estimates(state.recent_qoi(c, history.size), history)
         motions = (tuple(free_motions(assembly, pts, state.w_hat[c], state.f_hat[c]))
                    if converged else ())
         results.append(SolveResult(
@@ -209,6 +206,9 @@ def solve_latin_batch(
     return results
 
 
+#: the iterations of tracked QoIs an error estimate reads (``tracking.error_estimates``)
+RECENT = WINDOW + 5
+
 #: every so many iterations, a case whose ½(‖s‖ + ‖ŝ‖) grew by as much in the second half of
 #: the window as in the first (and by more than 0.1 %) is stopped as having no equilibrium
 DRIFT_WINDOW = 100
@@ -226,16 +226,26 @@ def _drifts(sizes: list[float]) -> bool:
     return bool(first > 0.0 and second >= 0.9 * first and second > 1e-3 * sizes[-1])
 
 
-def _qoi_settled(state: _IterationState, active: IntArray, rtol: float) -> npt.NDArray[np.bool_]:
+def _qoi_settled(state: _IterationState, active: IntArray, iteration: int, rtol: float
+                 ) -> npt.NDArray[np.bool_]:
     """Per active case: every QoI's estimated error (``tracking.error_estimates``) below
-    ``rtol`` × max(|value|, 1 % of the largest magnitude it took)."""
-    length = WINDOW + 5
-    recent = np.stack([np.stack(state.qoi_series[c][-length:]) for c in active], axis=1)
-    eta = np.array([state.histories[c][-length:] for c in active]).T
-    estimates = error_estimates(recent, eta[:, :, None, None])  # (n_active, n_qoi, n_steps)
-    scale = 1e-2 * state.qoi_scale[active][:, :, None]
-    bound = rtol * np.maximum(np.abs(recent[-1]), scale)
-    return np.asarray(np.all(estimates <= bound, axis=(1, 2)), dtype=bool)
+    ``rtol`` × max(|value|, 1 % of the largest magnitude it took). The active cases of a
+    batch have all made ``iteration`` iterations (they start together)."""
+    latest, before = (iteration - 1) % RECENT, (iteration - 3) % RECENT
+    values = state.qoi_recent[active, latest]
+    bound = rtol * np.maximum(np.abs(values), 1e-2 * state.qoi_scale[active][:, :, None])
+    # the estimate is at least the latest two-iteration change: where that alone exceeds
+    # the bound, the case goes on without the full estimate
+    settled = np.all(np.abs(values - state.qoi_recent[active, before]) <= bound, axis=(1, 2))
+    candidates = np.flatnonzero(settled)
+    if candidates.size:
+        order = np.roll(np.arange(RECENT), -(iteration % RECENT))  # oldest first
+        chosen = active[candidates]
+        recent = state.qoi_recent[chosen][:, order].transpose(1, 0, 2, 3)
+        eta = state.eta_recent[chosen][:, order].T
+        estimates = error_estimates(recent, eta[:, :, None, None])  # (n, n_qoi, n_steps)
+        settled[candidates] = np.all(estimates <= bound[candidates], axis=(1, 2))
+    return np.asarray(settled, dtype=bool)
 
 
 def _outcome(history: FloatArray, qoi: dict[str, float | list[float]],
@@ -264,7 +274,10 @@ class _IterationState:
     w_hat: FloatArray
     f_hat: FloatArray
     histories: list[list[float]]
-    qoi_series: list[list[FloatArray]]  # per case, the tracked QoIs (n_qoi, n_steps) per iteration
+    #: per case, the tracked QoIs of the last ``RECENT`` iterations (n_cases, RECENT, n_qoi,
+    #: n_steps) and their η, written round the buffer (iteration i at (i − 1) % RECENT)
+    qoi_recent: FloatArray
+    eta_recent: FloatArray
     qoi_scale: FloatArray  # per case and QoI, the largest magnitude seen
     stopped_on_qoi: FloatArray  # per case: stopped by ``qoi_rtol`` before η < tol
     sizes: list[list[float]]  # per case, ½(‖s‖ + ‖ŝ‖) after each iteration
@@ -272,6 +285,12 @@ class _IterationState:
     t_linear: float = 0.0  # linear stage, macro problem included
     t_local: float = 0.0
     t_macro: float = 0.0
+
+    def recent_qoi(self, case: int, iterations: int) -> FloatArray:
+        """The tracked QoIs of the case's last iterations (at most ``RECENT``), oldest first."""
+        held = min(iterations, RECENT)
+        order = np.roll(np.arange(RECENT), -(iterations % RECENT))[RECENT - held:]
+        return np.asarray(self.qoi_recent[case, order], dtype=np.float64)
 
 
 def _iterate(ops: LatinOperators, local: LocalStage, options: LatinOptions,
@@ -283,10 +302,11 @@ def _iterate(ops: LatinOperators, local: LocalStage, options: LatinOptions,
     pts = ops.points
     k = ops.search_direction
     n_cases, n_steps = w_hat.shape[:2]
+    n_qoi = len(functionals[0].names) if functionals else 0
     out = _IterationState(np.zeros_like(w_hat), np.zeros_like(w_hat), np.zeros_like(w_hat),
                           np.zeros_like(w_hat), [[] for _ in range(n_cases)],
-                          [[] for _ in range(n_cases)],
-                          np.zeros((n_cases, len(functionals[0].names) if functionals else 0)),
+                          np.zeros((n_cases, RECENT, n_qoi, n_steps)),
+                          np.zeros((n_cases, RECENT)), np.zeros((n_cases, n_qoi)),
                           np.zeros(n_cases, dtype=bool), [[] for _ in range(n_cases)],
                           np.zeros(n_cases, dtype=bool))
     shared = functionals is not None and all(f is functionals[0] for f in functionals)
@@ -333,12 +353,12 @@ def _iterate(ops: LatinOperators, local: LocalStage, options: LatinOptions,
         out.t_local += time.perf_counter() - tb
         if functionals is not None:  # the QoIs, for their error estimate (tracking.py)
             values = (functionals[0].values(w, f, f_hat) if shared else
-                      [functionals[c].values(w[i:i + 1], f[i:i + 1], f_hat[i:i + 1])[0]
-                       for i, c in enumerate(active)])
-            for c, value in zip(active, values, strict=True):
-                out.qoi_series[c].append(value)
-                out.qoi_scale[c] = np.maximum(out.qoi_scale[c], np.abs(value).max(axis=1,
-                                                                              initial=0.0))
+                      np.stack([functionals[c].values(w[i:i + 1], f[i:i + 1],
+                                                      f_hat[i:i + 1])[0]
+                                for i, c in enumerate(active)]))
+            out.qoi_recent[active, (iteration - 1) % RECENT] = values
+            out.qoi_scale[active] = np.maximum(out.qoi_scale[active],
+                                               np.abs(values).max(axis=2, initial=0.0))
         out.t_linear += tb - ta
         # η = ‖s − ŝ‖ / ½(‖s‖ + ‖ŝ‖), ‖s‖² = Σ_t Σ_points ∫ (k⁻¹ F·F + k W·W) dΓ (§4.3)
         if kernels.indicator_squares is not None and local.compiled:
@@ -355,6 +375,7 @@ def _iterate(ops: LatinOperators, local: LocalStage, options: LatinOptions,
         finite = np.isfinite(gap) & np.isfinite(size)
         np.divide(gap, size, out=eta, where=finite & (size > 0))
         eta[finite & (size == 0)] = 0.0  # then gap = 0 too (gap ≤ ‖s‖ + ‖ŝ‖)
+        out.eta_recent[active, (iteration - 1) % RECENT] = eta
         for c, value, norm in zip(active, eta, size, strict=True):
             out.histories[c].append(float(value))
             out.sizes[c].append(float(norm))
@@ -370,7 +391,8 @@ def _iterate(ops: LatinOperators, local: LocalStage, options: LatinOptions,
             out.drifting[active[drifting]] = True
             done |= drifting
         if options.qoi_rtol is not None and functionals and iteration >= WINDOW + 5:
-            on_qoi = _qoi_settled(out, active, options.qoi_rtol) & ~done & np.isfinite(eta)
+            on_qoi = (_qoi_settled(out, active, iteration, options.qoi_rtol) & ~done
+                      & np.isfinite(eta))
             out.stopped_on_qoi[active[on_qoi]] = True
             done |= on_qoi
         if done.any():
@@ -464,7 +486,3 @@ def _reactions(assembly: Assembly, pts: InterfacePoints, force_hat: FloatArray
         out[name] = out.get(name, 0.0) + total
     return out
 
-
-def _body_pair(assembly: Assembly, pts: InterfacePoints, interface: int) -> frozenset[str]:
-    itf = assembly.interfaces[interface]
-    return frozenset(assembly.substructures[r.substructure].body for r in itf.sides)

@@ -28,7 +28,7 @@ import numpy as np
 
 from ..decomposition.assembly import Assembly
 from ..decomposition.interfaces import InterfacePoints
-from ..decomposition.qoi import ContactPressures
+from ..decomposition.qoi import latin_contact_pressures
 from ..fem.elasticity import FloatArray, IntArray, shape_functions
 from .operators import LatinOperators
 
@@ -88,10 +88,7 @@ def qoi_functionals(ops: LatinOperators, assembly: Assembly,
         elif q.kind == "contact_pressure":
             assert q.bodies is not None and q.segment is not None
             first = points.contact_pairs[0]
-            bodies = [frozenset(assembly.substructures[r.substructure].body
-                                for r in assembly.interfaces[j].sides)
-                      for j in points.interface[first]]
-            unit = ContactPressures(bodies, points.extents[first], np.eye(first.size))
+            unit = latin_contact_pressures(assembly, points, np.eye(first.size))
             weights = unit.mean(frozenset(q.bodies), q.segment)  # mean = weights · pressure
             # pressure = −F·n at the contact pair's first-side points
             on_f_hat[i, first] -= q.scale * weights[:, None] * points.normals[first]

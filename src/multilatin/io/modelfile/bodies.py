@@ -15,7 +15,7 @@ from ...errors import ModelError
 from ...fem.elasticity import PLANE_STRAIN, PLANE_STRESS
 from ...fem.mesh import RectMesh, UnstructuredMesh
 from ...limits import check_meshes
-from ..meshfile import read_quad_mesh
+from ..meshfile import read_mesh
 from .checks import SectionReader, check_keys, pair, positive_int, require
 
 #: Young's moduli outside this window are a units error, and would over- or underflow the
@@ -167,7 +167,7 @@ class BodySections(SectionReader):
         if self.refine != 1:
             raise ModelError(f"{where}.mesh_file: a mesh read from a file cannot be refined "
                              f"(refine = {self.refine})")
-        nodes, cells = read_quad_mesh(str(table["mesh_file"]), f"{where}.mesh_file")
+        nodes, cells = read_mesh(str(table["mesh_file"]), f"{where}.mesh_file")
         (x0, y0), (x1, y1) = nodes.min(axis=0), nodes.max(axis=0)
         if "x" in table or "y" in table:
             given = self.rectangle(table, where)
