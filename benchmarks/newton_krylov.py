@@ -23,8 +23,8 @@ from scipy.optimize import NoConvergence, newton_krylov
 import multilatin as ml
 from multilatin.decomposition.assembly import Assembly
 from multilatin.latin import LatinOperators, LatinOptions
+from multilatin.latin.engine import norms as _norms
 from multilatin.latin.local_stage import LocalStage
-from multilatin.latin.solver import _norms
 
 Fields = tuple[np.ndarray, np.ndarray]
 

@@ -134,7 +134,7 @@ def test_the_checks_themselves_find_cycles_and_imports() -> None:
     latin = PACKAGE / "latin" / "operators.py"
     assert "multilatin.latin.local_stage" in _runtime_imports(latin)
     assert "multilatin.latin.options" not in _runtime_imports(latin)  # types only
-    assert "multilatin.latin.kernels" in _runtime_imports(PACKAGE / "latin" / "solver.py")
+    assert "multilatin.latin.kernels" in _runtime_imports(PACKAGE / "latin" / "engine.py")
 
 
 def test_no_module_over_500_lines() -> None:
@@ -146,7 +146,8 @@ def test_no_module_over_500_lines() -> None:
 def test_import_multilatin_loads_no_solver_and_no_heavy_library() -> None:
     code = ("import sys, multilatin; "
             "print(sorted(m for m in sys.modules if m.split('.')[0] in "
-            "('numba', 'xarray', 'dask', 'matplotlib', 'scipy') or m.startswith('multilatin.')))")
+            "('numba', 'xarray', 'dask', 'matplotlib', 'scipy', 'torch') "
+            "or m.startswith('multilatin.')))")
     out = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True,
                          check=True).stdout
     assert out.strip() == "[]", out
@@ -164,9 +165,18 @@ def test_the_command_line_loads_no_solver_and_no_heavy_library_before_a_command_
 ) -> None:
     code = ("import sys, multilatin.cli; "
             "print(sorted({m.split('.')[0] for m in sys.modules} & "
-            "{'numba', 'xarray', 'dask', 'distributed', 'matplotlib', 'meshio', 'tqdm'}), "
+            "{'numba', 'xarray', 'dask', 'distributed', 'matplotlib', 'meshio', 'tqdm', "
+            "'torch'}), "
             "sorted(m for m in sys.modules if m.startswith(('multilatin.latin.solver', "
             "'multilatin.latin.kernels', 'multilatin.reference', 'multilatin.study'))))")
     out = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True,
                          check=True).stdout
     assert out.strip() == "[] []", out
+
+
+def test_the_numpy_backend_never_loads_pytorch() -> None:
+    code = ("import sys, multilatin as ml; ml.load_model('b0').solve(); "
+            "print('torch' in sys.modules, 'multilatin.latin.torch_engine' in sys.modules)")
+    out = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True,
+                         check=True).stdout
+    assert out.strip() == "False False", out

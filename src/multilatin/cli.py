@@ -24,7 +24,7 @@ from .decomposition.result import SolveResult
 from .errors import ModelError, NotConvergedError
 from .io.files import ensure_writable_folder
 from .latin import LatinOptions
-from .latin.options import STUDY_QOI_RTOL
+from .latin.options import BACKENDS, STUDY_QOI_RTOL
 from .limits import MEMORY_ENVIRONMENT
 from .model import REFERENCE_MESHES, Model, bundled_models, load_model
 from .parameters import label, parse_assignments
@@ -88,6 +88,12 @@ def _add_latin_arguments(parser: argparse.ArgumentParser, qoi_rtol: float | None
     parser.add_argument("--no-macro", action="store_true", help="skip the macro problem")
     parser.add_argument("--interface-elements", default=d.interface_elements,
                         choices=["nodal", "edges", "edge-pairs"])
+    parser.add_argument("--backend", default=d.backend, choices=list(BACKENDS),
+                        help="array library of the iteration: numpy (with Numba; the "
+                        "reference) or torch (PyTorch, extra 'gpu') (default: %(default)s)")
+    parser.add_argument("--device", default=d.device, metavar="DEVICE",
+                        help="where the torch backend works: cpu, cuda or cuda:N "
+                        "(default: %(default)s)")
 
 
 VERBOSE_HELP = ("more log lines on standard error: -v (INFO) a line per solve, -vv (DEBUG) "
@@ -140,6 +146,10 @@ def build_parser() -> argparse.ArgumentParser:
     study.add_argument("--scheduler", help="run on the Dask cluster at this address")
     study.add_argument("--chains", type=int, default=None,
                        help="independent multiresolution chains (default: workers, or 1)")
+    study.add_argument("--start", choices=["neighbour", "zero"], default="neighbour",
+                       help="multiresolution: start each case from its nearest converged "
+                       "neighbour, or every case of a geometry from zero in batches of "
+                       "--batch sharing the operators (for a GPU) (default: %(default)s)")
     study.add_argument("--batch", type=int, default=16,
                        help="multiresolution: solve up to N cases of a grid line together, "
                             "each from its nearest converged neighbour (1: one by one; "
@@ -228,7 +238,8 @@ def _latin_options(args: argparse.Namespace) -> LatinOptions:
     return LatinOptions(kappa=args.kappa, tol=args.tol, max_iter=args.max_iter,
                         qoi_rtol=args.qoi_rtol,
                         relaxation=args.relaxation, macro=not args.no_macro,
-                        interface_elements=args.interface_elements)
+                        interface_elements=args.interface_elements,
+                        backend=args.backend, device=args.device)
 
 
 def _study(model: Model, args: argparse.Namespace, argv: list[str] | None) -> int:
@@ -248,8 +259,8 @@ def _study(model: Model, args: argparse.Namespace, argv: list[str] | None) -> in
     out = args.out or Path(f"study-{model.name}")
     command = "multilatin " + " ".join(argv if argv is not None else sys.argv[1:])
     result = run_study(model, grid, options=_latin_options(args), modes=modes, out=out,
-                       chains=args.chains, batch=args.batch, workers=args.workers,
-                       scheduler=args.scheduler,
+                       chains=args.chains, batch=args.batch, start=args.start,
+                       workers=args.workers, scheduler=args.scheduler,
                        progress=not args.no_progress and not args.json, command=command)
     written = write_study_outputs(result, out)
     if args.json:

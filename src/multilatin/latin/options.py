@@ -3,12 +3,13 @@ not model parameters, as pyMOR keeps them apart)."""
 
 from __future__ import annotations
 
+import re
 from dataclasses import dataclass
 
 from ..decomposition.interfaces import INTERFACE_ELEMENTS
 from ..errors import ModelError
 
-__all__ = ["KAPPA_RANGE", "SEARCH_MODULI", "STUDY_QOI_RTOL", "LatinOptions"]
+__all__ = ["BACKENDS", "KAPPA_RANGE", "SEARCH_MODULI", "STUDY_QOI_RTOL", "LatinOptions"]
 
 #: studies stop each case on its QoIs' estimated errors at this relative tolerance (or at
 #: η < tol before); chosen from ``benchmarks/qoi_stopping.py`` (docs/tolerance.md)
@@ -18,6 +19,8 @@ STUDY_QOI_RTOL = 1e-3
 #: digits the answer needs (and the macro problem turns singular in floating point)
 KAPPA_RANGE = (1e-3, 1e3)
 SEARCH_MODULI = ("mean", "neighbour", "own")
+#: array backends of the iteration (``engine``): NumPy (with Numba) is the reference
+BACKENDS = ("numpy", "torch")
 
 @dataclass(frozen=True)
 class LatinOptions:
@@ -68,6 +71,12 @@ class LatinOptions:
         for a QoI near zero; looked at after ``tracking.WINDOW`` + 5 iterations. None: η
         alone. Such a case is converged on its QoIs (``SolveResult.stopped_on_qoi``).
     dirichlet_stiffening: factor on k for prescribed-displacement components.
+    backend: the array library of the iteration's field work (``multilatin.latin.engine``):
+        ``"numpy"`` (default, with the Numba kernels when installed: the reference) or
+        ``"torch"`` (PyTorch, extra ``gpu``; the same formulas in fp64, on ``device``).
+        The operators are built with SciPy either way; the answers agree to rounding.
+    device: where the torch backend works: ``"cpu"``, ``"cuda"`` or ``"cuda:N"``. The
+        NumPy backend works on the CPU only.
     """
 
     kappa: float = 0.5
@@ -85,6 +94,8 @@ class LatinOptions:
     stagnation_window: int = 100
     stagnation_ratio: float = 0.7
     qoi_rtol: float | None = None
+    backend: str = "numpy"
+    device: str = "cpu"
 
     def __post_init__(self) -> None:
         if self.qoi_rtol is not None and not 0 < self.qoi_rtol < 1:
@@ -119,6 +130,13 @@ class LatinOptions:
                              f"{self.stagnation_ratio!r}")
         if self.anderson_depth < 1:
             raise ModelError(f"anderson_depth: must be >= 1, got {self.anderson_depth!r}")
+        if self.backend not in BACKENDS:
+            raise ModelError(f"backend: expected one of {BACKENDS}, got {self.backend!r}")
+        if not (self.device == "cpu" or re.fullmatch(r"cuda(:\d+)?", str(self.device))):
+            raise ModelError(f"device: expected 'cpu', 'cuda' or 'cuda:N', got {self.device!r}")
+        if self.backend == "numpy" and self.device != "cpu":
+            raise ModelError(f"device: the numpy backend works on the CPU only, got "
+                             f"{self.device!r} (use backend 'torch' for a GPU)")
         if not self.dirichlet_stiffening >= 1:
             raise ModelError(
                 f"dirichlet_stiffening: must be >= 1, got {self.dirichlet_stiffening!r}"

@@ -26,8 +26,7 @@ from ..decomposition.uniqueness import free_motions
 from ..errors import ModelError, NotConvergedError
 from ..fem.elasticity import FloatArray, IntArray
 from ..limits import check_scale
-from . import kernels
-from .acceleration import Anderson
+from .engine import FieldEngine, NumpyFields
 from .local_stage import LocalStage
 from .operators import LatinOperators, operator_signature
 from .options import LatinOptions
@@ -81,6 +80,8 @@ def solve_latin_batch(
 
     initial: per case, the interface fields to start from (see ``solve_latin``) or None.
     observer: see ``IterationObserver``.
+    With the torch backend, a batch larger than the device's memory holds is solved in
+    chunks (``torch_engine.cases_per_chunk``); the observer then sees each chunk's cases.
     Results carry the batch's timings (``timings["batch_size"]``).
     """
     if not assemblies:
@@ -110,6 +111,15 @@ def solve_latin_batch(
     if len(starts) != n_cases:
         raise ModelError(f"initial: expected {n_cases} entries (one per case), got "
                          f"{len(starts)}")
+    if options.backend == "torch" and n_cases > 1:  # a batch that fits the device's memory
+        from .torch_engine import cases_per_chunk
+
+        size = cases_per_chunk(n_steps, ops.points.n_points, options.device)
+        if size < n_cases:
+            log.info("batch of %d cases solved in chunks of %d (device memory)", n_cases, size)
+            return [result for lo in range(0, n_cases, size)
+                    for result in solve_latin_batch(assemblies[lo:lo + size], options, ops,
+                                                    check, starts[lo:lo + size], observer)]
     w_hat = np.zeros((n_cases, *shape))
     f_hat = np.zeros((n_cases, *shape))
     for c, start in enumerate(starts):
@@ -298,9 +308,9 @@ def _iterate(ops: LatinOperators, local: LocalStage, options: LatinOptions,
              observer: IterationObserver | None = None,
              functionals: list[QoiFunctionals] | None = None) -> _IterationState:
     """Batched LATIN iterations from ŝ = (``w_hat``, ``f_hat``), shapes ``(n_cases, n_steps,
-    n_points, 2)``, each case until its η < tol or the cap."""
+    n_points, 2)``, each case until its η < tol or the cap. The field work runs on the
+    options' backend (``engine``); the control (η, stopping, relaxation) here."""
     pts = ops.points
-    k = ops.search_direction
     n_cases, n_steps = w_hat.shape[:2]
     n_qoi = len(functionals[0].names) if functionals else 0
     out = _IterationState(np.zeros_like(w_hat), np.zeros_like(w_hat), np.zeros_like(w_hat),
@@ -309,67 +319,28 @@ def _iterate(ops: LatinOperators, local: LocalStage, options: LatinOptions,
                           np.zeros((n_cases, RECENT)), np.zeros((n_cases, n_qoi)),
                           np.zeros(n_cases, dtype=bool), [[] for _ in range(n_cases)],
                           np.zeros(n_cases, dtype=bool))
-    shared = functionals is not None and all(f is functionals[0] for f in functionals)
     active = np.arange(n_cases)
     macro_data = None
     if ops.macro_basis is not None:  # F_dᴹ per case and step: (n_cases, n_steps, n_macro)
         prescribed = local.prescribed_force_field(pts.n_points)
         macro_data = (ops.project @ prescribed.reshape(n_cases * n_steps, -1).T
                       ).T.reshape(n_cases, n_steps, -1)
-    mixer = (Anderson(options.anderson_depth, options.relaxation,
-                      np.sqrt(pts.weights[:, None] * k), np.sqrt(pts.weights[:, None] / k))
-             if options.acceleration == "anderson" else None)
-    displacement_weight = (pts.weights[:, None] * k).ravel()
-    force_weight = (pts.weights[:, None] / k).ravel()
+    engine = _engine(ops, local, options, w_hat, f_hat, macro_data, functionals)
     relaxation = np.full(n_cases, options.relaxation)  # per active case
-    w = f = None
+    anderson = options.acceleration == "anderson"
     for iteration in range(1, options.max_iter + 1):
-        ta = time.perf_counter()
-        flat = (-1, pts.n_points, 2)
-        data = (macro_data[active].reshape(-1, macro_data.shape[2])
-                if macro_data is not None else None)
-        w_new, f_new = ops.micro_stage(w_hat.reshape(flat), f_hat.reshape(flat))
-        tm = time.perf_counter()
-        if data is not None:
-            ops.macro_correction(w_new, f_new, data)
-        out.t_macro += time.perf_counter() - tm
-        w_new, f_new = w_new.reshape(w_hat.shape), f_new.reshape(w_hat.shape)
-        if w is None or f is None or options.relaxation == 1.0 and mixer is None:
-            w, f = w_new, f_new
-        elif mixer is not None:
-            w, f = mixer(w, f, w_new, f_new)
-        elif kernels.relax is not None and local.compiled and np.all(
-                relaxation == relaxation[0]):
-            kernels.relax(w, w_new, float(relaxation[0]))
-            kernels.relax(f, f_new, float(relaxation[0]))
-        else:
-            omega = relaxation[:, None, None, None]
-            w = omega * w_new + (1.0 - omega) * w
-            f = omega * f_new + (1.0 - omega) * f
+        engine.linear_stage(relaxation)
         if observer is not None:
+            w, f = engine.fields()[:2]
             observer(iteration, active, w, f)
-        tb = time.perf_counter()
-        w_hat, f_hat = local(w, f)
-        out.t_local += time.perf_counter() - tb
+        engine.local_stage()
         if functionals is not None:  # the QoIs, for their error estimate (tracking.py)
-            values = (functionals[0].values(w, f, f_hat) if shared else
-                      np.stack([functionals[c].values(w[i:i + 1], f[i:i + 1],
-                                                      f_hat[i:i + 1])[0]
-                                for i, c in enumerate(active)]))
+            values = engine.qoi_values()
             out.qoi_recent[active, (iteration - 1) % RECENT] = values
             out.qoi_scale[active] = np.maximum(out.qoi_scale[active],
                                                np.abs(values).max(axis=2, initial=0.0))
-        out.t_linear += tb - ta
         # η = ‖s − ŝ‖ / ½(‖s‖ + ‖ŝ‖), ‖s‖² = Σ_t Σ_points ∫ (k⁻¹ F·F + k W·W) dΓ (§4.3)
-        if kernels.indicator_squares is not None and local.compiled:
-            w, f = np.ascontiguousarray(w), np.ascontiguousarray(f)  # Anderson gives views
-            squares = np.sqrt(kernels.indicator_squares(w, f, w_hat, f_hat,
-                                                        displacement_weight, force_weight))
-            gap, size = squares[:, 0], 0.5 * (squares[:, 1] + squares[:, 2])
-        else:
-            gap = _norms(displacement_weight, force_weight, w - w_hat, f - f_hat)
-            size = 0.5 * (_norms(displacement_weight, force_weight, w, f)
-                          + _norms(displacement_weight, force_weight, w_hat, f_hat))
+        gap, size = engine.indicator()
         # a NaN or overflowed norm leaves η NaN; η = 0 only for a zero solution (no load)
         eta = np.full_like(gap, np.nan)
         finite = np.isfinite(gap) & np.isfinite(size)
@@ -382,7 +353,7 @@ def _iterate(ops: LatinOperators, local: LocalStage, options: LatinOptions,
         if iteration % 50 == 0:
             log.debug("iteration %d: eta = %.3e (worst of %d cases)", iteration, eta.max(),
                       active.size)
-        if iteration % options.stagnation_window == 0 and mixer is None:
+        if iteration % options.stagnation_window == 0 and not anderson:
             _damp_stagnating(out.histories, active, relaxation, options)
         done = ((eta < options.tol) | ~np.isfinite(eta) if iteration < options.max_iter
                 else np.ones_like(eta, bool))
@@ -397,18 +368,27 @@ def _iterate(ops: LatinOperators, local: LocalStage, options: LatinOptions,
             done |= on_qoi
         if done.any():
             leaving = active[done]
-            out.w[leaving], out.f[leaving] = w[done], f[done]
-            out.w_hat[leaving], out.f_hat[leaving] = w_hat[done], f_hat[done]
+            out.w[leaving], out.f[leaving], out.w_hat[leaving], out.f_hat[leaving] = (
+                engine.fields(np.flatnonzero(done)))
             if done.all():
                 break
             keep = np.flatnonzero(~done)
             active = active[keep]
             relaxation = relaxation[keep]
-            w, f, w_hat, f_hat = w[keep], f[keep], w_hat[keep], f_hat[keep]
-            local = local.subset(keep)
-            if mixer is not None:
-                mixer.subset(keep)
+            engine.keep(keep)
+    out.t_linear, out.t_macro, out.t_local = engine.t_linear, engine.t_macro, engine.t_local
     return out
+
+
+def _engine(ops: LatinOperators, local: LocalStage, options: LatinOptions,
+            w_hat: FloatArray, f_hat: FloatArray, macro_data: FloatArray | None,
+            functionals: list[QoiFunctionals] | None) -> FieldEngine:
+    """The backend that does the iteration's field work (``LatinOptions.backend``)."""
+    if options.backend == "torch":
+        from .torch_engine import TorchFields  # PyTorch loads only when asked for
+
+        return TorchFields(ops, local, options, w_hat, f_hat, macro_data, functionals)
+    return NumpyFields(ops, local, options, w_hat, f_hat, macro_data, functionals)
 
 
 def _functionals(ops: LatinOperators, assemblies: Sequence[Assembly],
@@ -458,19 +438,6 @@ def _damp_stagnating(histories: list[list[float]], active: IntArray, relaxation:
             relaxation[position] = max(relaxation[position] - 0.1, 0.5)
             log.info("case %d of the batch: eta stagnates (%.2e after %.2e), relaxation "
                      "lowered to %.1f", case, latest, before, relaxation[position])
-
-
-def _norms(displacement_weight: FloatArray, force_weight: FloatArray,
-           displacement: FloatArray, force: FloatArray) -> FloatArray:
-    """‖s‖ per case: ‖s‖² = Σ_t Σ_points ∫ (k⁻¹ F·F + k W·W) dΓ (paper §4.3); the weights
-    are ∫ k and ∫ k⁻¹ per flattened (point, component)."""
-    n_cases = displacement.shape[0]
-    squares = (np.square(displacement).reshape(n_cases, -1, displacement_weight.size)
-               .sum(axis=1) @ displacement_weight)
-    squares += (np.square(force).reshape(n_cases, -1, force_weight.size).sum(axis=1)
-                @ force_weight)
-    norms: FloatArray = np.sqrt(squares)
-    return norms
 
 
 def _reactions(assembly: Assembly, pts: InterfacePoints, force_hat: FloatArray

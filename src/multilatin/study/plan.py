@@ -33,6 +33,10 @@ from ..parameters import Grid, Mu
 log = logging.getLogger(__name__)
 
 MODES = ("multiresolution", "cold")
+#: how the multiresolution mode starts a case: from its nearest converged neighbour (the
+#: paper's §6), or from zero with every case of a geometry in one batch that shares the
+#: operators (for a GPU, where a wide batch costs little more than a narrow one)
+START_FROM = ("neighbour", "zero")
 
 
 @dataclass(frozen=True)
@@ -54,15 +58,22 @@ class StudyPlan:
     geometric: tuple[str, ...]  # grid parameters that change an operator (outer loops)
     inner: int | None = None  # the innermost traversal dimension, when it changes no operator
 
-    def batches(self, chain: tuple[Case, ...], size: int) -> list[tuple[Case, ...]]:
+    def batches(self, chain: tuple[Case, ...], size: int, by_geometry: bool = False
+                ) -> list[tuple[Case, ...]]:
         """Consecutive cases of ``chain`` along the innermost non-geometric dimension (a
         line of the grid, one geometry), in pieces of at most ``size``: the cases a batched
-        multiresolution step solves together."""
+        multiresolution step solves together. ``by_geometry``: every case of a geometry
+        (the cases a study started from zero solves together, ``START_FROM``)."""
         out: list[list[Case]] = []
         previous_line = None
+        names = list(self.grid)
+        geometric = [d for d, name in enumerate(names) if name in self.geometric]
         for case in chain:
-            line = (None if self.inner is None else
-                    tuple(i for d, i in enumerate(case.index) if d != self.inner))
+            if by_geometry:
+                line: tuple[int, ...] | None = tuple(case.index[d] for d in geometric)
+            else:
+                line = (None if self.inner is None else
+                        tuple(i for d, i in enumerate(case.index) if d != self.inner))
             if out and line is not None and line == previous_line and len(out[-1]) < size:
                 out[-1].append(case)
             else:
@@ -266,14 +277,17 @@ def _path_independent(assembly: Assembly, options: LatinOptions, ops: LatinOpera
 
 
 def run_batch(model: Model, grid: Grid, cases: tuple[Case, ...], mode: str,
-              options: LatinOptions, state: ChainState | None
+              options: LatinOptions, state: ChainState | None, start: str = "neighbour"
               ) -> tuple[list[dict[str, Any]], ChainState | None]:
     """Solve cases of one geometry together (``solve_latin_batch``), each started from its
     converged neighbour one grid step away (multiresolution: a grid line from the previous
     line). Where some case has no such neighbour (the first line of a chain), and in cold
     mode, the cases are solved one by one, each from the previous. A batch's wall time is
     shared among its cases in proportion to their iterations (``record["batch"]`` gives the
-    batch's size)."""
+    batch's size). ``start="zero"`` (multiresolution mode): the batch's cases, all of one
+    geometry, start from zero together with shared operators."""
+    if mode != "cold" and start == "zero":
+        return _batch_from_zero(model, grid, cases, mode, options), state
     if mode != "cold":
         state = state if state is not None else ChainState(_retained_capacity(grid))
     if mode == "cold" or len(cases) == 1 or not all(
@@ -305,6 +319,22 @@ def run_batch(model: Model, grid: Grid, cases: tuple[Case, ...], mode: str,
         if result.converged:
             state = _retain(state, case, result)
     return records, state
+
+
+def _batch_from_zero(model: Model, grid: Grid, cases: tuple[Case, ...], mode: str,
+                     options: LatinOptions) -> list[dict[str, Any]]:
+    """Cases of one geometry solved from zero as one batch (``START_FROM``)."""
+    t0 = time.perf_counter()
+    assemblies = [model.assemble(case.mu) for case in cases]
+    ops, built = _operators(assemblies[0], options)
+    setup_s = time.perf_counter() - t0
+    results = solve_latin_batch(assemblies, options, operators=ops, check=False)
+    wall_s = time.perf_counter() - t0
+    total_iterations = sum(r.iterations for r in results)
+    return [_record(grid, case, mode, result, share * wall_s, share * setup_s,
+                    built and case is cases[0], None, len(cases))
+            for case, result in zip(cases, results, strict=True)
+            for share in [result.iterations / total_iterations]]
 
 
 def peak_memory_mb() -> float:
@@ -379,9 +409,9 @@ def _retained_capacity(grid: Grid) -> int:
 
 def run_chain_step(model: Model, grid: Grid, cases: tuple[Case, ...], mode: str,
                    options: LatinOptions,
-                   previous: tuple[list[dict[str, Any]], ChainState | None] | ChainState | None
-                   ) -> tuple[list[dict[str, Any]], ChainState | None]:
+                   previous: tuple[list[dict[str, Any]], ChainState | None] | ChainState | None,
+                   start: str = "neighbour") -> tuple[list[dict[str, Any]], ChainState | None]:
     """A task of a distributed chain, one batch of cases: ``previous`` is the previous
     task's output (or a resumed state, or None at the start of a chain)."""
     state = previous[1] if isinstance(previous, tuple) else previous
-    return run_batch(model, grid, cases, mode, options, state)
+    return run_batch(model, grid, cases, mode, options, state, start)

@@ -23,7 +23,7 @@ from ..latin.options import STUDY_QOI_RTOL
 from ..limits import check_study
 from ..model import Model
 from ..parameters import Grid
-from .plan import MODES, Case, ChainState, StudyPlan, plan_study, run_chain_step
+from .plan import MODES, START_FROM, Case, ChainState, StudyPlan, plan_study, run_chain_step
 from .store import StudyStore
 
 log = logging.getLogger(__name__)
@@ -127,6 +127,7 @@ def run_study(
     out: str | Path | None = None,
     chains: int | None = None,
     batch: int = 16,
+    start: str = "neighbour",
     workers: int = 0,
     scheduler: str | None = None,
     progress: bool = True,
@@ -143,6 +144,10 @@ def run_study(
     batch: multiresolution solves up to ``batch`` cases of a grid line (one geometry)
         together, each from its nearest converged neighbour (``study.run_batch``); 1 solves
         case after case.
+    start: how the multiresolution mode starts a case (``plan.START_FROM``): ``"neighbour"``
+        (the paper's multiresolution), or ``"zero"``: every case of a geometry from zero, in
+        batches of up to ``batch`` cases sharing the operators (for the torch backend on a
+        GPU: a wide batch there costs little more than a narrow one).
     workers / scheduler: run the chains' cases as tasks on a local Dask cluster of
         ``workers`` processes, or on the cluster at ``scheduler``; 0 and None: serial.
     options: the solver's; default ``LatinOptions(qoi_rtol=STUDY_QOI_RTOL)``: a case stops
@@ -162,6 +167,8 @@ def run_study(
         raise ModelError(f"--workers: must be >= 0, got {workers}")
     if batch < 1:
         raise ModelError(f"--batch: must be >= 1, got {batch}")
+    if start not in START_FROM:
+        raise ModelError(f"--start: expected one of {START_FROM}, got {start!r}")
     if on_failure not in ("warn", "raise", "ignore"):
         raise ModelError(f"on_failure: expected 'warn', 'raise' or 'ignore', got {on_failure!r}")
     n_chains = chains if chains is not None else max(workers, 1)
@@ -176,6 +183,8 @@ def run_study(
         "options": asdict(options),
         "chains": len(plan.chains),
     }
+    if start != "neighbour":  # studies written before the option keep their identity
+        identity["start"] = start
     folder = Path(out) if out is not None else Path(tempfile.mkdtemp(prefix="multilatin-"))
     store = StudyStore(folder, identity, record_fits=_record_fits(plan))
     attrs = {"model": model.name, "title": model.title, "command": command,
@@ -195,12 +204,12 @@ def run_study(
             runner = _run_dask if (workers or scheduler) else _run_serial
             bar = _progress_bar(plan.size, plan.size - len(pending), mode, progress,
                                 model.name)
-            start = time.perf_counter()
+            started = time.perf_counter()
 
             def finished(records: list[dict[str, Any]], state: ChainState | None,
-                         start: float = start, previous: float = previous,
+                         started: float = started, previous: float = previous,
                          bar: Any = bar) -> None:
-                elapsed_now = previous + time.perf_counter() - start
+                elapsed_now = previous + time.perf_counter() - started
                 for record in records:
                     record["elapsed_s"] = elapsed_now
                 store.add_batch(records, state)
@@ -214,7 +223,7 @@ def run_study(
                         on_case(record)
 
             runner(model, grid, plan, mode, options, store, finished, batch, workers,
-                   scheduler)
+                   scheduler, start)
             if bar is not None:
                 bar.close()
             elapsed[mode] = _elapsed(store, mode)
@@ -324,26 +333,27 @@ def _progress_bar(total: int, done: int, mode: str, enabled: bool, name: str = "
 
 
 def _pending_batches(plan: StudyPlan, chain: tuple[Case, ...], mode: str, store: StudyStore,
-                     size: int) -> list[tuple[Case, ...]]:
+                     size: int, start: str = "neighbour") -> list[tuple[Case, ...]]:
     """The batches of ``chain`` still to compute, finished cases left out."""
+    by_geometry = start == "zero" and mode != "cold"
     batches = [tuple(c for c in batch if not store.finished(mode, c.number))
-               for batch in plan.batches(chain, size)]
+               for batch in plan.batches(chain, size, by_geometry)]
     return [batch for batch in batches if batch]
 
 
 def _run_serial(model: Model, grid: Grid, plan: StudyPlan, mode: str, options: LatinOptions,
                 store: StudyStore, finished: Callable[[list[dict[str, Any]], ChainState | None], None],
-                batch: int, workers: int, scheduler: str | None) -> None:
+                batch: int, workers: int, scheduler: str | None, start: str) -> None:
     for chain_number, chain in enumerate(plan.chains):
         state = store.chain_state(mode, chain_number) if mode != "cold" else None
-        for cases in _pending_batches(plan, chain, mode, store, batch):
-            records, state = run_chain_step(model, grid, cases, mode, options, state)
+        for cases in _pending_batches(plan, chain, mode, store, batch, start):
+            records, state = run_chain_step(model, grid, cases, mode, options, state, start)
             finished(records, state)
 
 
 def _run_dask(model: Model, grid: Grid, plan: StudyPlan, mode: str, options: LatinOptions,
               store: StudyStore, finished: Callable[[list[dict[str, Any]], ChainState | None], None],
-              batch: int, workers: int, scheduler: str | None) -> None:
+              batch: int, workers: int, scheduler: str | None, start: str) -> None:
     """Each batch of cases a task; within a chain each task takes the previous one's output
     (its warm-start state), chains run in parallel. The client alone writes the store."""
     try:
@@ -379,9 +389,9 @@ def _run_dask(model: Model, grid: Grid, plan: StudyPlan, mode: str, options: Lat
         futures = []
         for chain_number, chain in enumerate(plan.chains):
             previous: Any = store.chain_state(mode, chain_number) if mode != "cold" else None
-            for cases in _pending_batches(plan, chain, mode, store, batch):
+            for cases in _pending_batches(plan, chain, mode, store, batch, start):
                 previous = client.submit(run_chain_step, model_future, grid, cases, mode,
-                                         options, previous, pure=False,
+                                         options, previous, start, pure=False,
                                          key=f"{mode}-batch-{cases[0].number}-{id(store)}")
                 futures.append(previous)
         previous = None

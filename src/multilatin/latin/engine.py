@@ -1,0 +1,167 @@
+"""The field work of one LATIN iteration, apart from its control (``solver._iterate``):
+the linear stage with the macro problem, relaxation or Anderson mixing, the local stage, the
+tracked quantities of interest and the indicator's norms, on the interface fields of the
+active cases of a batch.
+
+``NumpyFields`` is the reference (NumPy, with the Numba kernels when installed);
+``torch_engine.TorchFields`` does the same work with PyTorch on a CPU or a GPU
+(``LatinOptions.backend``). Both hold s = (W, F) and ŝ = (Ŵ, F̂) of shape ``(n_active,
+n_steps, n_points, 2)``, hand to the solver only what its control needs (η's norms and the
+QoIs per case, host arrays of a few numbers per case) and give the fields back when cases
+leave the batch.
+"""
+
+from __future__ import annotations
+
+import time
+from typing import Protocol
+
+import numpy as np
+
+from ..fem.elasticity import FloatArray, IntArray
+from . import kernels
+from .acceleration import Anderson
+from .local_stage import LocalStage
+from .operators import LatinOperators
+from .options import LatinOptions
+from .tracking import QoiFunctionals
+
+__all__ = ["FieldEngine", "NumpyFields", "norms"]
+
+
+class FieldEngine(Protocol):
+    """What ``solver._iterate`` asks of a backend, iteration after iteration."""
+
+    t_linear: float  # linear stage with the macro problem and relaxation, seconds
+    t_macro: float
+    t_local: float
+
+    def linear_stage(self, relaxation: FloatArray) -> None:
+        """s ← linear(ŝ), relaxed by ω per active case (or mixed, with Anderson)."""
+
+    def local_stage(self) -> None:
+        """ŝ ← local(s)."""
+
+    def qoi_values(self) -> FloatArray:
+        """The tracked QoIs (n_active, n_qoi, n_steps) of the current fields, on the host."""
+
+    def indicator(self) -> tuple[FloatArray, FloatArray]:
+        """Per active case ‖s − ŝ‖ and ½(‖s‖ + ‖ŝ‖) (paper §4.3), on the host."""
+
+    def fields(self, cases: IntArray | None = None
+               ) -> tuple[FloatArray, FloatArray, FloatArray, FloatArray]:
+        """(W, F, Ŵ, F̂) of the active cases at positions ``cases`` (all: None), as NumPy
+        arrays on the host."""
+
+    def keep(self, cases: IntArray) -> None:
+        """Only the active cases at positions ``cases`` go on."""
+
+
+class NumpyFields:
+    """The reference backend: NumPy, with the Numba kernels where installed."""
+
+    def __init__(self, ops: LatinOperators, local: LocalStage, options: LatinOptions,
+                 w_hat: FloatArray, f_hat: FloatArray, macro_data: FloatArray | None,
+                 functionals: list[QoiFunctionals] | None) -> None:
+        pts = ops.points
+        k = ops.search_direction
+        self.ops, self.local, self.options = ops, local, options
+        self.w_hat, self.f_hat = w_hat, f_hat
+        self.w: FloatArray | None = None
+        self.f: FloatArray | None = None
+        self.macro_data = macro_data
+        self.functionals = functionals
+        self.shared = functionals is not None and all(f is functionals[0] for f in functionals)
+        self.active = np.arange(w_hat.shape[0])
+        self.mixer = (Anderson(options.anderson_depth, options.relaxation,
+                               np.sqrt(pts.weights[:, None] * k),
+                               np.sqrt(pts.weights[:, None] / k))
+                      if options.acceleration == "anderson" else None)
+        self.displacement_weight = (pts.weights[:, None] * k).ravel()
+        self.force_weight = (pts.weights[:, None] / k).ravel()
+        self.t_linear = self.t_macro = self.t_local = 0.0
+
+    def linear_stage(self, relaxation: FloatArray) -> None:
+        ta = time.perf_counter()
+        ops, options = self.ops, self.options
+        flat = (-1, ops.points.n_points, 2)
+        shape = self.w_hat.shape
+        w_new, f_new = ops.micro_stage(self.w_hat.reshape(flat), self.f_hat.reshape(flat))
+        tm = time.perf_counter()
+        if self.macro_data is not None:
+            data = self.macro_data[self.active].reshape(-1, self.macro_data.shape[2])
+            ops.macro_correction(w_new, f_new, data)
+        self.t_macro += time.perf_counter() - tm
+        w_new, f_new = w_new.reshape(shape), f_new.reshape(shape)
+        w, f = self.w, self.f
+        if w is None or f is None or options.relaxation == 1.0 and self.mixer is None:
+            w, f = w_new, f_new
+        elif self.mixer is not None:
+            w, f = self.mixer(w, f, w_new, f_new)
+        elif kernels.relax is not None and self.local.compiled and np.all(
+                relaxation == relaxation[0]):
+            kernels.relax(w, w_new, float(relaxation[0]))
+            kernels.relax(f, f_new, float(relaxation[0]))
+        else:
+            omega = relaxation[:, None, None, None]
+            w = omega * w_new + (1.0 - omega) * w
+            f = omega * f_new + (1.0 - omega) * f
+        self.w, self.f = w, f
+        self.t_linear += time.perf_counter() - ta
+
+    def local_stage(self) -> None:
+        assert self.w is not None and self.f is not None
+        tb = time.perf_counter()
+        self.w_hat, self.f_hat = self.local(self.w, self.f)
+        self.t_local += time.perf_counter() - tb
+
+    def qoi_values(self) -> FloatArray:
+        assert self.functionals is not None and self.w is not None and self.f is not None
+        w, f, f_hat = self.w, self.f, self.f_hat
+        if self.shared:
+            return self.functionals[0].values(w, f, f_hat)
+        return np.stack([self.functionals[c].values(w[i:i + 1], f[i:i + 1],
+                                                    f_hat[i:i + 1])[0]
+                         for i, c in enumerate(self.active)])
+
+    def indicator(self) -> tuple[FloatArray, FloatArray]:
+        assert self.w is not None and self.f is not None
+        if kernels.indicator_squares is not None and self.local.compiled:
+            # Anderson gives views
+            self.w, self.f = np.ascontiguousarray(self.w), np.ascontiguousarray(self.f)
+            squares = np.sqrt(kernels.indicator_squares(
+                self.w, self.f, self.w_hat, self.f_hat, self.displacement_weight,
+                self.force_weight))
+            return squares[:, 0], 0.5 * (squares[:, 1] + squares[:, 2])
+        dw, fw = self.displacement_weight, self.force_weight
+        gap = norms(dw, fw, self.w - self.w_hat, self.f - self.f_hat)
+        size = 0.5 * (norms(dw, fw, self.w, self.f) + norms(dw, fw, self.w_hat, self.f_hat))
+        return gap, size
+
+    def fields(self, cases: IntArray | None = None
+               ) -> tuple[FloatArray, FloatArray, FloatArray, FloatArray]:
+        assert self.w is not None and self.f is not None
+        chosen = slice(None) if cases is None else cases
+        return self.w[chosen], self.f[chosen], self.w_hat[chosen], self.f_hat[chosen]
+
+    def keep(self, cases: IntArray) -> None:
+        assert self.w is not None and self.f is not None
+        self.active = self.active[cases]
+        self.w, self.f = self.w[cases], self.f[cases]
+        self.w_hat, self.f_hat = self.w_hat[cases], self.f_hat[cases]
+        self.local = self.local.subset(cases)
+        if self.mixer is not None:
+            self.mixer.subset(cases)
+
+
+def norms(displacement_weight: FloatArray, force_weight: FloatArray,
+          displacement: FloatArray, force: FloatArray) -> FloatArray:
+    """‖s‖ per case: ‖s‖² = Σ_t Σ_points ∫ (k⁻¹ F·F + k W·W) dΓ (paper §4.3); the weights
+    are ∫ k and ∫ k⁻¹ per flattened (point, component)."""
+    n_cases = displacement.shape[0]
+    squares = (np.square(displacement).reshape(n_cases, -1, displacement_weight.size)
+               .sum(axis=1) @ displacement_weight)
+    squares += (np.square(force).reshape(n_cases, -1, force_weight.size).sum(axis=1)
+                @ force_weight)
+    out: FloatArray = np.sqrt(squares)
+    return out

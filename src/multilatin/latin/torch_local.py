@@ -1,0 +1,246 @@
+"""The local stage (paper §3, §4.2) on PyTorch tensors: the formulas of ``LocalStage``
+(NumPy, the reference) written with torch operations, vectorised over the cases of a batch
+and the points, step after step for contact and stops (Coulomb's law acts on increments).
+
+No host synchronisation inside: the rules that the NumPy code applies only where some point
+needs them (held nodes, corners) are applied here as masked selections everywhere, which
+gives the same values.
+"""
+
+from __future__ import annotations
+
+from typing import TYPE_CHECKING, Any
+
+import numpy as np
+
+from ..fem.elasticity import IntArray
+from .local_stage import LocalStage
+
+if TYPE_CHECKING:
+    import torch
+
+Tensor = Any  # torch.Tensor, kept out of the annotations' imports (PyTorch is optional)
+
+
+class TorchLocalStage:
+    """``LocalStage`` on a torch device; fields ``(n_cases, n_steps, n_points, 2)``."""
+
+    def __init__(self, local: LocalStage, torch_module: Any, device: torch.device) -> None:
+        self.torch = torch_module
+        tensor = self._tensor = _converter(torch_module, device)
+        index = self._index = _index_converter(torch_module, device)
+        self.pairs = (index(local.pairs[0]), index(local.pairs[1]))
+        self.k_pair, self.k_pair_b = tensor(local.k_pair), tensor(local.k_pair_b)
+        self.pair_equal = self.k_pair == self.k_pair_b
+        j, d = np.nonzero(local.pair_held_side >= 0)
+        self.held_pair = (index(j), index(d), index(local.pairs[0][j]), index(local.pairs[1][j]),
+                          index(local.pair_held_boundary[j, d]),
+                          self.torch.as_tensor(local.pair_held_side[j, d] == 1, device=device))
+        self.n_held_pairs = j.size
+        self.boundary = index(local.boundary)
+        self.k_boundary = tensor(local.k_boundary)
+        self.is_displacement = self.torch.as_tensor(local.is_displacement, device=device)
+        self.macro_points = index(local.macro_points)
+        self.n_macro_points = local.macro_points.size
+        self.k_macro = tensor(local.k_macro)
+        self.macro_map_t = (tensor(local.macro_map.toarray().T) if local.macro_points.size
+                            else None)
+        a, b = local.contact_pairs
+        self.contact = (index(a), index(b))
+        self.n_pairs = a.size
+        k, kb, n = local.k_contact, local.k_contact_b, local.n_contact
+        self.k_contact, self.k_contact_b, self.n_contact = tensor(k), tensor(kb), tensor(n)
+        self.contact_equal = self.k_contact == self.k_contact_b
+        half = np.where(k == kb, 0.5 * k, k * kb / np.where(k + kb > 0, k + kb, 1.0))
+        self.half = tensor(half)
+        self.half_normal = tensor(np.sum(np.abs(n) * half, axis=1))
+        self.stops = index(local.stops)
+        self.n_stops = local.stops.size
+        self.k_stop, self.n_stop = tensor(local.k_stop), tensor(local.n_stop)
+        self.k_stop_normal = tensor(np.sum(np.abs(local.n_stop) * local.k_stop, axis=1))
+        self.corner = index(local.corner)
+        self.n_corners = local.corner.size
+        stops_of_corner = np.asarray(local.corner_stops, dtype=np.int64).reshape(-1, 2)
+        self.corner_free = self.torch.as_tensor(stops_of_corner < 0, device=device)
+        self.corner_stops = index(np.maximum(stops_of_corner, 0))
+        h = local.held_pairs
+        self.n_held = h.size
+        self.held = (index(h), index(local.held_component),
+                     self.torch.as_tensor(local.held_side[h] == 1, device=device))
+        by_boundary = local.held_boundary[h] >= 0
+        self.held_by_boundary = self.torch.as_tensor(by_boundary, device=device)
+        self.held_stop = index(np.maximum(local.held_stop[h], 0))
+        self.held_boundary = index(np.maximum(local.held_boundary[h], 0))
+        self.mu_contact, self.gap_contact = tensor(local.mu_contact), tensor(local.gap_contact)
+        self.mu_stop, self.gap_stop = tensor(local.mu_stop), tensor(local.gap_stop)
+        self.prescribed = tensor(local.prescribed)
+
+    def subset(self, cases: IntArray) -> None:
+        """Keep the cases at positions ``cases`` (in place)."""
+        chosen = self._index(cases)
+        for name in ("mu_contact", "gap_contact", "mu_stop", "gap_stop", "prescribed"):
+            setattr(self, name, getattr(self, name)[chosen])
+
+    def __call__(self, displacement: Tensor, force: Tensor) -> tuple[Tensor, Tensor]:
+        torch = self.torch
+        w_hat = torch.empty_like(displacement)
+        f_hat = torch.empty_like(force)
+        self._perfect_and_boundary(displacement, force, w_hat, f_hat)
+        if self.n_macro_points:  # macro-only interface (eq. [20]), see ``macro_only_map``
+            m, k = self.macro_points, self.k_macro
+            x = displacement[:, :, m] - force[:, :, m] / k
+            w_m = x + (x.reshape(-1, 2 * self.n_macro_points) @ self.macro_map_t
+                       ).reshape(x.shape)
+            w_hat[:, :, m] = w_m
+            f_hat[:, :, m] = force[:, :, m] + k * (w_m - displacement[:, :, m])
+        if self.n_pairs or self.n_stops:
+            self._contact_and_stops(displacement, force, w_hat, f_hat)
+        return w_hat, f_hat
+
+    def _perfect_and_boundary(self, displacement: Tensor, force: Tensor, w_hat: Tensor,
+                              f_hat: Tensor) -> None:
+        """Perfect interfaces (eq. [8]) with the held-node rule, and prescribed components
+        (``LocalStage._perfect_and_boundary``)."""
+        torch = self.torch
+        a, b = self.pairs
+        k, kb = self.k_pair, self.k_pair_b
+        wa, wb = displacement[:, :, a], displacement[:, :, b]
+        fa, fb = force[:, :, a], force[:, :, b]
+        w_pair = torch.where(self.pair_equal, 0.5 * (wa + wb) - (fa + fb) / (2.0 * k),
+                             (k * wa + kb * wb - fa - fb) / (k + kb))
+        f_pair = torch.where(self.pair_equal, 0.5 * (fa - fb) - 0.5 * k * (wa - wb),
+                             fa + k * (w_pair - wa))
+        w_hat[:, :, a] = w_pair
+        w_hat[:, :, b] = w_pair
+        f_hat[:, :, a] = f_pair
+        f_hat[:, :, b] = -f_pair
+        if self.n_held_pairs:
+            j, d, pa, pb, held_boundary, on_b = self.held_pair
+            data = self.prescribed[:, :, held_boundary, d]
+            held_force = torch.where(on_b, fa[:, :, j, d] + k[j, d] * (data - wa[:, :, j, d]),
+                                     -(fb[:, :, j, d] + kb[j, d] * (data - wb[:, :, j, d])))
+            w_hat[:, :, pa, d] = data
+            w_hat[:, :, pb, d] = data
+            f_hat[:, :, pa, d] = held_force
+            f_hat[:, :, pb, d] = -held_force
+        bd, kbd, data = self.boundary, self.k_boundary, self.prescribed
+        w, f = displacement[:, :, bd], force[:, :, bd]
+        w_hat[:, :, bd] = torch.where(self.is_displacement, data, w + (data - f) / kbd)
+        f_hat[:, :, bd] = torch.where(self.is_displacement, f + kbd * (data - w), data)
+
+    def _in_cone(self, source: Tensor, normal_force: Tensor, normal: Tensor,
+                 friction: Tensor) -> Tensor:
+        """N n plus the tangential part of ``source``, limited to μ |N|."""
+        torch = self.torch
+        tangential = source - torch.sum(source * normal, dim=-1, keepdim=True) * normal
+        size = torch.sqrt(torch.sum(tangential * tangential, dim=-1))
+        limit = friction * torch.abs(normal_force)
+        scale = torch.where(size > limit, limit / torch.clamp(size, min=1e-300), 1.0)
+        return normal_force[..., None] * normal + scale[..., None] * tangential
+
+    def _coulomb(self, trial: Tensor, normal_force: Tensor, normal: Tensor,
+                 friction: Tensor) -> Tensor:
+        """F̂ on side E from the trial force: contact where N ≤ 0, then stick or slip."""
+        force = self._in_cone(trial, normal_force, normal, friction)
+        return self.torch.where((normal_force <= 0.0)[..., None], force, 0.0)
+
+    def _contact_and_stops(self, displacement: Tensor, force: Tensor, w_hat: Tensor,
+                           f_hat: Tensor) -> None:
+        """Contact with gap and Coulomb friction, rigid stops, held nodes and held corners,
+        step after step (``LocalStage._contact_and_stops``, paper §3, eq. [16]–[17])."""
+        torch = self.torch
+        n_cases = displacement.shape[0]
+        options = {"dtype": displacement.dtype, "device": displacement.device}
+        a, b = self.contact
+        k, kb, n = self.k_contact, self.k_contact_b, self.n_contact
+        p = self.stops
+        prev_a = torch.zeros((n_cases, self.n_pairs, 2), **options)
+        prev_b = torch.zeros_like(prev_a)
+        prev_stop = torch.zeros((n_cases, self.n_stops, 2), **options)
+        stop_closed = torch.zeros((n_cases, self.n_stops), dtype=torch.bool,
+                                  device=displacement.device)
+        corner_force = torch.zeros((n_cases, self.n_corners, 2), **options)
+        h, d, on_b = self.held
+        for t in range(displacement.shape[1]):
+            if self.n_stops:
+                dw = displacement[:, t, p] - prev_stop
+                trial = force[:, t, p] - self.k_stop * dw
+                closing = self.gap_stop - torch.sum(self.n_stop * prev_stop, dim=-1)
+                normal_force = (torch.sum(self.n_stop * trial, dim=-1)
+                                + self.k_stop_normal * closing)
+                fp = self._coulomb(trial, normal_force, self.n_stop, self.mu_stop)
+                stop_closed = normal_force < 0.0
+                prev_stop = prev_stop + dw + (fp - force[:, t, p]) / self.k_stop
+                f_hat[:, t, p] = fp
+                w_hat[:, t, p] = prev_stop
+            if not self.n_pairs:
+                continue
+            dwa = displacement[:, t, a] - prev_a  # increments from the local-stage history
+            dwb = displacement[:, t, b] - prev_b
+            # trial force F* = k* (F_a / k_a − F_b / k_b + [ΔW])
+            trial = torch.where(
+                self.contact_equal,
+                0.5 * (force[:, t, a] - force[:, t, b]) + self.half * (dwb - dwa),
+                self.half * (force[:, t, a] / k - force[:, t, b] / kb + dwb - dwa))
+            closing = self.gap_contact + torch.sum(n * (prev_b - prev_a), dim=-1)
+            normal_force = torch.sum(n * trial, dim=-1) + self.half_normal * closing
+            if self.n_held:  # held on one side: tangential trial from the free side
+                holding, target = self._held_targets(t, prev_stop, stop_closed)
+                pa_h, pb_h = a[h], b[h]
+                free_b = force[:, t, pa_h, d] + k[h, d] * (
+                    prev_a[:, h, d] + target - prev_b[:, h, d] - displacement[:, t, pa_h, d])
+                free_a = -(force[:, t, pb_h, d] + kb[h, d] * (
+                    prev_b[:, h, d] + target - prev_a[:, h, d] - displacement[:, t, pb_h, d]))
+                trial[:, h, d] = torch.where(holding, torch.where(on_b, free_b, free_a),
+                                             trial[:, h, d])
+            fa = self._coulomb(trial, normal_force, n, self.mu_contact)
+            if self.n_corners:
+                corner = self.corner
+                if self.n_stops:
+                    held = torch.all(self.corner_free | stop_closed[:, self.corner_stops],
+                                     dim=-1)
+                else:
+                    held = torch.all(self.corner_free, dim=-1).expand(n_cases, -1)
+                current = fa[:, corner]
+                frozen = self._in_cone(corner_force, torch.sum(current * n[corner], dim=-1),
+                                       n[corner], self.mu_contact[:, corner])
+                fa[:, corner] = torch.where(held[..., None], frozen, current)
+                corner_force = fa[:, corner]
+            prev_a = prev_a + dwa + (fa - force[:, t, a]) / k
+            prev_b = prev_b + dwb + (-fa - force[:, t, b]) / kb
+            if self.n_held:  # the held side follows its holder
+                prev_b[:, h, d] = torch.where(holding & on_b, target, prev_b[:, h, d])
+                prev_a[:, h, d] = torch.where(holding & ~on_b, target, prev_a[:, h, d])
+            f_hat[:, t, a] = fa
+            f_hat[:, t, b] = -fa
+            w_hat[:, t, a] = prev_a
+            w_hat[:, t, b] = prev_b
+
+    def _held_targets(self, t: int, stop_displacement: Tensor, stop_closed: Tensor
+                      ) -> tuple[Tensor, Tensor]:
+        """Per case and held pair, in step ``t``: whether its holder holds and the held
+        node's tangential Ŵ (``LocalStage._held_targets``)."""
+        torch = self.torch
+        d = self.held[1]
+        by_boundary = self.held_by_boundary
+        from_boundary = self.prescribed[:, t, self.held_boundary, d]
+        if self.n_stops:
+            target = torch.where(by_boundary, from_boundary,
+                                 stop_displacement[:, self.held_stop, d])
+            holding = by_boundary | stop_closed[:, self.held_stop]
+        else:
+            target = torch.where(by_boundary, from_boundary, 0.0)
+            holding = by_boundary.expand_as(target)
+        return holding, target
+
+
+def _converter(torch: Any, device: torch.device) -> Any:
+    def tensor(array: Any) -> Tensor:
+        return torch.as_tensor(np.ascontiguousarray(array, dtype=np.float64), device=device)
+    return tensor
+
+
+def _index_converter(torch: Any, device: torch.device) -> Any:
+    def index(array: Any) -> Tensor:
+        return torch.as_tensor(np.ascontiguousarray(array, dtype=np.int64), device=device)
+    return index

@@ -1,0 +1,123 @@
+"""The PyTorch backend (issue 19) gives the NumPy backend's answers: same iterations, same
+fields to rounding, on the CPU here (a GPU runs the same code; ``benchmarks/gpu.py``)."""
+
+from __future__ import annotations
+
+import numpy as np
+import pytest
+
+import multilatin as ml
+from multilatin.decomposition.interfaces import build_points
+from multilatin.errors import ModelError
+from multilatin.latin import LatinOperators, LatinOptions, solve_latin, solve_latin_batch
+from multilatin.latin.local_stage import LocalStage
+
+torch = pytest.importorskip("torch", reason="the torch backend needs the extra 'gpu'")
+
+TIGHT = LatinOptions(tol=1e-9, max_iter=3000)
+FRICTIONS = [(0.3, 0.0), (0.1, 0.3), (0.35, 0.25), (0.0, 0.0)]
+
+
+def _relative(expected: object, got: object) -> float:
+    e, g = np.asarray(expected, dtype=float), np.asarray(got, dtype=float)
+    return float(np.max(np.abs(e - g)) / max(np.max(np.abs(e)), 1e-300))
+
+
+@pytest.mark.parametrize("name", ["b1", "b1-9", "b3"])
+def test_the_local_stage_equals_the_numpy_one(name: str) -> None:
+    """On random fields that open, close, stick and slip, at stops, held nodes and corners."""
+    from multilatin.latin.torch_local import TorchLocalStage
+
+    model = ml.load_model(name)
+    assemblies = [model.assemble({"mu1": a, "mu2": b}) for a, b in FRICTIONS]
+    ops = LatinOperators(assemblies[0], LatinOptions())
+    points = [build_points(a) for a in assemblies]
+    rng = np.random.default_rng(5)
+    shape = (len(assemblies), assemblies[0].n_steps, points[0].n_points, 2)
+    w, f = 1e-2 * rng.normal(size=shape), 1e3 * rng.normal(size=shape)
+    stage = LocalStage(assemblies, points, ops.search_direction, compiled=False,
+                       macro_only=ops.macro_only)
+    expected = stage(w, f)
+    device_stage = TorchLocalStage(stage, torch, torch.device("cpu"))
+    got = device_stage(torch.as_tensor(w), torch.as_tensor(f))
+    for e, g in zip(expected, got, strict=True):
+        np.testing.assert_allclose(g.numpy(), e, rtol=1e-12, atol=1e-12 * np.abs(e).max())
+    assert np.abs(got[1].numpy()[:, :, stage.contact_pairs[0]]).max() > 0
+    # cases leave: the subset keeps its cases' data
+    keep = np.array([3, 1])
+    device_stage.subset(keep)
+    part = device_stage(torch.as_tensor(w[keep]), torch.as_tensor(f[keep]))
+    np.testing.assert_allclose(part[1].numpy(), expected[1][keep], rtol=1e-12,
+                               atol=1e-12 * np.abs(expected[1]).max())
+
+
+@pytest.mark.parametrize(("name", "mu"), [("b1", {"mu1": 0.3, "mu2": 0.15}),
+                                          ("b3", {"mu1": 0.35, "mu2": 0.25, "rc": 3.0}),
+                                          ("b0", {})])
+def test_a_tight_solve_equals_the_numpy_one(name: str, mu: dict[str, float]) -> None:
+    """To 1e-9 relative at tight tolerance, iterations within ±2 (they are equal here)."""
+    assembly = ml.load_model(name).assemble(mu)
+    reference = solve_latin(assembly, TIGHT)
+    got = solve_latin(assembly, TIGHT.__class__(**{**TIGHT.__dict__, "backend": "torch"}))
+    assert abs(got.iterations - reference.iterations) <= 2
+    for qoi, value in reference.qoi.items():
+        assert _relative(value, got.qoi[qoi]) < 1e-9, qoi
+    assert reference.interface is not None and got.interface is not None
+    assert _relative(reference.interface.force_hat, got.interface.force_hat) < 1e-9
+    for body, u in reference.displacements.items():
+        assert _relative(u, got.displacements[body]) < 1e-9
+
+
+def test_a_warm_batch_equals_the_numpy_one() -> None:
+    """Cold and warm starts mixed in one batch, cases leaving at different iterations, the
+    QoI stopping rule on: the same stops and answers."""
+    model = ml.load_model("b1-4")
+    options = LatinOptions(qoi_rtol=1e-3)
+    assemblies = [model.assemble({"mu1": a, "mu2": b}) for a, b in FRICTIONS]
+    ops = LatinOperators(assemblies[0], options)
+    neighbour = solve_latin(model.assemble({"mu1": 0.3, "mu2": 0.05}), operators=ops)
+    assert neighbour.interface is not None
+    warm = (neighbour.interface.displacement_hat, neighbour.interface.force_hat)
+    starts = [None, warm, None, warm]
+    reference = solve_latin_batch(assemblies, options, operators=ops, initial=starts)
+    from dataclasses import replace
+
+    got = solve_latin_batch(assemblies, replace(options, backend="torch"), operators=ops,
+                            initial=starts)
+    assert len({r.iterations for r in reference}) > 1
+    for one, other in zip(reference, got, strict=True):
+        assert abs(one.iterations - other.iterations) <= 2
+        assert one.stopped_on_qoi == other.stopped_on_qoi
+        assert _relative(one.qoi["R_stop"], other.qoi["R_stop"]) < 1e-9
+        assert _relative(one.qoi["u_A"], other.qoi["u_A"]) < 1e-9
+
+
+def test_a_small_study_equals_the_numpy_one(tmp_path: object) -> None:
+    from dataclasses import replace
+
+    model = ml.load_model("b1")
+    grid = ml.Grid({"mu1": [0.1, 0.3], "mu2": [0.0, 0.2]})
+    options = LatinOptions(tol=1e-8)
+    reference = ml.run_study(model, grid, options=options, progress=False, batch=4)
+    got = ml.run_study(model, grid, options=replace(options, backend="torch"),
+                       progress=False, batch=4)
+    ref = reference.dataset["R_stop"].values
+    np.testing.assert_allclose(got.dataset["R_stop"].values, ref, rtol=1e-9)
+    iterations = {r["number"]: r["iterations"] for r in reference.records}
+    for record in got.records:
+        assert abs(record["iterations"] - iterations[record["number"]]) <= 2
+
+
+def test_options_say_what_is_wrong() -> None:
+    from dataclasses import replace
+
+    assembly = ml.load_model("b1").assemble()
+    if not torch.cuda.is_available():
+        with pytest.raises(ModelError, match="device: 'cuda' asked for, but PyTorch sees no"):
+            solve_latin(assembly, LatinOptions(backend="torch", device="cuda"))
+    with pytest.raises(ModelError, match="acceleration: 'anderson' runs on the numpy"):
+        solve_latin(assembly, replace(LatinOptions(backend="torch"), acceleration="anderson"))
+    with pytest.raises(ModelError, match="device: the numpy backend works on the CPU only"):
+        LatinOptions(device="cuda")
+    with pytest.raises(ModelError, match="backend: expected one of"):
+        LatinOptions(backend="jax")
