@@ -58,10 +58,29 @@ def test_a_batch_gives_the_case_by_case_answers(acceleration: str) -> None:
         assert together.timings["batch_size"] == len(assemblies)
 
 
-def test_a_batch_refuses_cases_of_another_geometry() -> None:
+def test_a_batch_of_several_geometries_gives_each_geometrys_answers() -> None:
+    """Hole positions (the same interfaces): the NumPy backend solves one batch per
+    geometry and returns the answers in the cases' order."""
     b3 = ml.load_model("b3")
-    with pytest.raises(ModelError, match="share the geometry"):
-        solve_latin_batch([b3.assemble({"rc": 2.0}), b3.assemble({"rc": 3.0})])
+    mus = [{"rc": 2.0, "mu1": 0.3}, {"rc": 4.0, "mu1": 0.35, "mu2": 0.25},
+           {"rc": 2.0, "mu1": 0.1, "mu2": 0.3}]
+    assemblies = [b3.assemble(mu) for mu in mus]
+    together = solve_latin_batch(assemblies)
+    for assembly, result in zip(assemblies, together, strict=True):
+        alone = solve_latin(assembly)
+        assert result.assembly is assembly
+        assert result.iterations == alone.iterations
+        assert result.qoi["R_stop"] == pytest.approx(alone.qoi["R_stop"], rel=1e-9)
+    assert together[0].timings["batch_size"] == 2  # rc = 2 twice, together
+
+
+def test_a_batch_refuses_cases_of_other_interfaces() -> None:
+    with pytest.raises(ModelError, match="share the interface discretisation"):
+        solve_latin_batch([ml.load_model("b1").assemble(), ml.load_model("b1-4").assemble()])
+    b3 = ml.load_model("b3")
+    ops = LatinOperators(b3.assemble({"rc": 2.0}), LatinOptions())
+    with pytest.raises(ModelError, match="operators: they were built for another geometry"):
+        solve_latin_batch([b3.assemble({"rc": 3.0})], operators=ops)
     with pytest.raises(ModelError, match="initial: expected 2 entries"):
         model = ml.load_model("b1")
         solve_latin_batch([model.assemble(), model.assemble()], initial=[None])

@@ -8,6 +8,7 @@ from __future__ import annotations
 
 import functools
 import hashlib
+from collections.abc import Sequence
 from dataclasses import dataclass
 from typing import TYPE_CHECKING
 
@@ -262,3 +263,59 @@ class LatinOperators:
             u = self.factors[s].solve(np.ascontiguousarray(self.points.traces[s].T @ g[lo:hi]))
             out[sub.name] = u.T.reshape(n_steps, -1, 2)
         return out
+
+
+def operators_per_case(assemblies: Sequence[Assembly], options: LatinOptions,
+                       operators: LatinOperators | Sequence[LatinOperators] | None = None
+                       ) -> tuple[list[LatinOperators], IntArray]:
+    """The distinct operators of a batch's cases and each case's index into them.
+
+    operators: None (built here, one per distinct geometry, each reusing the unchanged
+        substructures of the one before), one ``LatinOperators`` for every case, or one per
+        case. Each is checked against its case's signature; cases of different geometries
+        must share the interface discretisation and search direction (a hole moves inside a
+        substructure, ``same_interfaces``)."""
+    if operators is None or isinstance(operators, LatinOperators):
+        given: list[LatinOperators | None] = [operators] * len(assemblies)
+    else:
+        given = list(operators)
+        if len(given) != len(assemblies):
+            raise ModelError(f"operators: expected one per case ({len(assemblies)}), got "
+                             f"{len(given)}")
+    distinct: dict[str, int] = {}
+    built: list[LatinOperators] = []
+    geometry = np.zeros(len(assemblies), dtype=np.int64)
+    for c, (assembly, ops) in enumerate(zip(assemblies, given, strict=True)):
+        signature = operator_signature(assembly, options)
+        if ops is not None and ops.signature != signature:
+            raise ModelError("operators: they were built for another geometry or search "
+                             f"direction than this assembly's ({assembly.name}, case {c})")
+        if signature not in distinct:
+            distinct[signature] = len(built)
+            built.append(ops if ops is not None else
+                         LatinOperators(assembly, options, reuse=built[-1] if built else None))
+        geometry[c] = distinct[signature]
+    for other in built[1:]:
+        if not same_interfaces(built[0], other):
+            raise ModelError("a batch of cases must share the interface discretisation and "
+                             "the search direction (their geometries may differ inside the "
+                             "substructures only, e.g. a hole's position)")
+    return built, geometry
+
+
+def same_interfaces(first: LatinOperators, other: LatinOperators) -> bool:
+    """Both operators act on the same interface points, with the same search direction and
+    macro basis: their fields can share a batch."""
+    a, b = first.points, other.points
+    if a.n_points != b.n_points or not all(
+            np.array_equal(x, y) for x, y in ((a.coords, b.coords), (a.interface, b.interface),
+                                              (a.substructure, b.substructure),
+                                              (first.search_direction, other.search_direction),
+                                              (first.m0, other.m0))):
+        return False
+    if (first.macro_basis is None) != (other.macro_basis is None):
+        return False
+    if first.macro_basis is None or other.macro_basis is None:
+        return True
+    return bool(first.macro_basis.shape == other.macro_basis.shape
+                and (first.macro_basis != other.macro_basis).nnz == 0)

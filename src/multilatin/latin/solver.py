@@ -28,7 +28,7 @@ from ..fem.elasticity import FloatArray, IntArray
 from ..limits import check_scale
 from .engine import FieldEngine, NumpyFields
 from .local_stage import LocalStage
-from .operators import LatinOperators, operator_signature
+from .operators import LatinOperators, operators_per_case
 from .options import LatinOptions
 from .tracking import WINDOW, QoiFunctionals, error_estimates, qoi_functionals
 
@@ -65,7 +65,7 @@ def solve_latin(assembly: Assembly, options: LatinOptions | None = None,
 def solve_latin_batch(
     assemblies: Sequence[Assembly],
     options: LatinOptions | None = None,
-    operators: LatinOperators | None = None,
+    operators: LatinOperators | Sequence[LatinOperators] | None = None,
     check: bool = True,
     initial: Sequence[tuple[FloatArray, FloatArray] | None] | None = None,
     observer: IterationObserver | None = None,
@@ -78,6 +78,11 @@ def solve_latin_batch(
     ``solve_latin`` case by case; a batch is faster because it replaces many small products
     by few large ones.
 
+    operators: for every case (one ``LatinOperators``), per case (a sequence), or None
+        (built here). Cases of several geometries that share the interface discretisation
+        (a hole moved inside a substructure) may share a batch: the torch backend solves
+        them together (the substructures that differ get their operators per geometry),
+        the NumPy backend one batch per geometry (``operators.operators_per_case``).
     initial: per case, the interface fields to start from (see ``solve_latin``) or None.
     observer: see ``IterationObserver``.
     With the torch backend, a batch larger than the device's memory holds is solved in
@@ -87,19 +92,26 @@ def solve_latin_batch(
     if not assemblies:
         raise ModelError("a batch needs at least one case")
     first = assemblies[0]
-    if operators is not None:
+    if isinstance(operators, LatinOperators):
         options = options or operators.options
     options = options or LatinOptions()
-    signature = operators.signature if operators is not None else operator_signature(
-        first, options)
-    for assembly in assemblies:
-        if operator_signature(assembly, options) != signature:
-            raise ModelError("operators: they were built for another geometry or search "
-                             "direction than this assembly's" if operators is not None else
-                             "a batch of cases must share the geometry and search direction")
     t0 = time.perf_counter()
-    ops = operators or LatinOperators(first, options)
+    ops_list, geometry = operators_per_case(assemblies, options, operators)
     t_setup = time.perf_counter() - t0
+    starts = list(initial) if initial is not None else [None] * len(assemblies)
+    if len(starts) != len(assemblies):
+        raise ModelError(f"initial: expected {len(assemblies)} entries (one per case), got "
+                         f"{len(starts)}")
+    if len(ops_list) > 1 and options.backend != "torch":
+        # the NumPy path: one batch per geometry, the answers in the cases' order
+        by_case: dict[int, SolveResult] = {}
+        for g, ops_g in enumerate(ops_list):
+            members = np.flatnonzero(geometry == g).tolist()
+            part = solve_latin_batch([assemblies[i] for i in members], options, ops_g, check,
+                                     [starts[i] for i in members], observer)
+            by_case.update(zip(members, part, strict=True))
+        return [by_case[i] for i in range(len(assemblies))]
+    ops = ops_list[0]
     # friction, gaps and loads live on the points and the local stage: per case
     points = [ops.points if ops.assembly is assembly else
               with_contact_data(ops.points, assembly) for assembly in assemblies]
@@ -107,19 +119,17 @@ def solve_latin_batch(
     if any(assembly.n_steps != n_steps for assembly in assemblies):
         raise ModelError("a batch of cases must share the number of load steps")
     shape = (n_steps, ops.points.n_points, 2)
-    starts = list(initial) if initial is not None else [None] * n_cases
-    if len(starts) != n_cases:
-        raise ModelError(f"initial: expected {n_cases} entries (one per case), got "
-                         f"{len(starts)}")
     if options.backend == "torch" and n_cases > 1:  # a batch that fits the device's memory
         from .torch_engine import cases_per_chunk
 
         size = cases_per_chunk(n_steps, ops.points.n_points, options.device)
         if size < n_cases:
             log.info("batch of %d cases solved in chunks of %d (device memory)", n_cases, size)
+            per_case = [ops_list[g] for g in geometry]
             return [result for lo in range(0, n_cases, size)
-                    for result in solve_latin_batch(assemblies[lo:lo + size], options, ops,
-                                                    check, starts[lo:lo + size], observer)]
+                    for result in solve_latin_batch(assemblies[lo:lo + size], options,
+                                                    per_case[lo:lo + size], check,
+                                                    starts[lo:lo + size], observer)]
     w_hat = np.zeros((n_cases, *shape))
     f_hat = np.zeros((n_cases, *shape))
     for c, start in enumerate(starts):
@@ -137,21 +147,27 @@ def solve_latin_batch(
     # the iteration is many small dense products: BLAS threads cost more than they give
     # (measured 3x slower per iteration with 2 OpenBLAS threads on b1-9)
     # overflow and NaN are detected in η and end the case as a failure (``_outcome``)
-    functionals = _functionals(ops, assemblies, points)
+    functionals = _functionals(ops_list, geometry, assemblies, points)
     with threadpool_limits(limits=1, user_api="blas"), np.errstate(over="ignore",
                                                                     invalid="ignore"):
-        state = _iterate(ops, local, options, w_hat, f_hat, observer, functionals)
+        state = _iterate(ops, local, options, w_hat, f_hat, observer, functionals,
+                         (ops_list, geometry))
     t_iter = time.perf_counter() - t1
 
     t2 = time.perf_counter()
-    with np.errstate(over="ignore", invalid="ignore"):  # a failed case may hold inf / NaN
-        displacements = ops.recover(state.w.reshape(-1, *shape[1:]),
-                                    state.f.reshape(-1, *shape[1:]))
+    fields_of: list[dict[str, FloatArray]] = [{} for _ in range(n_cases)]
+    for g, ops_g in enumerate(ops_list):  # interior displacements, geometry by geometry
+        members = np.flatnonzero(geometry == g).tolist()
+        with np.errstate(over="ignore", invalid="ignore"):  # a failed case: inf / NaN
+            recovered = ops_g.recover(state.w[members].reshape(-1, *shape[1:]),
+                                      state.f[members].reshape(-1, *shape[1:]))
+        for i, member in enumerate(members):
+            fields_of[member] = {name: u.reshape(len(members), n_steps, -1, 2)[i]
+                                 for name, u in recovered.items()}
     results = []
     for c, (assembly, pts) in enumerate(zip(assemblies, points, strict=True)):
         history = np.array(state.histories[c])
-        fields = {name: u.reshape(n_cases, n_steps, -1, 2)[c]
-                  for name, u in displacements.items()}
+        fields = fields_of[c]
         reactions = _reactions(assembly, pts, state.f_hat[c])
         a = pts.contact_pairs[0]
         pressures = latin_contact_pressures(
@@ -306,10 +322,14 @@ class _IterationState:
 def _iterate(ops: LatinOperators, local: LocalStage, options: LatinOptions,
              w_hat: FloatArray, f_hat: FloatArray,
              observer: IterationObserver | None = None,
-             functionals: list[QoiFunctionals] | None = None) -> _IterationState:
+             functionals: list[QoiFunctionals] | None = None,
+             geometries: tuple[list[LatinOperators], IntArray] | None = None
+             ) -> _IterationState:
     """Batched LATIN iterations from ŝ = (``w_hat``, ``f_hat``), shapes ``(n_cases, n_steps,
     n_points, 2)``, each case until its η < tol or the cap. The field work runs on the
-    options' backend (``engine``); the control (η, stopping, relaxation) here."""
+    options' backend (``engine``); the control (η, stopping, relaxation) here.
+    geometries: the distinct operators of the cases and each case's index into them (the
+    torch backend batches several geometries); None: ``ops`` for every case."""
     pts = ops.points
     n_cases, n_steps = w_hat.shape[:2]
     n_qoi = len(functionals[0].names) if functionals else 0
@@ -325,7 +345,8 @@ def _iterate(ops: LatinOperators, local: LocalStage, options: LatinOptions,
         prescribed = local.prescribed_force_field(pts.n_points)
         macro_data = (ops.project @ prescribed.reshape(n_cases * n_steps, -1).T
                       ).T.reshape(n_cases, n_steps, -1)
-    engine = _engine(ops, local, options, w_hat, f_hat, macro_data, functionals)
+    engine = _engine(ops, local, options, w_hat, f_hat, macro_data, functionals,
+                     geometries or ([ops], np.zeros(n_cases, dtype=np.int64)))
     relaxation = np.full(n_cases, options.relaxation)  # per active case
     anderson = options.acceleration == "anderson"
     for iteration in range(1, options.max_iter + 1):
@@ -382,24 +403,29 @@ def _iterate(ops: LatinOperators, local: LocalStage, options: LatinOptions,
 
 def _engine(ops: LatinOperators, local: LocalStage, options: LatinOptions,
             w_hat: FloatArray, f_hat: FloatArray, macro_data: FloatArray | None,
-            functionals: list[QoiFunctionals] | None) -> FieldEngine:
+            functionals: list[QoiFunctionals] | None,
+            geometries: tuple[list[LatinOperators], IntArray]) -> FieldEngine:
     """The backend that does the iteration's field work (``LatinOptions.backend``)."""
     if options.backend == "torch":
         from .torch_engine import TorchFields  # PyTorch loads only when asked for
 
-        return TorchFields(ops, local, options, w_hat, f_hat, macro_data, functionals)
+        return TorchFields(geometries[0], geometries[1], local, options, w_hat, f_hat,
+                           macro_data, functionals)
+    if len(geometries[0]) > 1:
+        raise ModelError("the numpy backend solves one geometry per batch")
     return NumpyFields(ops, local, options, w_hat, f_hat, macro_data, functionals)
 
 
-def _functionals(ops: LatinOperators, assemblies: Sequence[Assembly],
-                 points: list[InterfacePoints]) -> list[QoiFunctionals]:
-    """The QoI functionals of each case, built once per distinct set of QoIs."""
-    built: dict[str, QoiFunctionals] = {}
+def _functionals(ops_list: list[LatinOperators], geometry: IntArray,
+                 assemblies: Sequence[Assembly], points: list[InterfacePoints]
+                 ) -> list[QoiFunctionals]:
+    """The QoI functionals of each case, built once per geometry and set of QoIs."""
+    built: dict[tuple[int, str], QoiFunctionals] = {}
     out = []
-    for assembly, pts in zip(assemblies, points, strict=True):
-        key = repr(assembly.qois)
+    for g, assembly, pts in zip(geometry, assemblies, points, strict=True):
+        key = (int(g), repr(assembly.qois))
         if key not in built:
-            built[key] = qoi_functionals(ops, assembly, pts)
+            built[key] = qoi_functionals(ops_list[g], assembly, pts)
         out.append(built[key])
     return out
 

@@ -34,8 +34,9 @@ log = logging.getLogger(__name__)
 
 MODES = ("multiresolution", "cold")
 #: how the multiresolution mode starts a case: from its nearest converged neighbour (the
-#: paper's §6), or from zero with every case of a geometry in one batch that shares the
-#: operators (for a GPU, where a wide batch costs little more than a narrow one)
+#: paper's §6), or from zero with the cases in wide batches — every case of a geometry,
+#: sharing the operators (NumPy), or consecutive cases of several geometries (torch) — for
+#: a GPU, where a wide batch costs little more than a narrow one
 START_FROM = ("neighbour", "zero")
 
 
@@ -58,19 +59,23 @@ class StudyPlan:
     geometric: tuple[str, ...]  # grid parameters that change an operator (outer loops)
     inner: int | None = None  # the innermost traversal dimension, when it changes no operator
 
-    def batches(self, chain: tuple[Case, ...], size: int, by_geometry: bool = False
+    def batches(self, chain: tuple[Case, ...], size: int, by_geometry: bool | None = False
                 ) -> list[tuple[Case, ...]]:
         """Consecutive cases of ``chain`` along the innermost non-geometric dimension (a
         line of the grid, one geometry), in pieces of at most ``size``: the cases a batched
         multiresolution step solves together. ``by_geometry``: every case of a geometry
-        (the cases a study started from zero solves together, ``START_FROM``)."""
+        (the cases a study started from zero solves together on the NumPy backend,
+        ``START_FROM``); ``by_geometry=None``: consecutive cases whatever their geometry
+        (the same on the torch backend, which batches several geometries)."""
         out: list[list[Case]] = []
         previous_line = None
         names = list(self.grid)
         geometric = [d for d, name in enumerate(names) if name in self.geometric]
         for case in chain:
-            if by_geometry:
-                line: tuple[int, ...] | None = tuple(case.index[d] for d in geometric)
+            if by_geometry is None:
+                line: tuple[int, ...] | None = ()
+            elif by_geometry:
+                line = tuple(case.index[d] for d in geometric)
             else:
                 line = (None if self.inner is None else
                         tuple(i for d, i in enumerate(case.index) if d != self.inner))
@@ -323,17 +328,23 @@ def run_batch(model: Model, grid: Grid, cases: tuple[Case, ...], mode: str,
 
 def _batch_from_zero(model: Model, grid: Grid, cases: tuple[Case, ...], mode: str,
                      options: LatinOptions) -> list[dict[str, Any]]:
-    """Cases of one geometry solved from zero as one batch (``START_FROM``)."""
+    """Cases solved from zero as one batch (``START_FROM``): of one geometry on the NumPy
+    backend, of any geometries sharing the interface discretisation on the torch backend
+    (``solve_latin_batch``)."""
     t0 = time.perf_counter()
     assemblies = [model.assemble(case.mu) for case in cases]
-    ops, built = _operators(assemblies[0], options)
+    per_case, first_built = [], []
+    for assembly in assemblies:
+        ops, built = _operators(assembly, options)
+        per_case.append(ops)
+        first_built.append(built)
     setup_s = time.perf_counter() - t0
-    results = solve_latin_batch(assemblies, options, operators=ops, check=False)
+    results = solve_latin_batch(assemblies, options, operators=per_case, check=False)
     wall_s = time.perf_counter() - t0
     total_iterations = sum(r.iterations for r in results)
-    return [_record(grid, case, mode, result, share * wall_s, share * setup_s,
-                    built and case is cases[0], None, len(cases))
-            for case, result in zip(cases, results, strict=True)
+    return [_record(grid, case, mode, result, share * wall_s, share * setup_s, built, None,
+                    len(cases))
+            for case, result, built in zip(cases, results, first_built, strict=True)
             for share in [result.iterations / total_iterations]]
 
 

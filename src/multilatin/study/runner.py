@@ -333,9 +333,11 @@ def _progress_bar(total: int, done: int, mode: str, enabled: bool, name: str = "
 
 
 def _pending_batches(plan: StudyPlan, chain: tuple[Case, ...], mode: str, store: StudyStore,
-                     size: int, start: str = "neighbour") -> list[tuple[Case, ...]]:
+                     size: int, start: str = "neighbour", backend: str = "numpy"
+                     ) -> list[tuple[Case, ...]]:
     """The batches of ``chain`` still to compute, finished cases left out."""
-    by_geometry = start == "zero" and mode != "cold"
+    by_geometry = (False if start != "zero" or mode == "cold" else
+                   None if backend == "torch" else True)
     batches = [tuple(c for c in batch if not store.finished(mode, c.number))
                for batch in plan.batches(chain, size, by_geometry)]
     return [batch for batch in batches if batch]
@@ -346,7 +348,8 @@ def _run_serial(model: Model, grid: Grid, plan: StudyPlan, mode: str, options: L
                 batch: int, workers: int, scheduler: str | None, start: str) -> None:
     for chain_number, chain in enumerate(plan.chains):
         state = store.chain_state(mode, chain_number) if mode != "cold" else None
-        for cases in _pending_batches(plan, chain, mode, store, batch, start):
+        for cases in _pending_batches(plan, chain, mode, store, batch, start,
+                                      options.backend):
             records, state = run_chain_step(model, grid, cases, mode, options, state, start)
             finished(records, state)
 
@@ -389,7 +392,8 @@ def _run_dask(model: Model, grid: Grid, plan: StudyPlan, mode: str, options: Lat
         futures = []
         for chain_number, chain in enumerate(plan.chains):
             previous: Any = store.chain_state(mode, chain_number) if mode != "cold" else None
-            for cases in _pending_batches(plan, chain, mode, store, batch, start):
+            for cases in _pending_batches(plan, chain, mode, store, batch, start,
+                                          options.backend):
                 previous = client.submit(run_chain_step, model_future, grid, cases, mode,
                                          options, previous, start, pure=False,
                                          key=f"{mode}-batch-{cases[0].number}-{id(store)}")
