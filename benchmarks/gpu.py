@@ -4,20 +4,23 @@
     python benchmarks/gpu.py --device cpu             # the same code on PyTorch's CPU build
     python benchmarks/gpu.py --device cuda --full     # + the B3 21 125-case study
 
-For each workload: the NumPy path (with Numba; a single solve in this process, studies
-with ``--cpu-workers`` Dask processes, 2 by default as on the project's 2-core machines)
-and the torch backend on ``--device`` (its studies in this process), with the study
-defaults (QoI stopping at 1e-3):
+Every study runs with the study defaults (QoI stopping at 1e-3). Rows:
 
-- one b3 solve at (μ1, μ2) = (0.35, 0.25);
-- the B1 13 × 13 friction study: torch with multiresolution (``--start neighbour``, a grid
-  line per batch) and with every case from zero in one batch (``--start zero``);
-- the B3 5 × 5 hole positions (25 geometries, one case each);
-- with ``--full``, the B3 21 125-case study on torch from zero, a geometry per batch (the
-  NumPy figure is docs/performance.md's 2-worker run; running it here takes about 28 min).
+- one b3 solve at (μ1, μ2) = (0.35, 0.25), NumPy and torch (operators built beforehand);
+- B1 13 × 13 frictions and B3 5 × 5 hole positions, each as
+  - the project's CPU path: NumPy, multiresolution from the nearest neighbour,
+    ``--cpu-workers`` Dask processes (2: the project's 2-core machines);
+  - NumPy in this process and torch on ``--device`` with the same strategy — from the
+    neighbour a grid line per batch (B1), and from zero in one wide batch (``--start
+    zero``: all 169 frictions of B1; all 25 geometries of B3 on torch, which batches
+    geometries, one per batch on NumPy) — so that "vs NumPy" compares equal computations;
+- with ``--full``, the B3 21 125-case study on torch from zero, ``--full-batch`` cases per
+  batch (25 geometries × 169 frictions by default); the NumPy figure is docs/performance.md's
+  2-worker run (28 min; running it here would take as long).
 
-Prints wall time, cases/s, iterations, the peak device memory (CUDA's allocator; on the CPU
-the process's peak RSS) and the largest relative R_stop difference from the NumPy path.
+Columns: wall time, cases/s, iterations in all, the peak memory (CUDA's allocator on a GPU;
+the process's peak RSS on the CPU), the largest relative R_stop difference from NumPy with
+the same strategy, and the largest relative R_stop error against tight solves (η < 1e-9).
 """
 
 from __future__ import annotations
@@ -32,13 +35,14 @@ from typing import Any
 import numpy as np
 
 import multilatin as ml
-from multilatin.latin import LatinOptions, solve_latin
+from multilatin.latin import LatinOptions, solve_latin, solve_latin_batch
 from multilatin.latin.options import STUDY_QOI_RTOL
-from multilatin.study.plan import clear_operator_cache
+from multilatin.study.plan import clear_operator_cache, plan_study
 
 B1_GRID = ["mu1=0:0.6:13", "mu2=0:0.6:13"]
 B3_POSITIONS = ["xc=23:27:5", "yc=73:77:5", "rc=3"]
 B3_FULL = ["mu1=0:0.6:13", "mu2=0:0.6:13", "xc=23:27:5", "yc=73:77:5", "rc=1:5:5"]
+TIGHT = LatinOptions(tol=1e-9, max_iter=5000)
 
 
 def peak_memory(torch: Any, device: str) -> str:
@@ -49,7 +53,7 @@ def peak_memory(torch: Any, device: str) -> str:
 
 def study(model: ml.Model, grid: list[str], options: LatinOptions, **kwargs: Any
           ) -> tuple[float, np.ndarray, int]:
-    """Wall time, R_stop over the grid and iterations in all, of a multiresolution study."""
+    """Wall time, R_stop over the grid (grid order) and iterations in all."""
     clear_operator_cache()
     with tempfile.TemporaryDirectory() as folder:
         t0 = time.perf_counter()
@@ -60,15 +64,28 @@ def study(model: ml.Model, grid: list[str], options: LatinOptions, **kwargs: Any
     return wall, np.asarray(result.dataset["R_stop"].values, dtype=float), iterations
 
 
-def row(name: str, path: str, wall: float, cases: int, iterations: int, memory: str,
-        difference: float | None) -> None:
-    diff = "—" if difference is None else f"{difference:.1e}"
-    print(f"| {name} | {path} | {wall:.2f} | {cases / wall:.1f} | {iterations} | {memory} "
-          f"| {diff} |", flush=True)
+def tight_values(model: ml.Model, grid: list[str]) -> np.ndarray:
+    """R_stop of every case at η < 1e-9 (NumPy, one batch per geometry), in grid order."""
+    parsed = ml.Grid.parse(grid)
+    cases = plan_study(model, parsed).cases
+    results = solve_latin_batch([model.assemble(case.mu) for case in cases], TIGHT)
+    out = np.zeros([len(v) for v in parsed.values()])
+    for case, result in zip(cases, results, strict=True):
+        out[case.index] = result.qoi["R_stop"]
+    return out
 
 
 def relative(a: np.ndarray, b: np.ndarray) -> float:
     return float(np.max(np.abs(a - b) / np.maximum(np.abs(a), 1e-12)))
+
+
+def row(workload: str, path: str, wall: float, cases: int, iterations: int, memory: str,
+        same: float | None, tight: np.ndarray | None, values: np.ndarray | None) -> None:
+    def text(x: float | None) -> str:
+        return "—" if x is None else f"{x:.1e}"
+    error = None if tight is None or values is None else relative(tight, values)
+    print(f"| {workload} | {path} | {wall:.2f} | {cases / wall:.1f} | {iterations} | "
+          f"{memory} | {text(same)} | {text(error)} |", flush=True)
 
 
 def main() -> None:
@@ -78,69 +95,68 @@ def main() -> None:
     parser.add_argument("--threads", type=int, default=2,
                         help="PyTorch's CPU threads (with --device cpu)")
     parser.add_argument("--full", action="store_true", help="also the 21 125-case study")
-    parser.add_argument("--skip-numpy", action="store_true",
-                        help="the torch rows only (e.g. a second GPU run)")
+    parser.add_argument("--full-batch", type=int, default=4225)
+    parser.add_argument("--no-tight", action="store_true",
+                        help="skip the tight reference solves (the last column)")
     args = parser.parse_args()
     import torch
 
     torch.set_num_threads(args.threads)
     name = (torch.cuda.get_device_name(args.device) if args.device.startswith("cuda")
             else f"CPU, {args.threads} PyTorch threads")
-    print(f"torch {torch.__version__} on {args.device} ({name}); NumPy path: one process for "
-          f"a solve, {args.cpu_workers} Dask workers for studies\n")
+    print(f"torch {torch.__version__} on {args.device} ({name})\n")
     print("| workload | path | wall (s) | cases/s | iterations | peak memory | "
-          "R_stop vs NumPy |")
-    print("|---|---|---|---|---|---|---|")
+          "R_stop vs NumPy, same strategy | R_stop vs tight |")
+    print("|---|---|---|---|---|---|---|---|")
     numpy_options = LatinOptions(qoi_rtol=STUDY_QOI_RTOL)
     device_options = replace(numpy_options, backend="torch", device=args.device)
     b1, b3 = ml.load_model("b1"), ml.load_model("b3")
 
-    # one b3 solve (operators built in both; a first short solve warms the kernels up)
     assembly = b3.assemble({"mu1": 0.35, "mu2": 0.25})
+    ops = ml.LatinOperators(assembly, numpy_options)
     reference = None
-    for label, options in (("NumPy", numpy_options), (args.device, device_options)):
-        if label == "NumPy" and args.skip_numpy:
-            continue
-        solve_latin(assembly, replace(options, max_iter=3), check=False)
+    for label, options in (("NumPy", numpy_options), (f"torch {args.device}", device_options)):
+        solve_latin(assembly, replace(options, max_iter=3), operators=ops, check=False)
+        if args.device.startswith("cuda"):
+            torch.cuda.synchronize()
         t0 = time.perf_counter()
-        result = solve_latin(assembly, options)
+        result = solve_latin(assembly, options, operators=ops)
         wall = time.perf_counter() - t0
         value = np.array([result.qoi["R_stop"]])
+        same = None if reference is None else relative(reference, value)
         reference = value if reference is None else reference
         row("b3 solve", label, wall, 1, result.iterations,
-            peak_memory(torch, args.device) if label != "NumPy" else "—",
-            None if label == "NumPy" else relative(reference, value))
+            peak_memory(torch, args.device) if "torch" in label else "—", same, None, None)
 
-    runs: list[tuple[str, ml.Model, list[str], list[tuple[str, dict[str, Any]]]]] = [
-        ("B1 13 × 13", b1, B1_GRID,
-         [("neighbour, batch 13", {"batch": 13}),
-          ("zero, batch 169", {"batch": 169, "start": "zero"})]),
-        ("B3 5 × 5 positions", b3, B3_POSITIONS, [("neighbour", {"batch": 16})]),
-    ]
+    runs = [("B1 13 × 13", b1, B1_GRID, [("neighbour, batch 13", {"batch": 13}),
+                                          ("zero, batch 169", {"batch": 169,
+                                                               "start": "zero"})]),
+            ("B3 5 × 5 positions", b3, B3_POSITIONS, [("zero, batch 25", {"batch": 25,
+                                                                           "start": "zero"})])]
     for workload, model, grid, variants in runs:
         cases = int(np.prod([len(v) for v in ml.Grid.parse(grid).values()]))
-        reference = None
-        if not args.skip_numpy:
-            wall, values, iterations = study(model, grid, numpy_options,
-                                             workers=args.cpu_workers)
-            reference = values
-            row(workload, f"NumPy, {args.cpu_workers} workers", wall, cases, iterations, "—",
-                None)
+        tight = None if args.no_tight else tight_values(model, grid)
+        wall, values, iterations = study(model, grid, numpy_options, workers=args.cpu_workers)
+        row(workload, f"NumPy, neighbour, {args.cpu_workers} workers", wall, cases,
+            iterations, "—", None, tight, values)
         for label, kwargs in variants:
+            wall, numpy_values, iterations = study(model, grid, numpy_options, **kwargs)
+            row(workload, f"NumPy, {label}", wall, cases, iterations, "—", None, tight,
+                numpy_values)
             if args.device.startswith("cuda"):
                 torch.cuda.reset_peak_memory_stats()
             wall, values, iterations = study(model, grid, device_options, **kwargs)
-            row(workload, f"{args.device}, {label}", wall, cases, iterations,
-                peak_memory(torch, args.device),
-                None if reference is None else relative(reference, values))
+            row(workload, f"torch {args.device}, {label}", wall, cases, iterations,
+                peak_memory(torch, args.device), relative(numpy_values, values), tight,
+                values)
 
     if args.full:
         if args.device.startswith("cuda"):
             torch.cuda.reset_peak_memory_stats()
-        wall, values, iterations = study(b3, B3_FULL, device_options, batch=169,
+        wall, values, iterations = study(b3, B3_FULL, device_options, batch=args.full_batch,
                                          start="zero")
-        row("B3 21 125 cases", f"{args.device}, zero, batch 169", wall, values.size,
-            iterations, peak_memory(torch, args.device), None)
+        row("B3 21 125 cases", f"torch {args.device}, zero, batch {args.full_batch}", wall,
+            values.size, iterations, peak_memory(torch, args.device), None, None, None)
 
 
 if __name__ == "__main__":
