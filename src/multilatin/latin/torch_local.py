@@ -51,6 +51,7 @@ class TorchLocalStage:
         k, kb, n = local.k_contact, local.k_contact_b, local.n_contact
         self.k_contact, self.k_contact_b, self.n_contact = tensor(k), tensor(kb), tensor(n)
         self.contact_equal = self.k_contact == self.k_contact_b
+        self.all_contact_equal = bool(np.all(k == kb))  # then one branch of the where
         half = np.where(k == kb, 0.5 * k, k * kb / np.where(k + kb > 0, k + kb, 1.0))
         self.half = tensor(half)
         self.half_normal = tensor(np.sum(np.abs(n) * half, axis=1))
@@ -60,6 +61,7 @@ class TorchLocalStage:
         self.k_stop_normal = tensor(np.sum(np.abs(local.n_stop) * local.k_stop, axis=1))
         self.corner = index(local.corner)
         self.n_corners = local.corner.size
+        self.n_corner = tensor(n[local.corner])
         stops_of_corner = np.asarray(local.corner_stops, dtype=np.int64).reshape(-1, 2)
         self.corner_free = self.torch.as_tensor(stops_of_corner < 0, device=device)
         self.corner_stops = index(np.maximum(stops_of_corner, 0))
@@ -74,11 +76,13 @@ class TorchLocalStage:
         self.mu_contact, self.gap_contact = tensor(local.mu_contact), tensor(local.gap_contact)
         self.mu_stop, self.gap_stop = tensor(local.mu_stop), tensor(local.gap_stop)
         self.prescribed = tensor(local.prescribed)
+        self.mu_corner = self.mu_contact[:, self.corner]
 
     def subset(self, cases: IntArray) -> None:
         """Keep the cases at positions ``cases`` (in place)."""
         chosen = self._index(cases)
-        for name in ("mu_contact", "gap_contact", "mu_stop", "gap_stop", "prescribed"):
+        for name in ("mu_contact", "gap_contact", "mu_stop", "gap_stop", "prescribed",
+                     "mu_corner"):
             setattr(self, name, getattr(self, name)[chosen])
 
     def __call__(self, displacement: Tensor, force: Tensor) -> tuple[Tensor, Tensor]:
@@ -147,50 +151,66 @@ class TorchLocalStage:
     def _contact_and_stops(self, displacement: Tensor, force: Tensor, w_hat: Tensor,
                            f_hat: Tensor) -> None:
         """Contact with gap and Coulomb friction, rigid stops, held nodes and held corners,
-        step after step (``LocalStage._contact_and_stops``, paper §3, eq. [16]–[17])."""
+        step after step (``LocalStage._contact_and_stops``, paper §3, eq. [16]–[17]).
+
+        Every step's inputs are gathered once for all steps and its outputs scattered once
+        at the end (a step reads views): the operations per iteration, each a kernel
+        launch on a GPU, are what bounds the time of a batch there."""
         torch = self.torch
-        n_cases = displacement.shape[0]
+        n_cases, n_steps = displacement.shape[:2]
         options = {"dtype": displacement.dtype, "device": displacement.device}
         a, b = self.contact
         k, kb, n = self.k_contact, self.k_contact_b, self.n_contact
         p = self.stops
+        force_a, force_b = force[:, :, a], force[:, :, b]
+        shift_a, shift_b = displacement[:, :, a], displacement[:, :, b]
+        force_p, shift_p = force[:, :, p], displacement[:, :, p]
+        h, d, on_b = self.held
+        if self.n_held:  # the held components, all steps
+            held_force_a, held_force_b = force_a[:, :, h, d], force_b[:, :, h, d]
+            held_shift_a, held_shift_b = shift_a[:, :, h, d], shift_b[:, :, h, d]
+            held_data = self.prescribed[:, :, self.held_boundary, d]
+            k_h, kb_h = k[h, d], kb[h, d]
         prev_a = torch.zeros((n_cases, self.n_pairs, 2), **options)
         prev_b = torch.zeros_like(prev_a)
         prev_stop = torch.zeros((n_cases, self.n_stops, 2), **options)
         stop_closed = torch.zeros((n_cases, self.n_stops), dtype=torch.bool,
                                   device=displacement.device)
         corner_force = torch.zeros((n_cases, self.n_corners, 2), **options)
-        h, d, on_b = self.held
-        for t in range(displacement.shape[1]):
+        stop_forces, stop_shifts, pair_forces, shifts_a, shifts_b = [], [], [], [], []
+        for t in range(n_steps):
             if self.n_stops:
-                dw = displacement[:, t, p] - prev_stop
-                trial = force[:, t, p] - self.k_stop * dw
+                dw = shift_p[:, t] - prev_stop
+                trial = force_p[:, t] - self.k_stop * dw
                 closing = self.gap_stop - torch.sum(self.n_stop * prev_stop, dim=-1)
                 normal_force = (torch.sum(self.n_stop * trial, dim=-1)
                                 + self.k_stop_normal * closing)
                 fp = self._coulomb(trial, normal_force, self.n_stop, self.mu_stop)
                 stop_closed = normal_force < 0.0
-                prev_stop = prev_stop + dw + (fp - force[:, t, p]) / self.k_stop
-                f_hat[:, t, p] = fp
-                w_hat[:, t, p] = prev_stop
+                prev_stop = prev_stop + dw + (fp - force_p[:, t]) / self.k_stop
+                stop_forces.append(fp)
+                stop_shifts.append(prev_stop)
             if not self.n_pairs:
                 continue
-            dwa = displacement[:, t, a] - prev_a  # increments from the local-stage history
-            dwb = displacement[:, t, b] - prev_b
+            dwa = shift_a[:, t] - prev_a  # increments from the local-stage history
+            dwb = shift_b[:, t] - prev_b
             # trial force F* = k* (F_a / k_a − F_b / k_b + [ΔW])
-            trial = torch.where(
-                self.contact_equal,
-                0.5 * (force[:, t, a] - force[:, t, b]) + self.half * (dwb - dwa),
-                self.half * (force[:, t, a] / k - force[:, t, b] / kb + dwb - dwa))
+            if self.all_contact_equal:
+                trial = 0.5 * (force_a[:, t] - force_b[:, t]) + self.half * (dwb - dwa)
+            else:
+                trial = torch.where(
+                    self.contact_equal,
+                    0.5 * (force_a[:, t] - force_b[:, t]) + self.half * (dwb - dwa),
+                    self.half * (force_a[:, t] / k - force_b[:, t] / kb + dwb - dwa))
             closing = self.gap_contact + torch.sum(n * (prev_b - prev_a), dim=-1)
             normal_force = torch.sum(n * trial, dim=-1) + self.half_normal * closing
             if self.n_held:  # held on one side: tangential trial from the free side
-                holding, target = self._held_targets(t, prev_stop, stop_closed)
-                pa_h, pb_h = a[h], b[h]
-                free_b = force[:, t, pa_h, d] + k[h, d] * (
-                    prev_a[:, h, d] + target - prev_b[:, h, d] - displacement[:, t, pa_h, d])
-                free_a = -(force[:, t, pb_h, d] + kb[h, d] * (
-                    prev_b[:, h, d] + target - prev_a[:, h, d] - displacement[:, t, pb_h, d]))
+                holding, target = self._held_targets(held_data[:, t], prev_stop, stop_closed)
+                before_a, before_b = prev_a[:, h, d], prev_b[:, h, d]
+                free_b = held_force_a[:, t] + k_h * (before_a + target - before_b
+                                                     - held_shift_a[:, t])
+                free_a = -(held_force_b[:, t] + kb_h * (before_b + target - before_a
+                                                        - held_shift_b[:, t]))
                 trial[:, h, d] = torch.where(holding, torch.where(on_b, free_b, free_a),
                                              trial[:, h, d])
             fa = self._coulomb(trial, normal_force, n, self.mu_contact)
@@ -202,34 +222,42 @@ class TorchLocalStage:
                 else:
                     held = torch.all(self.corner_free, dim=-1).expand(n_cases, -1)
                 current = fa[:, corner]
-                frozen = self._in_cone(corner_force, torch.sum(current * n[corner], dim=-1),
-                                       n[corner], self.mu_contact[:, corner])
-                fa[:, corner] = torch.where(held[..., None], frozen, current)
-                corner_force = fa[:, corner]
-            prev_a = prev_a + dwa + (fa - force[:, t, a]) / k
-            prev_b = prev_b + dwb + (-fa - force[:, t, b]) / kb
+                frozen = self._in_cone(corner_force,
+                                       torch.sum(current * self.n_corner, dim=-1),
+                                       self.n_corner, self.mu_corner)
+                corner_force = torch.where(held[..., None], frozen, current)
+                fa[:, corner] = corner_force
+            prev_a = prev_a + dwa + (fa - force_a[:, t]) / k
+            prev_b = prev_b + dwb + (-fa - force_b[:, t]) / kb
             if self.n_held:  # the held side follows its holder
                 prev_b[:, h, d] = torch.where(holding & on_b, target, prev_b[:, h, d])
                 prev_a[:, h, d] = torch.where(holding & ~on_b, target, prev_a[:, h, d])
-            f_hat[:, t, a] = fa
-            f_hat[:, t, b] = -fa
-            w_hat[:, t, a] = prev_a
-            w_hat[:, t, b] = prev_b
+            pair_forces.append(fa)
+            shifts_a.append(prev_a)
+            shifts_b.append(prev_b)
+        if self.n_stops:
+            f_hat[:, :, p] = torch.stack(stop_forces, dim=1)
+            w_hat[:, :, p] = torch.stack(stop_shifts, dim=1)
+        if self.n_pairs:
+            pair_force = torch.stack(pair_forces, dim=1)
+            f_hat[:, :, a] = pair_force
+            f_hat[:, :, b] = -pair_force
+            w_hat[:, :, a] = torch.stack(shifts_a, dim=1)
+            w_hat[:, :, b] = torch.stack(shifts_b, dim=1)
 
-    def _held_targets(self, t: int, stop_displacement: Tensor, stop_closed: Tensor
+    def _held_targets(self, data: Tensor, stop_displacement: Tensor, stop_closed: Tensor
                       ) -> tuple[Tensor, Tensor]:
-        """Per case and held pair, in step ``t``: whether its holder holds and the held
-        node's tangential Ŵ (``LocalStage._held_targets``)."""
+        """Per case and held pair, in one step: whether its holder holds and the held
+        node's tangential Ŵ (``LocalStage._held_targets``); ``data``: the step's prescribed
+        values of the holders."""
         torch = self.torch
         d = self.held[1]
         by_boundary = self.held_by_boundary
-        from_boundary = self.prescribed[:, t, self.held_boundary, d]
         if self.n_stops:
-            target = torch.where(by_boundary, from_boundary,
-                                 stop_displacement[:, self.held_stop, d])
+            target = torch.where(by_boundary, data, stop_displacement[:, self.held_stop, d])
             holding = by_boundary | stop_closed[:, self.held_stop]
         else:
-            target = torch.where(by_boundary, from_boundary, 0.0)
+            target = torch.where(by_boundary, data, 0.0)
             holding = by_boundary.expand_as(target)
         return holding, target
 
