@@ -17,6 +17,7 @@ import numpy as np
 from ..errors import ModelError
 from ..fem.elasticity import FloatArray, IntArray
 from ..limits import memory_limit
+from .acceleration import Anderson, ArrayOps
 from .local_stage import LocalStage
 from .operators import LatinOperators
 from .options import LatinOptions
@@ -84,9 +85,6 @@ class TorchFields:
                  f_hat: FloatArray, macro_data: FloatArray | None,
                  functionals: list[QoiFunctionals] | None) -> None:
         """operators: one per geometry; geometry: each case's index into them."""
-        if options.acceleration != "relaxation":
-            raise ModelError(f"acceleration: {options.acceleration!r} runs on the numpy "
-                             "backend only (the torch backend relaxes)")
         torch = self.torch = load_torch(options.device)
         self.device = torch.device(options.device)
         self.cuda = self.device.type == "cuda"
@@ -118,11 +116,21 @@ class TorchFields:
         weights = operators[0].points.weights[:, None]
         self.displacement_weight = self._tensor((weights * k).ravel())
         self.force_weight = self._tensor((weights / k).ravel())
+        self.mixer = (Anderson(options.anderson_depth, options.relaxation,
+                               self._tensor(np.sqrt(weights * k)),
+                               self._tensor(np.sqrt(weights / k)), self._array_ops())
+                      if options.acceleration == "anderson" else None)
         self.t_linear = self.t_macro = self.t_local = 0.0
 
     def _tensor(self, array: Any) -> Tensor:
         return self.torch.as_tensor(np.ascontiguousarray(array, dtype=np.float64),
                                     device=self.device)
+
+    def _array_ops(self) -> ArrayOps:
+        torch, options = self.torch, {"dtype": self.torch.float64, "device": self.device}
+        return ArrayOps(lambda arrays, axis: torch.cat(arrays, dim=axis),
+                        lambda shape: torch.zeros(shape, **options),
+                        lambda m: torch.eye(m, **options), torch.linalg.solve)
 
     def _rows(self) -> Rows:
         """Per geometry of the active cases, the columns (case × step) of its cases."""
@@ -157,8 +165,11 @@ class TorchFields:
                                                 data.reshape(-1, data.shape[2]), self.rows)
         self.t_macro += self._clock() - tm
         w_new, f_new = w_new.reshape(shape), f_new.reshape(shape)
-        if self.w is None or self.f is None or self.options.relaxation == 1.0:
+        if self.w is None or self.f is None or (self.options.relaxation == 1.0
+                                                and self.mixer is None):
             self.w, self.f = w_new, f_new
+        elif self.mixer is not None:
+            self.w, self.f = self.mixer(self.w, self.f, w_new, f_new)
         else:
             omega = self._tensor(relaxation)[:, None, None, None]
             self.w = omega * w_new + (1.0 - omega) * self.w
@@ -215,6 +226,8 @@ class TorchFields:
         self.w_hat, self.f_hat = self.w_hat[chosen], self.f_hat[chosen]
         self.local.subset(cases)
         self.rows = self._rows()
+        if self.mixer is not None:
+            self.mixer.subset(chosen)
 
     def _index(self, cases: IntArray) -> Tensor:
         return self.torch.as_tensor(np.asarray(cases, dtype=np.int64), device=self.device)
