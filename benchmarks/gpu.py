@@ -96,6 +96,9 @@ def main() -> None:
                         help="PyTorch's CPU threads (with --device cpu)")
     parser.add_argument("--full", action="store_true", help="also the 21 125-case study")
     parser.add_argument("--full-batch", type=int, default=4225)
+    parser.add_argument("--fuse", action="store_true",
+                        help="torch rows with the compiled local stage (LatinOptions.fuse); "
+                             "its compilation happens in the warm-up solves, not the rows")
     parser.add_argument("--no-tight", action="store_true",
                         help="skip the tight reference solves (the last column)")
     args = parser.parse_args()
@@ -104,13 +107,24 @@ def main() -> None:
     torch.set_num_threads(args.threads)
     name = (torch.cuda.get_device_name(args.device) if args.device.startswith("cuda")
             else f"CPU, {args.threads} PyTorch threads")
-    print(f"torch {torch.__version__} on {args.device} ({name})\n")
+    print(f"torch {torch.__version__} on {args.device} ({name})"
+          f"{', fused local stage' if args.fuse else ''}\n")
     print("| workload | path | wall (s) | cases/s | iterations | peak memory | "
           "R_stop vs NumPy, same strategy | R_stop vs tight |")
     print("|---|---|---|---|---|---|---|---|")
     numpy_options = LatinOptions(qoi_rtol=STUDY_QOI_RTOL)
-    device_options = replace(numpy_options, backend="torch", device=args.device)
+    device_options = replace(numpy_options, backend="torch", device=args.device,
+                             fuse=args.fuse)
     b1, b3 = ml.load_model("b1"), ml.load_model("b3")
+    if args.fuse:  # compile for both models and for batches of one and of several cases
+        for model in (b1, b3):
+            t0 = time.perf_counter()
+            for count in (1, 2):
+                solve_latin_batch([model.assemble()] * count, replace(device_options,
+                                                                      max_iter=3),
+                                  check=False)
+            print(f"compiled the fused local stage for {model.name} in "
+                  f"{time.perf_counter() - t0:.0f} s\n")
 
     assembly = b3.assemble({"mu1": 0.35, "mu2": 0.25})
     ops = ml.LatinOperators(assembly, numpy_options)

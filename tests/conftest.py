@@ -1,8 +1,52 @@
+from collections.abc import Callable
+from typing import Any
+
+import numpy as np
 import pytest
 
 import multilatin as ml
+
+#: friction pairs that open, close, stick and slip on the bundled B models
+FRICTIONS = [(0.3, 0.0), (0.1, 0.3), (0.35, 0.25), (0.0, 0.0)]
 
 
 @pytest.fixture(scope="session")
 def b0() -> ml.Model:
     return ml.load_model("b0")
+
+
+@pytest.fixture
+def random_local_stage_input() -> Callable[[str, int], tuple[Any, ...]]:
+    """``make(model, seed)``: the local stage of ``FRICTIONS``'s cases of a bundled model
+    (NumPy, uncompiled) and random fields (W, F) of the sizes of a solve, whose contact
+    points open, close, stick and slip."""
+    from multilatin.decomposition.interfaces import build_points
+    from multilatin.latin import LatinOperators, LatinOptions
+    from multilatin.latin.local_stage import LocalStage
+
+    def make(name: str, seed: int) -> tuple[Any, ...]:
+        model = ml.load_model(name)
+        assemblies = [model.assemble({"mu1": a, "mu2": b}) for a, b in FRICTIONS]
+        ops = LatinOperators(assemblies[0], LatinOptions())
+        points = [build_points(a) for a in assemblies]
+        rng = np.random.default_rng(seed)
+        shape = (len(assemblies), assemblies[0].n_steps, points[0].n_points, 2)
+        w, f = 1e-2 * rng.normal(size=shape), 1e3 * rng.normal(size=shape)
+        stage = LocalStage(assemblies, points, ops.search_direction, compiled=False,
+                           macro_only=ops.macro_only)
+        return assemblies, points, ops, stage, w, f
+    return make
+
+
+def warm_b1_4_batch(options: Any) -> tuple[Any, ...]:
+    """``FRICTIONS``'s cases of b1-4 with their operators and starts: cold, warm (from a
+    converged neighbour), cold, warm — cases that leave a batch at different iterations."""
+    from multilatin.latin import LatinOperators, solve_latin
+
+    model = ml.load_model("b1-4")
+    assemblies = [model.assemble({"mu1": a, "mu2": b}) for a, b in FRICTIONS]
+    ops = LatinOperators(assemblies[0], options)
+    neighbour = solve_latin(model.assemble({"mu1": 0.3, "mu2": 0.05}), operators=ops)
+    assert neighbour.interface is not None
+    warm = (neighbour.interface.displacement_hat, neighbour.interface.force_hat)
+    return assemblies, ops, [None, warm, None, warm]

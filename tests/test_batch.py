@@ -2,32 +2,29 @@
 
 from __future__ import annotations
 
+from collections.abc import Callable
+from typing import Any
+
 import numpy as np
 import pytest
+from conftest import warm_b1_4_batch
 
 import multilatin as ml
-from multilatin.decomposition.interfaces import build_points
 from multilatin.errors import ModelError
 from multilatin.latin import LatinOperators, LatinOptions, kernels, solve_latin, solve_latin_batch
 from multilatin.latin.local_stage import LocalStage
 
-FRICTIONS = [(0.3, 0.0), (0.1, 0.3), (0.35, 0.25), (0.0, 0.0)]
-
 
 @pytest.mark.skipif(kernels.contact_and_stops is None, reason="Numba not installed")
 @pytest.mark.parametrize("name", ["b1", "b1-9", "b3"])
-def test_compiled_local_stage_equals_the_numpy_one(name: str) -> None:
+def test_compiled_local_stage_equals_the_numpy_one(
+        name: str, random_local_stage_input: Callable[[str, int], tuple[Any, ...]]) -> None:
     """On fields that open, close, stick and slip (random, of the sizes of a solve), at the
     stops and the held corner too."""
-    model = ml.load_model(name)
-    assemblies = [model.assemble({"mu1": a, "mu2": b}) for a, b in FRICTIONS]
-    ops = LatinOperators(assemblies[0], LatinOptions())
-    points = [build_points(a) for a in assemblies]
-    rng = np.random.default_rng(3)
-    shape = (len(assemblies), assemblies[0].n_steps, points[0].n_points, 2)
-    w, f = 1e-2 * rng.normal(size=shape), 1e3 * rng.normal(size=shape)
-    expected = LocalStage(assemblies, points, ops.search_direction, compiled=False)(w, f)
-    stage = LocalStage(assemblies, points, ops.search_direction, compiled=True)
+    assemblies, points, ops, reference, w, f = random_local_stage_input(name, 3)
+    expected = reference(w, f)
+    stage = LocalStage(assemblies, points, ops.search_direction, compiled=True,
+                       macro_only=ops.macro_only)
     got = stage(w, f)
     for e, g in zip(expected, got, strict=True):
         np.testing.assert_allclose(g, e, rtol=1e-12, atol=1e-12 * np.abs(e).max())
@@ -39,14 +36,7 @@ def test_compiled_local_stage_equals_the_numpy_one(name: str) -> None:
 def test_a_batch_gives_the_case_by_case_answers(acceleration: str) -> None:
     """Same iterations (each case leaves the batch when its own η < tol), same fields, for
     cold and warm starts mixed in one batch."""
-    model = ml.load_model("b1-4")
-    options = LatinOptions(acceleration=acceleration)
-    assemblies = [model.assemble({"mu1": a, "mu2": b}) for a, b in FRICTIONS]
-    ops = LatinOperators(assemblies[0], options)
-    neighbour = solve_latin(model.assemble({"mu1": 0.3, "mu2": 0.05}), operators=ops)
-    assert neighbour.interface is not None
-    warm = (neighbour.interface.displacement_hat, neighbour.interface.force_hat)
-    starts = [None, warm, None, warm]
+    assemblies, ops, starts = warm_b1_4_batch(LatinOptions(acceleration=acceleration))
     single = [solve_latin(a, operators=ops, initial=s) for a, s in
               zip(assemblies, starts, strict=True)]
     batch = solve_latin_batch(assemblies, operators=ops, initial=starts)

@@ -3,19 +3,23 @@ fields to rounding, on the CPU here (a GPU runs the same code; ``benchmarks/gpu.
 
 from __future__ import annotations
 
+import re
+from collections.abc import Callable
+from importlib.resources import files
+from pathlib import Path
+from typing import Any
+
 import numpy as np
 import pytest
+from conftest import warm_b1_4_batch
 
 import multilatin as ml
-from multilatin.decomposition.interfaces import build_points
 from multilatin.errors import ModelError
-from multilatin.latin import LatinOperators, LatinOptions, solve_latin, solve_latin_batch
-from multilatin.latin.local_stage import LocalStage
+from multilatin.latin import LatinOptions, solve_latin, solve_latin_batch
 
 torch = pytest.importorskip("torch", reason="the torch backend needs the extra 'gpu'")
 
 TIGHT = LatinOptions(tol=1e-9, max_iter=3000)
-FRICTIONS = [(0.3, 0.0), (0.1, 0.3), (0.35, 0.25), (0.0, 0.0)]
 
 
 def _relative(expected: object, got: object) -> float:
@@ -24,19 +28,12 @@ def _relative(expected: object, got: object) -> float:
 
 
 @pytest.mark.parametrize("name", ["b1", "b1-9", "b3"])
-def test_the_local_stage_equals_the_numpy_one(name: str) -> None:
+def test_the_local_stage_equals_the_numpy_one(
+        name: str, random_local_stage_input: Callable[[str, int], tuple[Any, ...]]) -> None:
     """On random fields that open, close, stick and slip, at stops, held nodes and corners."""
     from multilatin.latin.torch_local import TorchLocalStage
 
-    model = ml.load_model(name)
-    assemblies = [model.assemble({"mu1": a, "mu2": b}) for a, b in FRICTIONS]
-    ops = LatinOperators(assemblies[0], LatinOptions())
-    points = [build_points(a) for a in assemblies]
-    rng = np.random.default_rng(5)
-    shape = (len(assemblies), assemblies[0].n_steps, points[0].n_points, 2)
-    w, f = 1e-2 * rng.normal(size=shape), 1e3 * rng.normal(size=shape)
-    stage = LocalStage(assemblies, points, ops.search_direction, compiled=False,
-                       macro_only=ops.macro_only)
+    _, _, _, stage, w, f = random_local_stage_input(name, 5)
     expected = stage(w, f)
     device_stage = TorchLocalStage(stage, torch, torch.device("cpu"))
     got = device_stage(torch.as_tensor(w), torch.as_tensor(f))
@@ -72,14 +69,8 @@ def test_a_tight_solve_equals_the_numpy_one(name: str, mu: dict[str, float]) -> 
 def test_a_warm_batch_equals_the_numpy_one(acceleration: str) -> None:
     """Cold and warm starts mixed in one batch, cases leaving at different iterations, the
     QoI stopping rule on, relaxation or Anderson mixing: the same stops and answers."""
-    model = ml.load_model("b1-4")
     options = LatinOptions(qoi_rtol=1e-3, acceleration=acceleration, anderson_depth=5)
-    assemblies = [model.assemble({"mu1": a, "mu2": b}) for a, b in FRICTIONS]
-    ops = LatinOperators(assemblies[0], options)
-    neighbour = solve_latin(model.assemble({"mu1": 0.3, "mu2": 0.05}), operators=ops)
-    assert neighbour.interface is not None
-    warm = (neighbour.interface.displacement_hat, neighbour.interface.force_hat)
-    starts = [None, warm, None, warm]
+    assemblies, ops, starts = warm_b1_4_batch(options)
     reference = solve_latin_batch(assemblies, options, operators=ops, initial=starts)
     from dataclasses import replace
 
@@ -155,3 +146,54 @@ def test_a_study_from_zero_batches_geometries_on_torch(tmp_path: object) -> None
     assert {r["start"] for r in got.records} == {"zero"}
     np.testing.assert_allclose(got.dataset["R_stop"].values,
                                reference.dataset["R_stop"].values, rtol=1e-9)
+
+
+def test_the_fused_local_stage_gives_the_numpy_answers(tmp_path: Path) -> None:
+    """``fuse=True`` (torch.compile) on a 2-step variant of ``slide`` (a short history keeps
+    the compilation to about half a minute): three frictions in one batch, leaving it at
+    different iterations (a batch of one included), equal to the NumPy solves."""
+    from dataclasses import replace
+
+    text = (files("multilatin") / "models" / "slide.toml").read_text()
+    text = text.replace("press = [0.5, 1, 1, 1, 1, 1, 1, 1, 1, 1]", "press = [0.5, 1]")
+    text = re.sub(r"push = \[0, 0, [^\]]*\]", "push = [0, 0.004]", text)
+    (tmp_path / "slide2.toml").write_text(text)
+    model = ml.load_model(tmp_path / "slide2.toml")
+    assemblies = [model.assemble({"mu": mu}) for mu in (0.1, 0.3, 0.6)]
+    assert assemblies[0].n_steps == 2
+    options = LatinOptions(tol=1e-8)
+    reference = solve_latin_batch(assemblies, options)
+    got = solve_latin_batch(assemblies, replace(options, backend="torch", fuse=True))
+    assert len({r.iterations for r in reference}) == 3
+    for one, other in zip(reference, got, strict=True):
+        assert abs(one.iterations - other.iterations) <= 2
+        assert _relative(one.qoi["R_push"], other.qoi["R_push"]) < 1e-9
+    with pytest.raises(ModelError, match="fuse: compiles the torch backend"):
+        LatinOptions(fuse=True)
+
+
+def test_a_batch_larger_than_the_memory_is_solved_in_chunks(
+        monkeypatch: pytest.MonkeyPatch, caplog: pytest.LogCaptureFixture) -> None:
+    """The memory limit (on the CPU, ``MULTILATIN_MAX_MEMORY_GB``; on a GPU, the free device
+    memory) splits a batch into chunks with the same answers; not even one case fitting is
+    an error naming the device, never an out-of-memory crash."""
+    from dataclasses import replace
+
+    from multilatin.latin.torch_engine import FIELDS_PER_CASE, MEMORY_SHARE
+
+    model = ml.load_model("b1")
+    assemblies = [model.assemble({"mu1": mu}) for mu in (0.1, 0.2, 0.3)]
+    options = LatinOptions(backend="torch")
+    whole = solve_latin_batch(assemblies, options)
+    per_case = FIELDS_PER_CASE * assemblies[0].n_steps * whole[0].interface.coords.shape[0] * 16
+    monkeypatch.setenv("MULTILATIN_MAX_MEMORY_GB", str(1.5 * per_case / MEMORY_SHARE / 1e9))
+    with caplog.at_level("INFO", logger="multilatin.latin.solver"):
+        chunked = solve_latin_batch(assemblies, options)
+    assert "batch of 3 cases solved in chunks of 1" in caplog.text
+    for one, other in zip(whole, chunked, strict=True):
+        assert one.iterations == other.iterations
+        assert other.timings["batch_size"] == 1
+        assert _relative(one.qoi["R_stop"], other.qoi["R_stop"]) < 1e-12
+    monkeypatch.setenv("MULTILATIN_MAX_MEMORY_GB", str(0.5 * per_case / MEMORY_SHARE / 1e9))
+    with pytest.raises(ModelError, match="device: one case needs about"):
+        solve_latin_batch(assemblies, replace(options, max_iter=5))

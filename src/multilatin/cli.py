@@ -94,6 +94,9 @@ def _add_latin_arguments(parser: argparse.ArgumentParser, qoi_rtol: float | None
     parser.add_argument("--device", default=d.device, metavar="DEVICE",
                         help="where the torch backend works: cpu, cuda or cuda:N "
                         "(default: %(default)s)")
+    parser.add_argument("--fuse", action="store_true",
+                        help="torch backend: compile the local stage (torch.compile; minutes "
+                        "of compilation the first time)")
 
 
 VERBOSE_HELP = ("more log lines on standard error: -v (INFO) a line per solve, -vv (DEBUG) "
@@ -239,7 +242,7 @@ def _latin_options(args: argparse.Namespace) -> LatinOptions:
                         qoi_rtol=args.qoi_rtol,
                         relaxation=args.relaxation, macro=not args.no_macro,
                         interface_elements=args.interface_elements,
-                        backend=args.backend, device=args.device)
+                        backend=args.backend, device=args.device, fuse=args.fuse)
 
 
 def _study(model: Model, args: argparse.Namespace, argv: list[str] | None) -> int:

@@ -91,6 +91,7 @@ class TorchFields:
         self.options = options
         self.operators = _device_operators(operators, self.device, torch)
         self.local = TorchLocalStage(local, torch, self.device)
+        self.local_call = _fused(torch) if options.fuse else TorchLocalStage.__call__
         self.w_hat, self.f_hat = self._tensor(w_hat), self._tensor(f_hat)
         self.w: Tensor | None = None
         self.f: Tensor | None = None
@@ -178,7 +179,7 @@ class TorchFields:
 
     def local_stage(self) -> None:
         tb = self._clock()
-        self.w_hat, self.f_hat = self.local(self.w, self.f)
+        self.w_hat, self.f_hat = self.local_call(self.local, self.w, self.f)
         self.t_local += self._clock() - tb
 
     def qoi_values(self) -> FloatArray:
@@ -250,3 +251,14 @@ def _device_operators(operators: list[LatinOperators], device: Any, torch: Any
         _DEVICE_OPERATORS.pop(next(iter(_DEVICE_OPERATORS)))
     _DEVICE_OPERATORS[key] = (list(operators), moved)
     return moved
+
+
+_FUSED: list[Any] = []
+
+
+def _fused(torch: Any) -> Any:
+    """``TorchLocalStage.__call__`` compiled by ``torch.compile`` once per process (dynamic
+    shapes: cases may leave a batch without a new compilation, but for a batch of one)."""
+    if not _FUSED:
+        _FUSED.append(torch.compile(TorchLocalStage.__call__, dynamic=True))
+    return _FUSED[0]
