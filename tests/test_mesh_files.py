@@ -148,6 +148,29 @@ def test_meshes_the_elements_cannot_use_are_refused(tmp_path: Path) -> None:
         ml.ModelSpec.from_toml(tmp_path / "both.toml")
 
 
+def test_twisted_or_non_convex_quadrilaterals_are_refused_by_cell(tmp_path: Path) -> None:
+    """A bow-tie (nodes out of order) and a dart-shaped quadrilateral: their signed area may
+    be positive, but the Jacobian changes sign inside; the error names the cell."""
+    import meshio
+
+    square = np.array([[0.0, 0.0], [1.0, 0.0], [1.0, 1.0], [0.0, 1.0], [2.0, 0.0], [2.0, 1.0]])
+    for name, second in (("bowtie", [1, 4, 2, 5]), ("dart", [1, 4, 5, 2])):
+        nodes = square.copy()
+        # the bow-tie made unsymmetric (its signed area is then not zero); the dart's third
+        # corner pushed inside: a re-entrant corner
+        if name == "dart":
+            nodes[5] = [1.2, 0.3]
+        else:
+            nodes[4] = [2.5, 0.0]
+        meshio.write(tmp_path / "plate.msh", meshio.Mesh(
+            np.column_stack([nodes * 10.0, np.zeros(len(nodes))]),
+            [("quad", np.array([[0, 1, 2, 3], second]))]), file_format="gmsh22", binary=False)
+        (tmp_path / "plate.toml").write_text(TENSION)
+        with pytest.raises(ml.ModelError, match=r"mesh_file: .*cell 1 \(nodes .*\) is "
+                                                "inverted, twisted or not convex"):
+            ml.ModelSpec.from_toml(tmp_path / "plate.toml")
+
+
 def test_a_level_set_hole_in_a_file_mesh_is_refused_by_name(tmp_path: Path) -> None:
     _gmsh_rectangle(tmp_path / "plate.msh", 20.0, 10.0, None)
     (tmp_path / "holed.toml").write_text(TENSION + """

@@ -56,4 +56,15 @@ def read_mesh(path: str | Path, where: str) -> tuple[FloatArray, IntArray]:
         bad = int(np.flatnonzero(np.abs(area) <= 1e-12 * scale)[0])
         raise ModelError(f"{where}: mesh file {str(path)!r}: cell {bad} has no area")
     cells[area < 0] = cells[area < 0][:, ::-1]  # counter-clockwise: positive Jacobian
+    if cells.shape[1] == 4:  # a twisted or non-convex quadrilateral: the Jacobian changes sign
+        xy = nodes[cells]
+        after, before = np.roll(xy, -1, axis=1) - xy, np.roll(xy, 1, axis=1) - xy
+        corner = after[:, :, 0] * before[:, :, 1] - after[:, :, 1] * before[:, :, 0]
+        bad_cells = np.flatnonzero(np.any(corner <= 1e-12 * scale, axis=1))
+        if bad_cells.size:
+            bad = int(bad_cells[0])
+            raise ModelError(
+                f"{where}: mesh file {str(path)!r}: cell {bad} (nodes "
+                f"{[int(i) for i in used[cells[bad]]]}) is inverted, twisted or not convex "
+                f"(its Jacobian changes sign; {bad_cells.size} such cell(s))")
     return nodes, cells
