@@ -64,9 +64,16 @@ def test_a_batch_of_several_geometries_gives_each_geometrys_answers() -> None:
     assert together[0].timings["batch_size"] == 2  # rc = 2 twice, together
 
 
-def test_a_batch_refuses_cases_of_other_interfaces() -> None:
-    with pytest.raises(ModelError, match="share the interface discretisation"):
-        solve_latin_batch([ml.load_model("b1").assemble(), ml.load_model("b1-4").assemble()])
+def test_cases_of_other_interfaces_are_solved_in_batches_of_their_own() -> None:
+    b1, b1_4 = ml.load_model("b1").assemble(), ml.load_model("b1-4").assemble()
+    for backend in ("numpy", "torch") if _has_torch() else ("numpy",):
+        results = solve_latin_batch([b1, b1_4, b1], LatinOptions(backend=backend))
+        assert [r.assembly for r in results] == [b1, b1_4, b1]
+        assert [r.timings["batch_size"] for r in results] == [2, 1, 2]
+        assert results[0].qoi["R_stop"] == pytest.approx(results[2].qoi["R_stop"], rel=1e-12)
+
+
+def test_a_batch_refuses_operators_of_another_geometry() -> None:
     b3 = ml.load_model("b3")
     ops = LatinOperators(b3.assemble({"rc": 2.0}), LatinOptions())
     with pytest.raises(ModelError, match="operators: they were built for another geometry"):
@@ -74,3 +81,11 @@ def test_a_batch_refuses_cases_of_other_interfaces() -> None:
     with pytest.raises(ModelError, match="initial: expected 2 entries"):
         model = ml.load_model("b1")
         solve_latin_batch([model.assemble(), model.assemble()], initial=[None])
+
+
+def _has_torch() -> bool:
+    try:
+        import torch  # noqa: F401
+    except ImportError:
+        return False
+    return True

@@ -5,6 +5,7 @@ from __future__ import annotations
 
 from pathlib import Path
 
+import numpy as np
 import pytest
 
 import multilatin as ml
@@ -99,3 +100,37 @@ def test_blocks_in_contact_on_part_of_a_side_equal_the_reference() -> None:
     # the clamp carries both presses: p × (10 + 12) mm
     assert latin.qoi["R_clamp"] == pytest.approx(220.0, rel=1e-8)
     assert reference.qoi["R_clamp"] == pytest.approx(220.0, rel=1e-8)
+
+
+@pytest.mark.parametrize(("position", "mu"), [(8.0, 0.5), (30.0, 0.3)])
+def test_the_bundled_punch_equals_the_reference_and_slides_at_the_closed_form(
+        position: float, mu: float) -> None:
+    """``punch``: contact on part of the plate's top side, the punch near the plate's end
+    and in the middle. Every step (stick, partial slip, full slip) equal to the monolithic
+    contact reference; once it slides, R_push = μ p × 10 (the punch's width)."""
+    model = ml.load_model("punch")
+    mu_set = {"position": position, "mu": mu}
+    latin, reference = model.solve(mu_set, options=TIGHT), model.reference(mu_set)
+    for name in ("R_push", "u_plate", "p_mean"):
+        np.testing.assert_allclose(latin.qoi[name], reference.qoi[name], rtol=1e-6,
+                                   atol=1e-6 * np.max(np.abs(reference.qoi[name])))
+    sliding = mu * 20.0 * 10.0
+    assert latin.qoi["R_push"][-1] == pytest.approx(sliding, rel=1e-6)
+    assert latin.qoi["R_push"][2] < 0.9 * sliding  # the first push steps stick
+    np.testing.assert_allclose(latin.qoi["p_mean"][1:], 20.0, rtol=1e-6)
+
+
+@pytest.mark.parametrize("start", ["neighbour", "zero"])
+def test_a_study_moving_the_punch_across_a_substructure_boundary(tmp_path: Path,
+                                                                  start: str) -> None:
+    """At x = 30 the punch stands on both halves of the plate (two contact interfaces), at
+    x = 8 on one: a converged neighbour's fields do not fit, so such a case starts from zero
+    (it was a crash), and batches group the cases whose interfaces match."""
+    model = ml.load_model("punch")
+    grid = ml.Grid({"position": [8.0, 30.0], "mu": [0.3, 0.5]})
+    result = ml.run_study(model, grid, out=tmp_path / start, progress=False, start=start)
+    assert not result.failed
+    starts = {tuple(r["params"].values()): r["start"] for r in result.records}
+    assert starts[(30.0, 0.3)] == "zero" and starts[(30.0, 0.5)] in ("zero", "position=30, mu=0.3")
+    final = result.dataset["R_push"].sel(mode="multiresolution").isel(step=-1).values
+    np.testing.assert_allclose(final, [[60.0, 100.0], [60.0, 100.0]], rtol=2e-3)

@@ -272,9 +272,8 @@ def operators_per_case(assemblies: Sequence[Assembly], options: LatinOptions,
 
     operators: None (built here, one per distinct geometry, each reusing the unchanged
         substructures of the one before), one ``LatinOperators`` for every case, or one per
-        case. Each is checked against its case's signature; cases of different geometries
-        must share the interface discretisation and search direction (a hole moves inside a
-        substructure, ``same_interfaces``)."""
+        case. Each is checked against its case's signature. Which geometries may share a
+        batch: ``interface_families``."""
     if operators is None or isinstance(operators, LatinOperators):
         given: list[LatinOperators | None] = [operators] * len(assemblies)
     else:
@@ -295,12 +294,23 @@ def operators_per_case(assemblies: Sequence[Assembly], options: LatinOptions,
             built.append(ops if ops is not None else
                          LatinOperators(assembly, options, reuse=built[-1] if built else None))
         geometry[c] = distinct[signature]
-    for other in built[1:]:
-        if not same_interfaces(built[0], other):
-            raise ModelError("a batch of cases must share the interface discretisation and "
-                             "the search direction (their geometries may differ inside the "
-                             "substructures only, e.g. a hole's position)")
     return built, geometry
+
+
+def interface_families(operators: Sequence[LatinOperators]) -> IntArray:
+    """Per operators, the index of its family: operators of one family act on the same
+    interface points with the same search direction and macro basis (``same_interfaces``;
+    their geometries differ inside the substructures only, e.g. a hole's position), so that
+    their cases can share a batch."""
+    heads: list[LatinOperators] = []
+    family = np.zeros(len(operators), dtype=np.int64)
+    for i, ops in enumerate(operators):
+        found = next((j for j, head in enumerate(heads) if same_interfaces(head, ops)), None)
+        if found is None:
+            found = len(heads)
+            heads.append(ops)
+        family[i] = found
+    return family
 
 
 def same_interfaces(first: LatinOperators, other: LatinOperators) -> bool:

@@ -28,7 +28,7 @@ from ..fem.elasticity import FloatArray, IntArray
 from ..limits import check_scale
 from .engine import FieldEngine, NumpyFields
 from .local_stage import LocalStage
-from .operators import LatinOperators, operators_per_case
+from .operators import LatinOperators, interface_families, operators_per_case
 from .options import LatinOptions
 from .tracking import WINDOW, QoiFunctionals, error_estimates, qoi_functionals
 
@@ -79,10 +79,11 @@ def solve_latin_batch(
     by few large ones.
 
     operators: for every case (one ``LatinOperators``), per case (a sequence), or None
-        (built here). Cases of several geometries that share the interface discretisation
-        (a hole moved inside a substructure) may share a batch: the torch backend solves
-        them together (the substructures that differ get their operators per geometry),
-        the NumPy backend one batch per geometry (``operators.operators_per_case``).
+        (built here). Cases of several geometries may share a batch: the torch backend
+        solves those that share the interface discretisation together (a hole moved inside
+        a substructure: the substructures that differ get their operators per geometry), the
+        NumPy backend one batch per geometry; other cases are solved as batches of their
+        own (``operators.interface_families``), the results in the cases' order.
     initial: per case, the interface fields to start from (see ``solve_latin``) or None.
     observer: see ``IterationObserver``.
     With the torch backend, a batch larger than the device's memory holds is solved in
@@ -102,12 +103,15 @@ def solve_latin_batch(
     if len(starts) != len(assemblies):
         raise ModelError(f"initial: expected {len(assemblies)} entries (one per case), got "
                          f"{len(starts)}")
-    if len(ops_list) > 1 and options.backend != "torch":
-        # the NumPy path: one batch per geometry, the answers in the cases' order
+    # one batch per geometry on NumPy, per family of interfaces on torch; answers in order
+    groups = (interface_families(ops_list) if options.backend == "torch"
+              else np.arange(len(ops_list)))[geometry]
+    if np.any(groups != groups[0]):
         by_case: dict[int, SolveResult] = {}
-        for g, ops_g in enumerate(ops_list):
-            members = np.flatnonzero(geometry == g).tolist()
-            part = solve_latin_batch([assemblies[i] for i in members], options, ops_g, check,
+        for group in np.unique(groups):
+            members = np.flatnonzero(groups == group).tolist()
+            part = solve_latin_batch([assemblies[i] for i in members], options,
+                                     [ops_list[geometry[i]] for i in members], check,
                                      [starts[i] for i in members], observer)
             by_case.update(zip(members, part, strict=True))
         return [by_case[i] for i in range(len(assemblies))]

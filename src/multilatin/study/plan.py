@@ -254,7 +254,7 @@ def run_case(model: Model, grid: Grid, case: Case, mode: str, options: LatinOpti
     else:
         ops, built = _operators(assembly, options)
         state = state if state is not None else ChainState(_retained_capacity(grid))
-        start_index, initial = state.nearest(case.index)
+        start_index, initial = _start(state, case, assembly, ops)
     setup_s = time.perf_counter() - t0
     result = solve_latin(assembly, options, operators=ops, initial=initial, check=False)
     result, spent = _path_independent(assembly, options, ops, result, start_index)
@@ -308,7 +308,8 @@ def run_batch(model: Model, grid: Grid, cases: tuple[Case, ...], mode: str,
     t0 = time.perf_counter()
     assemblies = [model.assemble(case.mu) for case in cases]
     ops, built = _operators(assemblies[0], options)
-    starts = [state.nearest(case.index) for case in cases]
+    starts = [_start(state, case, assembly, ops)
+              for case, assembly in zip(cases, assemblies, strict=True)]
     setup_s = time.perf_counter() - t0
     results = solve_latin_batch(assemblies, options, operators=ops,
                                 initial=[fields for _, fields in starts], check=False)
@@ -356,6 +357,20 @@ def peak_memory_mb() -> float:
         return float("nan")
     peak = resource.getrusage(resource.RUSAGE_SELF).ru_maxrss
     return float(peak / 1024 if sys.platform != "darwin" else peak / 2**20)
+
+
+def _start(state: ChainState, case: Case, assembly: Assembly, ops: LatinOperators
+           ) -> tuple[tuple[int, ...] | None, tuple[FloatArray, FloatArray] | None]:
+    """The nearest converged neighbour's index and interface fields to start ``case`` from;
+    none when its interfaces are discretised otherwise (a geometric parameter that moves a
+    part across a substructure's boundary): the case then starts from zero."""
+    start_index, initial = state.nearest(case.index)
+    shape = (assembly.n_steps, ops.points.n_points, 2)
+    if initial is not None and any(field.shape != shape for field in initial):
+        log.info("%s: its nearest converged neighbour has other interfaces; started from "
+                 "zero", assembly.name)
+        return None, None
+    return start_index, initial
 
 
 def _has_neighbour(state: ChainState | None, case: Case) -> bool:
