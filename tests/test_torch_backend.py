@@ -197,3 +197,28 @@ def test_a_batch_larger_than_the_memory_is_solved_in_chunks(
     monkeypatch.setenv("MULTILATIN_MAX_MEMORY_GB", str(0.5 * per_case / MEMORY_SHARE / 1e9))
     with pytest.raises(ModelError, match="device: one case needs about"):
         solve_latin_batch(assemblies, replace(options, max_iter=5))
+
+
+def test_multiresolution_on_torch_runs_a_wavefront_across_geometries(tmp_path: Path) -> None:
+    """``start="neighbour"`` on torch: the k-th line of every geometry in one batch, each
+    case warm-started from its own geometry's previous line; the answers those of the NumPy
+    study (its lines one geometry at a time) to the tolerance."""
+    from dataclasses import replace
+
+    model = ml.load_model("b3")
+    grid = ml.Grid({"xc": [23.0, 26.0], "mu1": [0.1, 0.3], "mu2": [0.0, 0.2]})
+    options = LatinOptions()  # η < 3e-6: R_stop within 0.1 % (docs/tolerance.md)
+    reference = ml.run_study(model, grid, options=options, progress=False,
+                             out=tmp_path / "numpy")
+    got = ml.run_study(model, grid, options=replace(options, backend="torch"),
+                       progress=False, out=tmp_path / "torch")
+    assert {r["batch"] for r in got.records} == {4}  # 2 geometries × a line of 2
+    for record in got.records:  # the second batch from the first, one grid step away
+        if not record["start"].startswith("zero"):
+            start = dict(item.split("=") for item in record["start"].split(", "))
+            steps = sum(grid[name].index(float(value)) != grid[name].index(record["params"][name])
+                        for name, value in start.items())
+            assert steps == 1, record["start"]
+    assert sum(r["start"] == "zero" for r in got.records) == 4
+    np.testing.assert_allclose(got.dataset["R_stop"].values,
+                               reference.dataset["R_stop"].values, rtol=2e-3)

@@ -86,6 +86,22 @@ class StudyPlan:
             previous_line = line
         return [tuple(batch) for batch in out]
 
+    def wavefront(self, chain: tuple[Case, ...], size: int) -> list[tuple[Case, ...]]:
+        """The k-th grid line of every geometry of ``chain`` together, for k = 0, 1, …, in
+        pieces of at most ``size``: each case's neighbour one step away in its geometry's
+        line k − 1 is solved in an earlier batch (multiresolution on the torch backend,
+        which batches several geometries: B3's 125 hole geometries × a line of 13)."""
+        geometric = [d for d, name in enumerate(self.grid) if name in self.geometric]
+        seen: dict[tuple[int, ...], int] = {}
+        waves: dict[int, list[Case]] = {}
+        for line in self.batches(chain, len(chain)):
+            key = tuple(line[0].index[d] for d in geometric)
+            k = seen.get(key, 0)
+            seen[key] = k + 1
+            waves.setdefault(k, []).extend(line)
+        return [tuple(wave[i:i + size]) for k in sorted(waves) for wave in [waves[k]]
+                for i in range(0, len(wave), size)]
+
     @property
     def cases(self) -> list[Case]:
         return [case for chain in self.chains for case in chain]
@@ -284,19 +300,23 @@ def _path_independent(assembly: Assembly, options: LatinOptions, ops: LatinOpera
 def run_batch(model: Model, grid: Grid, cases: tuple[Case, ...], mode: str,
               options: LatinOptions, state: ChainState | None, start: str = "neighbour"
               ) -> tuple[list[dict[str, Any]], ChainState | None]:
-    """Solve cases of one geometry together (``solve_latin_batch``), each started from its
-    converged neighbour one grid step away (multiresolution: a grid line from the previous
-    line). Where some case has no such neighbour (the first line of a chain), and in cold
-    mode, the cases are solved one by one, each from the previous. A batch's wall time is
-    shared among its cases in proportion to their iterations (``record["batch"]`` gives the
-    batch's size). ``start="zero"`` (multiresolution mode): the batch's cases, all of one
-    geometry, start from zero together with shared operators."""
+    """Solve cases together (``solve_latin_batch``), each started from its converged
+    neighbour one grid step away (multiresolution: a grid line from the previous line). On
+    the NumPy backend a batch is one geometry's line; where some case has no such neighbour
+    (the first line of a chain), and in cold mode, the cases are solved one by one, each
+    from the previous. On the torch backend a batch may hold lines of several geometries
+    (``StudyPlan.wavefront``), a case without a converged neighbour starting from zero. A
+    batch's wall time is shared among its cases in proportion to their iterations
+    (``record["batch"]`` gives the batch's size). ``start="zero"`` (multiresolution mode):
+    every case of the batch starts from zero."""
     if mode != "cold" and start == "zero":
-        return _batch_from_zero(model, grid, cases, mode, options), state
+        records, _ = _solve_together(model, grid, cases, mode, options, None)
+        return records, state
     if mode != "cold":
         state = state if state is not None else ChainState(_retained_capacity(grid))
-    if mode == "cold" or len(cases) == 1 or not all(
-            _has_neighbour(state, case) for case in cases):
+    on_device = options.backend == "torch" and mode != "cold"
+    if not on_device and (mode == "cold" or len(cases) == 1 or not all(
+            _has_neighbour(state, case) for case in cases)):
         records = []
         for case in cases:
             record, after = run_case(model, grid, case, mode, options, state)
@@ -304,34 +324,17 @@ def run_batch(model: Model, grid: Grid, cases: tuple[Case, ...], mode: str,
             records.append(record)
         return records, state
     assert state is not None
-    records = []
-    t0 = time.perf_counter()
-    assemblies = [model.assemble(case.mu) for case in cases]
-    ops, built = _operators(assemblies[0], options)
-    starts = [_start(state, case, assembly, ops)
-              for case, assembly in zip(cases, assemblies, strict=True)]
-    setup_s = time.perf_counter() - t0
-    results = solve_latin_batch(assemblies, options, operators=ops,
-                                initial=[fields for _, fields in starts], check=False)
-    kept = [_path_independent(assembly, options, ops, result, start_index)
-             for assembly, result, (start_index, _) in zip(assemblies, results, starts,
-                                                           strict=True)]
-    wall_s = time.perf_counter() - t0
-    total_iterations = sum(r.iterations + spent for r, spent in kept)
-    for case, (result, spent), (start_index, _) in zip(cases, kept, starts, strict=True):
-        share = (result.iterations + spent) / total_iterations
-        records.append(_record(grid, case, mode, result, share * wall_s, share * setup_s,
-                               built and case is cases[0], start_index, len(cases), spent))
-        if result.converged:
-            state = _retain(state, case, result)
-    return records, state
+    if state.capacity < 2 * len(cases):  # a wavefront keeps the previous lines of all
+        state = ChainState(2 * len(cases), state.retained)  # its geometries
+    return _solve_together(model, grid, cases, mode, options, state)
 
 
-def _batch_from_zero(model: Model, grid: Grid, cases: tuple[Case, ...], mode: str,
-                     options: LatinOptions) -> list[dict[str, Any]]:
-    """Cases solved from zero as one batch (``START_FROM``): of one geometry on the NumPy
-    backend, of any geometries sharing the interface discretisation on the torch backend
-    (``solve_latin_batch``)."""
+def _solve_together(model: Model, grid: Grid, cases: tuple[Case, ...], mode: str,
+                    options: LatinOptions, state: ChainState | None
+                    ) -> tuple[list[dict[str, Any]], ChainState | None]:
+    """Cases solved as one batch with their geometries' operators, each from its nearest
+    converged neighbour in ``state`` (None: all from zero, ``START_FROM``), the converged
+    ones retained; non-unique warm-started answers solved again from zero."""
     t0 = time.perf_counter()
     assemblies = [model.assemble(case.mu) for case in cases]
     per_case, first_built = [], []
@@ -339,14 +342,25 @@ def _batch_from_zero(model: Model, grid: Grid, cases: tuple[Case, ...], mode: st
         ops, built = _operators(assembly, options)
         per_case.append(ops)
         first_built.append(built)
+    starts = [_start(state, case, assembly, ops) if state is not None else (None, None)
+              for case, assembly, ops in zip(cases, assemblies, per_case, strict=True)]
     setup_s = time.perf_counter() - t0
-    results = solve_latin_batch(assemblies, options, operators=per_case, check=False)
+    results = solve_latin_batch(assemblies, options, operators=per_case,
+                                initial=[fields for _, fields in starts], check=False)
+    kept = [_path_independent(assembly, options, ops, result, start_index)
+            for assembly, ops, result, (start_index, _) in zip(assemblies, per_case, results,
+                                                               starts, strict=True)]
     wall_s = time.perf_counter() - t0
-    total_iterations = sum(r.iterations for r in results)
-    return [_record(grid, case, mode, result, share * wall_s, share * setup_s, built, None,
-                    len(cases))
-            for case, result, built in zip(cases, results, first_built, strict=True)
-            for share in [result.iterations / total_iterations]]
+    total_iterations = sum(r.iterations + spent for r, spent in kept)
+    records = []
+    for case, (result, spent), (start_index, _), built in zip(cases, kept, starts, first_built,
+                                                             strict=True):
+        share = (result.iterations + spent) / total_iterations
+        records.append(_record(grid, case, mode, result, share * wall_s, share * setup_s,
+                               built, start_index, len(cases), spent))
+        if result.converged and state is not None:
+            state = _retain(state, case, result)
+    return records, state
 
 
 def peak_memory_mb() -> float:

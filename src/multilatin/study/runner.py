@@ -335,12 +335,17 @@ def _progress_bar(total: int, done: int, mode: str, enabled: bool, name: str = "
 def _pending_batches(plan: StudyPlan, chain: tuple[Case, ...], mode: str, store: StudyStore,
                      size: int, start: str = "neighbour", backend: str = "numpy"
                      ) -> list[tuple[Case, ...]]:
-    """The batches of ``chain`` still to compute, finished cases left out."""
-    by_geometry = (False if start != "zero" or mode == "cold" else
-                   None if backend == "torch" else True)
-    batches = [tuple(c for c in batch if not store.finished(mode, c.number))
-               for batch in plan.batches(chain, size, by_geometry)]
-    return [batch for batch in batches if batch]
+    """The batches of ``chain`` still to compute, finished cases left out: grid lines (or
+    whole geometries from zero) on NumPy; on torch, which batches several geometries,
+    consecutive cases from zero, or the wavefront of lines across geometries."""
+    if mode != "cold" and backend == "torch":
+        batches = (plan.batches(chain, size, None) if start == "zero" else
+                   plan.wavefront(chain, size))
+    else:
+        batches = plan.batches(chain, size, start == "zero" and mode != "cold")
+    pending = [tuple(c for c in batch if not store.finished(mode, c.number))
+               for batch in batches]
+    return [batch for batch in pending if batch]
 
 
 def _run_serial(model: Model, grid: Grid, plan: StudyPlan, mode: str, options: LatinOptions,
