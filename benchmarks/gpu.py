@@ -7,16 +7,19 @@
 Every study runs with the study defaults (QoI stopping at 1e-3). Rows:
 
 - one b3 solve at (μ1, μ2) = (0.35, 0.25), NumPy and torch (operators built beforehand);
-- B1 13 × 13 frictions and B3 5 × 5 hole positions, each as
+- B1 13 × 13 frictions, B3 5 × 5 hole positions and B3 3 positions × 4 × 4 frictions,
+  each as
   - the project's CPU path: NumPy, multiresolution from the nearest neighbour,
     ``--cpu-workers`` Dask processes (2: the project's 2-core machines);
   - NumPy in this process and torch on ``--device`` with the same strategy — from the
     neighbour a grid line per batch (B1), and from zero in one wide batch (``--start
     zero``: all 169 frictions of B1; all 25 geometries of B3 on torch, which batches
-    geometries, one per batch on NumPy) — so that "vs NumPy" compares equal computations;
-- with ``--full``, the B3 21 125-case study on torch from zero, ``--full-batch`` cases per
-  batch (25 geometries × 169 frictions by default); the NumPy figure is docs/performance.md's
-  2-worker run (28 min; running it here would take as long).
+    geometries, one per batch on NumPy) — so that "vs NumPy" compares equal computations
+    (on the mixed B3 grid, torch's multiresolution is a wavefront across geometries and
+    NumPy's a line per batch: equal strategy, other batches);
+- with ``--full``, the B3 21 125-case study on torch, from zero and as a wavefront, in
+  batches of ``--full-batch`` cases (25 geometries × 169 frictions by default); the NumPy
+  figure is docs/performance.md's 2-worker run (28 min; running it here would take as long).
 
 Columns: wall time, cases/s, iterations in all, the peak memory (CUDA's allocator on a GPU;
 the process's peak RSS on the CPU), the largest relative R_stop difference from NumPy with
@@ -41,6 +44,7 @@ from multilatin.study.plan import clear_operator_cache, plan_study
 
 B1_GRID = ["mu1=0:0.6:13", "mu2=0:0.6:13"]
 B3_POSITIONS = ["xc=23:27:5", "yc=73:77:5", "rc=3"]
+B3_MIXED = ["xc=23:27:3", "mu1=0:0.6:4", "mu2=0:0.6:4"]
 B3_FULL = ["mu1=0:0.6:13", "mu2=0:0.6:13", "xc=23:27:5", "yc=73:77:5", "rc=1:5:5"]
 TIGHT = LatinOptions(tol=1e-9, max_iter=5000)
 
@@ -99,6 +103,8 @@ def main() -> None:
     parser.add_argument("--fuse", action="store_true",
                         help="torch rows with the compiled local stage (LatinOptions.fuse); "
                              "its compilation happens in the warm-up solves, not the rows")
+    parser.add_argument("--only", help="the study workloads whose name starts so "
+                                           "(e.g. 'B3 3'); the b3 solve always runs")
     parser.add_argument("--no-tight", action="store_true",
                         help="skip the tight reference solves (the last column)")
     args = parser.parse_args()
@@ -146,7 +152,12 @@ def main() -> None:
                                           ("zero, batch 169", {"batch": 169,
                                                                "start": "zero"})]),
             ("B3 5 × 5 positions", b3, B3_POSITIONS, [("zero, batch 25", {"batch": 25,
-                                                                           "start": "zero"})])]
+                                                                           "start": "zero"})]),
+            ("B3 3 positions × 4 × 4", b3, B3_MIXED,
+             [("neighbour (torch: wavefront), batch 1000", {"batch": 1000}),
+              ("zero, batch 1000", {"batch": 1000, "start": "zero"})])]
+    if args.only:
+        runs = [run for run in runs if run[0].startswith(args.only)]
     for workload, model, grid, variants in runs:
         cases = int(np.prod([len(v) for v in ml.Grid.parse(grid).values()]))
         tight = None if args.no_tight else tight_values(model, grid)
@@ -165,12 +176,14 @@ def main() -> None:
                 values)
 
     if args.full:
-        if args.device.startswith("cuda"):
-            torch.cuda.reset_peak_memory_stats()
-        wall, values, iterations = study(b3, B3_FULL, device_options, batch=args.full_batch,
-                                         start="zero")
-        row("B3 21 125 cases", f"torch {args.device}, zero, batch {args.full_batch}", wall,
-            values.size, iterations, peak_memory(torch, args.device), None, None, None)
+        for label, kwargs in (("zero", {"start": "zero"}), ("neighbour (wavefront)", {})):
+            if args.device.startswith("cuda"):
+                torch.cuda.reset_peak_memory_stats()
+            wall, values, iterations = study(b3, B3_FULL, device_options,
+                                             batch=args.full_batch, **kwargs)
+            row("B3 21 125 cases", f"torch {args.device}, {label}, batch {args.full_batch}",
+                wall, values.size, iterations, peak_memory(torch, args.device), None, None,
+                None)
 
 
 if __name__ == "__main__":
