@@ -38,6 +38,18 @@ def test_slide_reaches_the_closed_form_push_force(tmp_path: Path) -> None:
     assert (tmp_path / "slide.png").exists()
 
 
+def test_punch_slides_at_the_closed_form_and_matches_the_reference(tmp_path: Path) -> None:
+    module = _example("punch_position")
+    pushes = module.run(tmp_path, positions=(6.0, 30.0), checked=6.0)
+    sliding = module.MU * module.PRESSURE * module.WIDTH
+    for position in ("6", "30"):
+        assert pushes[position][-1] == pytest.approx(sliding, rel=1e-3)
+    for latin, reference in zip(pushes["6"], pushes["reference"], strict=True):
+        assert latin == pytest.approx(reference, rel=1e-3)
+    assert pushes["6"][1] > 2 * pushes["30"][1]  # the plate's end makes the stick phase stiffer
+    assert (tmp_path / "punch.png").exists()
+
+
 def test_b1_friction_line_agrees_cold_warm_and_with_the_newton_reference(tmp_path: Path) -> None:
     found = _example("b1_friction_line").run(tmp_path, count=5)
     for warm, cold in zip(found["R_stop_multiresolution"], found["R_stop_cold"], strict=True):
