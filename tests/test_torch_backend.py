@@ -88,15 +88,11 @@ def test_a_small_study_equals_the_numpy_one(tmp_path: object) -> None:
     """The same strategy on both backends (every case from zero in one batch: on torch,
     multiresolution solves a grid's first lines from zero instead of case after case, see
     the wavefront test): the same iterations and answers."""
-    from dataclasses import replace
 
     model = ml.load_model("b1")
     grid = ml.Grid({"mu1": [0.1, 0.3], "mu2": [0.0, 0.2]})
     options = LatinOptions(tol=1e-8)
-    reference = ml.run_study(model, grid, options=options, progress=False, batch=4,
-                             start="zero")
-    got = ml.run_study(model, grid, options=replace(options, backend="torch"),
-                       progress=False, batch=4, start="zero")
+    reference, got = _on_both_backends(model, grid, options, batch=4, start="zero")
     ref = reference.dataset["R_stop"].values
     np.testing.assert_allclose(got.dataset["R_stop"].values, ref, rtol=1e-9)
     iterations = {r["number"]: r["iterations"] for r in reference.records}
@@ -136,15 +132,11 @@ def test_several_geometries_in_one_batch_give_each_geometrys_answers() -> None:
 
 def test_a_study_from_zero_batches_geometries_on_torch(tmp_path: object) -> None:
     """``start="zero"``: NumPy batches each geometry, torch all of them; same answers."""
-    from dataclasses import replace
 
     model = ml.load_model("b3")
     grid = ml.Grid({"xc": [23.0, 26.0], "mu1": [0.1, 0.3]})
     options = LatinOptions(tol=1e-7)
-    reference = ml.run_study(model, grid, options=options, progress=False, batch=8,
-                             start="zero")
-    got = ml.run_study(model, grid, options=replace(options, backend="torch"),
-                       progress=False, batch=8, start="zero")
+    reference, got = _on_both_backends(model, grid, options, batch=8, start="zero")
     assert {r["batch"] for r in reference.records} == {2}
     assert {r["batch"] for r in got.records} == {4}
     assert {r["start"] for r in got.records} == {"zero"}
@@ -207,15 +199,11 @@ def test_multiresolution_on_torch_runs_a_wavefront_across_geometries(tmp_path: P
     """``start="neighbour"`` on torch: the k-th line of every geometry in one batch, each
     case warm-started from its own geometry's previous line; the answers those of the NumPy
     study (its lines one geometry at a time) to the tolerance."""
-    from dataclasses import replace
 
     model = ml.load_model("b3")
     grid = ml.Grid({"xc": [23.0, 26.0], "mu1": [0.1, 0.3], "mu2": [0.0, 0.2]})
     options = LatinOptions()  # η < 3e-6: R_stop within 0.1 % (docs/tolerance.md)
-    reference = ml.run_study(model, grid, options=options, progress=False,
-                             out=tmp_path / "numpy")
-    got = ml.run_study(model, grid, options=replace(options, backend="torch"),
-                       progress=False, out=tmp_path / "torch")
+    reference, got = _on_both_backends(model, grid, options)
     assert {r["batch"] for r in got.records} == {4}  # 2 geometries × a line of 2
     for record in got.records:  # the second batch from the first, one grid step away
         if not record["start"].startswith("zero"):
@@ -226,3 +214,14 @@ def test_multiresolution_on_torch_runs_a_wavefront_across_geometries(tmp_path: P
     assert sum(r["start"] == "zero" for r in got.records) == 4
     np.testing.assert_allclose(got.dataset["R_stop"].values,
                                reference.dataset["R_stop"].values, rtol=2e-3)
+
+
+def _on_both_backends(model: ml.Model, grid: ml.Grid, options: LatinOptions, **kwargs: Any
+                      ) -> tuple[ml.StudyResult, ml.StudyResult]:
+    """The same study on the NumPy and the torch backend (each in a folder of its own)."""
+    from dataclasses import replace
+
+    on_numpy, on_torch = (ml.run_study(model, grid, options=replace(options, backend=backend),
+                                       progress=False, **kwargs)
+                          for backend in ("numpy", "torch"))
+    return on_numpy, on_torch
