@@ -148,9 +148,8 @@ def test_import_multilatin_loads_no_solver_and_no_heavy_library() -> None:
             "print(sorted(m for m in sys.modules if m.split('.')[0] in "
             "('numba', 'xarray', 'dask', 'matplotlib', 'scipy', 'torch') "
             "or m.startswith('multilatin.')))")
-    out = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True,
-                         check=True).stdout
-    assert out.strip() == "[]", out
+    out = _python(code)
+    assert out == "[]", out
     assert multilatin.LatinOptions().kappa > 0  # the lazy names resolve
 
 
@@ -169,14 +168,18 @@ def test_the_command_line_loads_no_solver_and_no_heavy_library_before_a_command_
             "'torch'}), "
             "sorted(m for m in sys.modules if m.startswith(('multilatin.latin.solver', "
             "'multilatin.latin.kernels', 'multilatin.reference', 'multilatin.study'))))")
-    out = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True,
-                         check=True).stdout
-    assert out.strip() == "[] []", out
+    out = _python(code)
+    assert out == "[] []", out
 
 
 def test_the_numpy_backend_never_loads_pytorch() -> None:
     code = ("import sys, multilatin as ml; ml.load_model('b0').solve(); "
             "print('torch' in sys.modules, 'multilatin.latin.torch_engine' in sys.modules)")
-    out = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True,
-                         check=True).stdout
-    assert out.strip() == "False False", out
+    out = _python(code)
+    assert out == "False False", out
+
+
+def _python(code: str) -> str:
+    """What ``code`` prints in a fresh interpreter (nothing imported yet), stripped."""
+    return subprocess.run([sys.executable, "-c", code], capture_output=True, text=True,
+                          check=True).stdout.strip()

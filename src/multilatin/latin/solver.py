@@ -415,8 +415,7 @@ def _engine(ops: LatinOperators, local: LocalStage, options: LatinOptions,
 
         return TorchFields(geometries[0], geometries[1], local, options, w_hat, f_hat,
                            macro_data, functionals)
-    if len(geometries[0]) > 1:
-        raise ModelError("the numpy backend solves one geometry per batch")
+    assert len(geometries[0]) == 1, "solve_latin_batch splits NumPy batches by geometry"
     return NumpyFields(ops, local, options, w_hat, f_hat, macro_data, functionals)
 
 

@@ -101,18 +101,21 @@ class TorchFields:
         self.n_steps = w_hat.shape[1]
         self.rows = self._rows()
         self.n_qoi = len(functionals[0].names) if functionals else 0
+        #: per field (W, F, F̂): the columns any case's QoIs read, and each active case's
+        #: coefficients on them (n_active, n_columns, n_qoi)
         self.qoi_parts: list[tuple[Tensor, Tensor]] = []
         if functionals:
             distinct = list({id(f): f for f in functionals}.values())
             which = {id(f): i for i, f in enumerate(distinct)}
-            self.functional_of = self._index(np.array([which[id(f)] for f in functionals]))
-            for part in range(3):  # on W, F, F̂: the union of the columns read
+            functional_of = self._index(np.array([which[id(f)] for f in functionals]))
+            for part in range(3):  # the union of the columns read
                 used = np.unique(np.concatenate([f.parts[part][0] for f in distinct]))
                 coefficients = np.zeros((len(distinct), used.size, self.n_qoi))
                 for i, f in enumerate(distinct):
                     own, values = f.parts[part]
                     coefficients[i, np.searchsorted(used, own)] = values
-                self.qoi_parts.append((self._index(used), self._tensor(coefficients)))
+                self.qoi_parts.append((self._index(used),
+                                       self._tensor(coefficients)[functional_of]))
         k = operators[0].search_direction
         weights = operators[0].points.weights[:, None]
         self.displacement_weight = self._tensor((weights * k).ravel())
@@ -161,9 +164,9 @@ class TorchFields:
                                        self.rows)
         tm = self._clock()
         if self.macro_data is not None:
-            data = self.macro_data[self._index(self.active)]
-            w_new, f_new = ops.macro_correction(w_new, f_new,
-                                                data.reshape(-1, data.shape[2]), self.rows)
+            w_new, f_new = ops.macro_correction(
+                w_new, f_new, self.macro_data.reshape(-1, self.macro_data.shape[2]),
+                self.rows)
         self.t_macro += self._clock() - tm
         w_new, f_new = w_new.reshape(shape), f_new.reshape(shape)
         if self.w is None or self.f is None or (self.options.relaxation == 1.0
@@ -171,8 +174,9 @@ class TorchFields:
             self.w, self.f = w_new, f_new
         elif self.mixer is not None:
             self.w, self.f = self.mixer(self.w, self.f, w_new, f_new)
-        else:
-            omega = self._tensor(relaxation)[:, None, None, None]
+        else:  # one ω for the batch unless some case's was lowered (no host copy then)
+            omega: Any = (float(relaxation[0]) if np.all(relaxation == relaxation[0])
+                          else self._tensor(relaxation)[:, None, None, None])
             self.w = omega * w_new + (1.0 - omega) * self.w
             self.f = omega * f_new + (1.0 - omega) * self.f
         self.t_linear += self._clock() - ta
@@ -185,14 +189,13 @@ class TorchFields:
     def qoi_values(self) -> FloatArray:
         assert self.w is not None and self.f is not None
         n_cases, n_steps = self.w.shape[:2]
-        functional = self.functional_of[self._index(self.active)]
         total = self.torch.zeros((n_cases, n_steps, self.n_qoi), dtype=self.torch.float64,
                                  device=self.device)
         for (used, coefficients), values in zip(self.qoi_parts, (self.w, self.f, self.f_hat),
                                                 strict=True):
             if used.numel():  # (cases, steps, columns read) @ each case's coefficients
                 total = total + self.torch.bmm(values.reshape(n_cases, n_steps, -1)[:, :, used],
-                                               coefficients[functional])
+                                               coefficients)
         return np.asarray(total.transpose(1, 2).cpu().numpy(), dtype=np.float64)
 
     def indicator(self) -> tuple[FloatArray, FloatArray]:
@@ -225,6 +228,9 @@ class TorchFields:
         self.active = self.active[cases]
         self.w, self.f = self.w[chosen], self.f[chosen]
         self.w_hat, self.f_hat = self.w_hat[chosen], self.f_hat[chosen]
+        if self.macro_data is not None:
+            self.macro_data = self.macro_data[chosen]
+        self.qoi_parts = [(used, coefficients[chosen]) for used, coefficients in self.qoi_parts]
         self.local.subset(cases)
         self.rows = self._rows()
         if self.mixer is not None:

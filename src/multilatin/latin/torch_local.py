@@ -73,16 +73,19 @@ class TorchLocalStage:
         self.held_by_boundary = self.torch.as_tensor(by_boundary, device=device)
         self.held_stop = index(np.maximum(local.held_stop[h], 0))
         self.held_boundary = index(np.maximum(local.held_boundary[h], 0))
+        self.k_held = (tensor(k[h, local.held_component]), tensor(kb[h, local.held_component]))
         self.mu_contact, self.gap_contact = tensor(local.mu_contact), tensor(local.gap_contact)
         self.mu_stop, self.gap_stop = tensor(local.mu_stop), tensor(local.gap_stop)
         self.prescribed = tensor(local.prescribed)
         self.mu_corner = self.mu_contact[:, self.corner]
+        #: per case, step and held pair: its holder's prescribed tangential value
+        self.held_prescribed = self.prescribed[:, :, self.held_boundary, self.held[1]]
 
     def subset(self, cases: IntArray) -> None:
         """Keep the cases at positions ``cases`` (in place)."""
         chosen = self._index(cases)
         for name in ("mu_contact", "gap_contact", "mu_stop", "gap_stop", "prescribed",
-                     "mu_corner"):
+                     "mu_corner", "held_prescribed"):
             setattr(self, name, getattr(self, name)[chosen])
 
     def __call__(self, displacement: Tensor, force: Tensor) -> tuple[Tensor, Tensor]:
@@ -169,8 +172,8 @@ class TorchLocalStage:
         if self.n_held:  # the held components, all steps
             held_force_a, held_force_b = force_a[:, :, h, d], force_b[:, :, h, d]
             held_shift_a, held_shift_b = shift_a[:, :, h, d], shift_b[:, :, h, d]
-            held_data = self.prescribed[:, :, self.held_boundary, d]
-            k_h, kb_h = k[h, d], kb[h, d]
+            held_data = self.held_prescribed
+            k_h, kb_h = self.k_held
         prev_a = torch.zeros((n_cases, self.n_pairs, 2), **options)
         prev_b = torch.zeros_like(prev_a)
         prev_stop = torch.zeros((n_cases, self.n_stops, 2), **options)

@@ -59,22 +59,23 @@ class StudyPlan:
     geometric: tuple[str, ...]  # grid parameters that change an operator (outer loops)
     inner: int | None = None  # the innermost traversal dimension, when it changes no operator
 
-    def batches(self, chain: tuple[Case, ...], size: int, by_geometry: bool | None = False
+    def batches(self, chain: tuple[Case, ...], size: int, by: str = "line"
                 ) -> list[tuple[Case, ...]]:
-        """Consecutive cases of ``chain`` along the innermost non-geometric dimension (a
-        line of the grid, one geometry), in pieces of at most ``size``: the cases a batched
-        multiresolution step solves together. ``by_geometry``: every case of a geometry
-        (the cases a study started from zero solves together on the NumPy backend,
-        ``START_FROM``); ``by_geometry=None``: consecutive cases whatever their geometry
-        (the same on the torch backend, which batches several geometries)."""
+        """Consecutive cases of ``chain`` in pieces of at most ``size`` that keep together
+        (``by``): ``"line"``, a line of the grid along the innermost non-geometric
+        dimension, one geometry (the cases a batched multiresolution step solves together);
+        ``"geometry"``, every case of a geometry (a study from zero on the NumPy backend,
+        ``START_FROM``); ``"any"``, whatever their geometry (the same on the torch backend,
+        which batches several geometries)."""
+        if by not in ("line", "geometry", "any"):
+            raise ValueError(f"by: expected 'line', 'geometry' or 'any', got {by!r}")
         out: list[list[Case]] = []
         previous_line = None
-        names = list(self.grid)
-        geometric = [d for d, name in enumerate(names) if name in self.geometric]
+        geometric = [d for d, name in enumerate(self.grid) if name in self.geometric]
         for case in chain:
-            if by_geometry is None:
+            if by == "any":
                 line: tuple[int, ...] | None = ()
-            elif by_geometry:
+            elif by == "geometry":
                 line = tuple(case.index[d] for d in geometric)
             else:
                 line = (None if self.inner is None else

@@ -339,10 +339,11 @@ def _pending_batches(plan: StudyPlan, chain: tuple[Case, ...], mode: str, store:
     whole geometries from zero) on NumPy; on torch, which batches several geometries,
     consecutive cases from zero, or the wavefront of lines across geometries."""
     if mode != "cold" and backend == "torch":
-        batches = (plan.batches(chain, size, None) if start == "zero" else
+        batches = (plan.batches(chain, size, "any") if start == "zero" else
                    plan.wavefront(chain, size))
     else:
-        batches = plan.batches(chain, size, start == "zero" and mode != "cold")
+        batches = plan.batches(chain, size,
+                               "geometry" if start == "zero" and mode != "cold" else "line")
     pending = [tuple(c for c in batch if not store.finished(mode, c.number))
                for batch in batches]
     return [batch for batch in pending if batch]
