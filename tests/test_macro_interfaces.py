@@ -122,9 +122,8 @@ def test_cantilever_with_a_non_matching_substructure(elements):
     assert result.qoi["v_tip"] == pytest.approx(matching.qoi["v_tip"], rel=2e-3)
 
 
-def test_non_matching_meshes_need_a_macro_interface():
-    with pytest.raises(ModelError, match="meshes do not match.*type = 'macro'"):
-        bar(7, 5, interface="")
+def test_non_matching_perfect_interfaces_are_mortar_ones_and_bad_overrides_are_refused():
+    assert [itf.kind for itf in bar(7, 5, interface="").interfaces[:2]] == ["perfect"] * 2
     with pytest.raises(ModelError, match=r"mesh\[0\].substructure"):
         ModelSpec.from_string(BAR.replace("[1, 0]", "[3, 0]").replace("NX", "4")
                               .replace("NY", "4").replace("INTERFACE", ""))

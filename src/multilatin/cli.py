@@ -157,6 +157,11 @@ def build_parser() -> argparse.ArgumentParser:
                        help="multiresolution: solve up to N cases of a grid line together, "
                             "each from its nearest converged neighbour (1: one by one; "
                             "default: %(default)s)")
+    for p in (solve, ref, study):
+        p.add_argument("--mortar", action="store_true",
+                       help="join the non-matching meshes of interfaces declared type = "
+                       "'macro' by mortar projection (micro forces too) instead of macro "
+                       "quantities only (paper eq. [20])")
     study.add_argument("--no-progress", action="store_true", help="no progress bar")
     _add_memory_argument(study)
     _add_latin_arguments(study, qoi_rtol=STUDY_QOI_RTOL)
@@ -298,6 +303,8 @@ def main(argv: list[str] | None = None) -> int:
                 print(f"{name}: {load_model(name).title}")
             return 0
         model = load_model(args.model)
+        if getattr(args, "mortar", False):
+            model = model.with_mortar()
         if args.command == "study":
             return _study(model, args, argv)
         if args.command == "show":

@@ -6,6 +6,7 @@ imported when first used); ``study`` and ``cli`` build on it.
 
 from __future__ import annotations
 
+import copy
 import dataclasses
 from collections.abc import Mapping
 from importlib import resources
@@ -58,6 +59,24 @@ class Model:
         params = Parameters({name: dataclasses.replace(p, default=mu[name])
                              for name, p in self.parameters.items()})
         return Model(dataclasses.replace(self.spec, parameters=params))
+
+    def with_mortar(self) -> Model:
+        """The same model with every interface declared ``type = "macro"`` (non-matching
+        meshes joined by macro quantities only, paper eq. [20]) made a perfect interface
+        joined by mortar projection, which transmits the micro forces too
+        (``decomposition.mortar``). A discretisation choice: the parameters are unchanged."""
+        data = copy.deepcopy(dict(self.spec.data))
+        changed = 0
+        for table in data.get("interfaces", []):
+            if isinstance(table, dict) and table.get("type") == "macro":
+                table["type"] = "perfect"
+                changed += 1
+        if not changed:
+            raise ModelError(f"model {self.name!r}: no interface of type 'macro' to make a "
+                             "mortar interface")
+        data["title"] = f"{self.title} (mortar interfaces)"
+        return Model(ModelSpec.from_dict(data, name=f"{self.name}-mortar",
+                                         source=self.spec.source))
 
     def assemble(self, mu: Mu | Mapping[str, float] | None = None, *, refine: int = 1,
                  split: Split | None = None) -> Assembly:

@@ -33,9 +33,11 @@ import numpy as np
 import numpy.typing as npt
 import scipy.sparse as sp
 
+from ..errors import ModelError
 from ..fem.elasticity import FloatArray, IntArray
 from ..fem.mesh import normal_axis
 from .assembly import DISPLACEMENT, FORCE, Assembly, Interface
+from .mortar import mortar_coupling
 
 INTERFACE_ELEMENTS = ("nodal", "edges", "edge-pairs")
 
@@ -88,6 +90,28 @@ def discretise_side(node_coords: FloatArray, nodes: IntArray, kind: str,
     extents = np.column_stack([along[first], along[last]])
     return SideDiscretisation(nodes, trace, np.asarray(length * thickness, dtype=np.float64),
                               np.asarray(centres, dtype=np.float64), extents)
+
+
+def _discretise_interface(assembly: Assembly, itf: Interface, kind: str
+                          ) -> list[SideDiscretisation]:
+    """Interface elements on each side of ``itf``. Between non-matching meshes (mortar,
+    ``decomposition.mortar``) both sides carry the slave side's points: the master's trace
+    there is the mortar projection of its own, with the slave's weights, so the local stage
+    acts on pairs of points at the same places as on a matching interface."""
+    subs = [assembly.substructures[ref.substructure] for ref in itf.sides]
+    coupling = mortar_coupling(assembly, itf)
+    if coupling is None:
+        return [discretise_side(sub.mesh.nodes, ref.nodes(sub.mesh), kind,
+                                sub.material.thickness)
+                for ref, sub in zip(itf.sides, subs, strict=True)]
+    if kind != "nodal":
+        raise ModelError(f"interface {itf.name!r} joins non-matching meshes (mortar), which "
+                         f"needs interface_elements = 'nodal', got {kind!r}")
+    slave_sub = subs[coupling.slave]
+    slave = discretise_side(slave_sub.mesh.nodes, coupling.slave_nodes, "nodal",
+                            slave_sub.material.thickness)
+    master = dataclasses.replace(slave, nodes=coupling.master_nodes, trace=coupling.projection)
+    return [slave, master] if coupling.slave == 0 else [master, slave]
 
 
 @dataclass(frozen=True)
@@ -146,11 +170,8 @@ def build_points(assembly: Assembly, kind: str = "nodal", *,
         [] for _ in assembly.substructures
     ]
     for i, itf in enumerate(assembly.interfaces):
-        for side_index, ref in enumerate(itf.sides):
-            sub = assembly.substructures[ref.substructure]
-            disc = discretise_side(sub.mesh.nodes, ref.nodes(sub.mesh), kind,
-                                   sub.material.thickness)
-            per_sub[ref.substructure].append((i, side_index, disc))
+        for side_index, disc in enumerate(_discretise_interface(assembly, itf, kind)):
+            per_sub[itf.sides[side_index].substructure].append((i, side_index, disc))
 
     substructure, interface, coords, weights, traces = [], [], [], [], []
     normals, extents = [], []

@@ -34,6 +34,7 @@ import scipy.sparse.linalg as spla
 
 from ..decomposition.assembly import Assembly
 from ..decomposition.interfaces import discretise_side
+from ..decomposition.mortar import mortar_coupling
 from ..errors import NotConvergedError
 from ..fem.elasticity import FloatArray, IntArray
 
@@ -64,29 +65,43 @@ class ContactSet:
         return int(self.first.size)
 
 
-def contact_set(assembly: Assembly, maps: list[IntArray]) -> ContactSet:
+def contact_set(assembly: Assembly, maps: list[IntArray],
+                mortar_points: dict[int, tuple[IntArray, IntArray]] | None = None
+                ) -> ContactSet:
     """Contact pairs; a node pair met on two substructure sides (a cross point) is one pair
-    with the weights added."""
+    with the weights added. ``mortar_points``: for a contact interface between
+    non-matching meshes, the global nodes of its pairs (``monolithic.merge_nodes``: the
+    slave's nodes and virtual nodes where the master's projected trace is)."""
     records: dict[tuple[int, int], list[Any]] = {}
-    for itf in assembly.interfaces:
+    for index, itf in enumerate(assembly.interfaces):
         if itf.contact is None:
             continue
         ref = itf.sides[0]
         sub = assembly.substructures[ref.substructure]
-        nodes = ref.nodes(sub.mesh)
-        cells = discretise_side(sub.mesh.nodes, nodes, "nodal", sub.material.thickness)
+        coupling = mortar_coupling(assembly, itf) if index in (mortar_points or {}) else None
+        if coupling is None:
+            nodes = ref.nodes(sub.mesh)
+            cells = discretise_side(sub.mesh.nodes, nodes, "nodal", sub.material.thickness)
+        else:  # the slave side's points
+            slave_sub = assembly.substructures[itf.sides[coupling.slave].substructure]
+            cells = discretise_side(slave_sub.mesh.nodes, coupling.slave_nodes, "nodal",
+                                    slave_sub.material.thickness)
+            nodes = coupling.slave_nodes
         weight = cells.weights
         lo, hi = cells.extents[:, 0], cells.extents[:, 1]
-        first = maps[ref.substructure][nodes]
-        if len(itf.sides) == 2:
+        bodies = frozenset(assembly.substructures[r.substructure].body for r in itf.sides)
+        boundary = None
+        if coupling is not None:
+            assert mortar_points is not None
+            first, second = mortar_points[index]
+        elif len(itf.sides) == 2:
+            first = maps[ref.substructure][nodes]
             other = itf.sides[1]
             second = maps[other.substructure][
                 other.nodes(assembly.substructures[other.substructure].mesh)]
-            bodies = frozenset((sub.body, assembly.substructures[other.substructure].body))
-            boundary = None
         else:
+            first = maps[ref.substructure][nodes]
             second = np.full(nodes.size, -1)
-            bodies = frozenset((sub.body,))
             assert itf.condition is not None
             boundary = itf.condition.name
         normal = sub.mesh.outward_normal(ref.side)
@@ -170,11 +185,18 @@ def solve_contact_history(
     young: float,
     tol: float = 1e-10,
     max_newton: int = 60,
+    constraint: sp.csr_matrix | None = None,
 ) -> tuple[FloatArray, FloatArray, FloatArray, int]:
     """Displacements (n_dofs, n_steps), contact nodal forces, multipliers (n_steps, pairs, 2)
-    and the total number of Newton iterations."""
+    and the total number of Newton iterations. ``constraint``: C of the dofs constrained by
+    non-matching interfaces (``monolithic.merge_nodes``): the unknowns are then u with
+    every dof = C u, ``stiffness`` and ``load`` already reduced (Cᵀ K C, Cᵀ f)."""
     n_dofs, n_steps = load.shape
     jump = _jump_operator(contacts, n_dofs)
+    movable = free.copy()  # for the held-corner rule: constrained dofs are not held
+    if constraint is not None:
+        movable |= np.asarray(abs(constraint).sum(axis=0)).ravel() == 0.0
+        jump = (jump @ constraint).tocsr()
     jump_free = jump[:, free].tocsr()
     k_ff = stiffness[free][:, free].tocsr()
     k_fc = stiffness[free][:, ~free].tocsr()
@@ -196,7 +218,7 @@ def solve_contact_history(
     lam = np.zeros(2 * n_pairs)
     u_free = np.zeros(n_free)
     jump_prev = np.zeros(n_pairs)  # tangential jump t·[u] at the previous step
-    corner, corner_stops = _held_corners(contacts, free)
+    corner, corner_stops = _held_corners(contacts, movable)
     lam_t_prev = np.zeros(n_pairs)  # tangential multipliers at the previous step
     total_iterations = 0
 

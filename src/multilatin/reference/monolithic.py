@@ -2,9 +2,10 @@
 decomposition.
 
 It shares only the Q4 element kernel with the LATIN solver. Nodes facing each other across
-perfect interfaces are merged (one mesh per body); prescribed displacements are eliminated;
-uniform tractions give consistent nodal loads. Without contact, one sparse solve treats all
-load steps as columns. With contact, the load history is followed step by step by a
+perfect interfaces are merged (one mesh per body); across non-matching ones the mortar
+constraint u_slave = P u_master is eliminated (``merge_nodes``); so are prescribed
+displacements; uniform tractions give consistent nodal loads. Without contact, one sparse
+solve treats all load steps as columns. With contact, the load history is followed step by step by a
 semi-smooth Newton method on the Alart–Curnier augmented Lagrangian, node to node
 (``multilatin.contact_newton``).
 """
@@ -12,14 +13,17 @@ semi-smooth Newton method on the Alart–Curnier augmented Lagrangian, node to n
 from __future__ import annotations
 
 import time
+from dataclasses import dataclass
 
 import numpy as np
+import numpy.typing as npt
 import scipy.sparse as sp
 import scipy.sparse.csgraph as csgraph
 import scipy.sparse.linalg as spla
 
 from ..decomposition.assembly import DISPLACEMENT, Assembly
 from ..decomposition.interfaces import discretise_side
+from ..decomposition.mortar import mortar_coupling
 from ..decomposition.qoi import ContactPressures, evaluate_qois
 from ..decomposition.result import SolveResult
 from ..errors import ModelError, NotConvergedError
@@ -27,20 +31,60 @@ from ..fem.elasticity import FloatArray, IntArray
 from .contact_newton import contact_set, solve_contact_history, tangents
 
 
-def merge_nodes(assembly: Assembly) -> tuple[int, list[IntArray]]:
-    """Number of global nodes and, per substructure, the global index of each local node;
-    nodes facing each other across perfect interfaces are the same global node."""
+@dataclass(frozen=True)
+class GlobalNodes:
+    """The merged mesh's node numbering.
+
+    Nodes facing each other across matching perfect interfaces are one global node. Across
+    non-matching ones (mortar, ``decomposition.mortar``) the slave's nodes that do not
+    coincide with a master node are *constrained*: u = C u with their rows of C the
+    projection P of the master's nodes. A non-matching contact interface gets one virtual
+    node per slave node on the master side, constrained the same way, so that contact stays
+    node to node (``contact_points``)."""
+
+    count: int  # global nodes, virtual ones included
+    maps: list[IntArray]  # per substructure: the global node of each local node
+    constraint: sp.csr_matrix  # C (2 count × 2 count), zero columns at constrained dofs
+    constrained: npt.NDArray[np.bool_]  # per dof
+    # non-matching contact interface → (global nodes of side 0's points, of side 1's points)
+    contact_points: dict[int, tuple[IntArray, IntArray]]
+
+
+def merge_nodes(assembly: Assembly) -> GlobalNodes:
+    """The global numbering of ``assembly``'s nodes and the mortar constraints."""
     offsets = np.cumsum([0] + [s.mesh.n_nodes for s in assembly.substructures])
+    n = int(offsets[-1])
     rows, cols = [], []
-    for itf in assembly.interfaces:
-        if itf.kind != "perfect":
+    projected: list[tuple[IntArray, IntArray, sp.csr_matrix]] = []  # (nodes, masters, P)
+    virtual: dict[int, tuple[IntArray, IntArray]] = {}  # contact → (slave, virtual) nodes
+    n_virtual = 0
+    for index, itf in enumerate(assembly.interfaces):
+        if itf.kind not in ("perfect", "contact") or len(itf.sides) != 2:
             continue
         a, b = itf.sides
-        mesh_a = assembly.substructures[a.substructure].mesh
-        mesh_b = assembly.substructures[b.substructure].mesh
-        rows.append(offsets[a.substructure] + a.nodes(mesh_a))
-        cols.append(offsets[b.substructure] + b.nodes(mesh_b))
-    n = int(offsets[-1])
+        coupling = mortar_coupling(assembly, itf)
+        if coupling is None:
+            if itf.kind == "perfect":
+                rows.append(offsets[a.substructure] + a.nodes(
+                    assembly.substructures[a.substructure].mesh))
+                cols.append(offsets[b.substructure] + b.nodes(
+                    assembly.substructures[b.substructure].mesh))
+            continue
+        slave = offsets[itf.sides[coupling.slave].substructure] + coupling.slave_nodes
+        master = offsets[itf.sides[coupling.master].substructure] + coupling.master_nodes
+        projection = coupling.projection
+        if itf.kind == "contact":
+            points = n + n_virtual + np.arange(slave.size)
+            n_virtual += slave.size
+            projected.append((points, master, projection))
+            virtual[index] = (slave, points) if coupling.slave == 0 else (points, slave)
+            continue
+        dense = projection.toarray()
+        unit = np.isclose(dense.max(axis=1), 1.0, rtol=0.0, atol=1e-12)
+        rows.append(slave[unit])
+        cols.append(master[np.argmax(dense[unit], axis=1)])
+        if not unit.all():
+            projected.append((slave[~unit], master, projection[np.flatnonzero(~unit)]))
     if rows:
         r, c = np.concatenate(rows), np.concatenate(cols)
         graph = sp.csr_matrix((np.ones(r.size), (r, c)), shape=(n, n))
@@ -48,19 +92,47 @@ def merge_nodes(assembly: Assembly) -> tuple[int, list[IntArray]]:
     else:
         labels = np.arange(n)
     labels = labels.astype(np.int64)
-    return int(labels.max()) + 1, [labels[offsets[s]:offsets[s + 1]]
-                                   for s in range(len(assembly.substructures))]
+    n_real = int(labels.max()) + 1 if n else 0
+    labels = np.concatenate([labels, n_real + np.arange(n_virtual)])
+    count = n_real + n_virtual
+    # C on nodes: identity, but for the constrained ones, whose rows are P on their masters
+    keep = np.ones(count, dtype=bool)
+    c_rows, c_cols, c_vals = [], [], []
+    for nodes, masters, projection in projected:
+        coo = projection.tocoo()
+        c_rows.append(labels[nodes][coo.row])
+        c_cols.append(labels[masters][coo.col])
+        c_vals.append(coo.data)
+        keep[labels[nodes]] = False
+    ids = np.flatnonzero(keep)
+    node_map = sp.csr_matrix(
+        (np.concatenate([np.ones(ids.size)] + c_vals),
+         (np.concatenate([ids] + c_rows), np.concatenate([ids] + c_cols))),
+        shape=(count, count))
+    for _ in range(8):  # a master constrained in turn (chained non-matching interfaces)
+        if not np.asarray(abs(node_map[:, ~keep]).sum()).item():
+            break
+        node_map = (node_map @ node_map).tocsr()
+    else:  # pragma: no cover - needs a cycle of non-matching interfaces
+        raise ModelError("mortar interfaces: the constraints between non-matching meshes form "
+                         "a cycle")
+    constraint = sp.kron(node_map, sp.identity(2), format="csr")
+    return GlobalNodes(count, [labels[offsets[s]:offsets[s + 1]]
+                               for s in range(len(assembly.substructures))],
+                       constraint, np.repeat(~keep, 2), virtual)
 
 
 def solve_monolithic(assembly: Assembly) -> SolveResult:
     """The reference solution of ``assembly``."""
     t0 = time.perf_counter()
     if any(itf.kind == "macro" for itf in assembly.interfaces):
-        raise ModelError("the monolithic reference needs matching meshes, and this assembly "
-                         "has macro-only interfaces; use the conforming reference "
-                         "(multilatin reference --reference-mesh conforming)")
-    n_nodes, maps = merge_nodes(assembly)
-    n_dofs = 2 * n_nodes
+        raise ModelError("the monolithic reference has no counterpart of macro-only "
+                         "interfaces (paper eq. [20]); use the conforming reference "
+                         "(multilatin reference --reference-mesh conforming) or join them by "
+                         "mortar (--mortar, Model.with_mortar)")
+    nodes = merge_nodes(assembly)
+    maps = nodes.maps
+    n_dofs = 2 * nodes.count
     n_steps = assembly.n_steps
     rows, cols, vals = [], [], []
     for sub, gmap in zip(assembly.substructures, maps, strict=True):
@@ -71,6 +143,9 @@ def solve_monolithic(assembly: Assembly) -> SolveResult:
         vals.append(k.data)
     stiffness = sp.csr_matrix((np.concatenate(vals), (np.concatenate(rows), np.concatenate(cols))),
                               shape=(n_dofs, n_dofs))
+    # the unknowns: every dof but the constrained ones (u = C u, non-matching meshes)
+    constraint = nodes.constraint
+    stiffness = (constraint.T @ stiffness @ constraint).tocsr()
 
     load = np.zeros((n_dofs, n_steps))
     fixed_value = np.full((n_dofs, n_steps), np.nan)
@@ -99,11 +174,12 @@ def solve_monolithic(assembly: Assembly) -> SolveResult:
                 np.add.at(load, dofs, contribution)
                 np.add.at(mine, dofs, contribution)
 
-    fixed = ~np.isnan(fixed_value[:, 0])
-    free = ~fixed
+    fixed = ~np.isnan(fixed_value[:, 0]) & ~nodes.constrained
+    free = ~fixed & ~nodes.constrained
+    load = constraint.T @ load
     u = np.zeros((n_dofs, n_steps))
     u[fixed] = fixed_value[fixed]
-    contacts = contact_set(assembly, maps)
+    contacts = contact_set(assembly, maps, nodes.contact_points)
     contact_force = np.zeros((n_dofs, n_steps))
     iterations = 1
     if contacts.size == 0:
@@ -118,12 +194,13 @@ def solve_monolithic(assembly: Assembly) -> SolveResult:
     else:
         young = max(s.material.young * s.material.thickness for s in assembly.substructures)
         u, contact_force, multipliers, iterations = solve_contact_history(
-            stiffness, load, u, free, contacts, young)
+            stiffness, load, u, free, contacts, young, constraint=constraint)
 
     if not (np.all(np.isfinite(u)) and np.all(np.isfinite(contact_force))):
         raise NotConvergedError("reference: non-finite displacements or forces (overflow or "
                                 "NaN): the data's scale is beyond double precision", None)
     reaction_field = stiffness @ u - load - contact_force  # support reactions at fixed dofs
+    u = constraint @ u  # every dof, constrained ones included
     reactions: dict[str, FloatArray] = {}
     for name, mine in own_load.items():
         total = mine.T.reshape(n_steps, -1, 2).sum(axis=1)

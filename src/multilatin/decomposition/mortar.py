@@ -1,0 +1,130 @@
+"""Interfaces between non-matching meshes: the mortar coupling (dual Lagrange multipliers).
+
+Where the nodes of the two sides of a perfect or contact interface do not match, one side,
+the *slave*, carries the interface points (its trace nodes, as on a matching interface)
+and the other, the *master*, is seen there through the mortar projection P of its trace:
+
+    P = D⁻¹ M,   M_ij = ∫_Γ μ_i ψ_j ds,   D_ii = ∫_Γ φ_i ds,
+
+where φ_i are the slave's piecewise-linear trace functions, μ_i their biorthogonal (dual)
+functions (on a slave edge with ends a, b: μ_a = 2 φ_a − φ_b, so that ∫ μ_i φ_k = δ_ik
+D_ii) and ψ_j the master's trace functions; M is integrated exactly, segment to segment
+(Gauss on every piece between the nodes of both sides). P reproduces every linear field
+exactly and interpolates the master's trace where the slave's nodes refine the master's.
+
+A converged interface then holds W_slave = P W_master at the slave's nodes and g_master
+= −Pᵀ g_slave for the nodal forces g = M0 F: the dual mortar method, variationally
+consistent (it passes the patch test on any non-matching mesh). LATIN's local stage is
+unchanged: it acts point by point on pairs of points at the same places
+(``interfaces.build_points``); the monolithic reference imposes the same constraint
+(``reference.monolithic``).
+
+The slave is a side whose nodes begin and end where the interface does, the finer of the
+two when both do (the usual choice, which never over-constrains the finer side).
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import numpy as np
+import scipy.sparse as sp
+
+from ..errors import ModelError
+from ..fem.elasticity import FloatArray, IntArray
+from .assembly import Assembly, Interface
+
+#: the two-point Gauss rule on [0, 1]: exact for the products of two linear functions
+_GAUSS = np.array([0.5 - 0.5 / np.sqrt(3.0), 0.5 + 0.5 / np.sqrt(3.0)])
+
+
+@dataclass(frozen=True)
+class MortarCoupling:
+    """How the sides of one non-matching interface are joined."""
+
+    slave: int  # index of the slave side in ``Interface.sides``
+    slave_nodes: IntArray  # the slave side's nodes along the interface, in order
+    master_nodes: IntArray  # the master side's nodes that P uses, in order
+    projection: sp.csr_matrix  # P: (n_slave, n_master), master trace values at slave nodes
+
+    @property
+    def master(self) -> int:
+        return 1 - self.slave
+
+
+def mortar_coupling(assembly: Assembly, itf: Interface) -> MortarCoupling | None:
+    """The mortar coupling of a perfect or contact interface, None where its two sides have
+    matching nodes (the interface is then node to node)."""
+    if len(itf.sides) != 2 or itf.kind not in ("perfect", "contact"):
+        return None
+    meshes = [assembly.substructures[ref.substructure].mesh for ref in itf.sides]
+    nodes = [ref.nodes(mesh) for ref, mesh in zip(itf.sides, meshes, strict=True)]
+    scale = 1e-9 * max(max(m.x1 - m.x0, m.y1 - m.y0) for m in meshes)
+    if nodes[0].size == nodes[1].size and np.allclose(
+            meshes[0].nodes[nodes[0]], meshes[1].nodes[nodes[1]], atol=scale):
+        return None
+    axis = meshes[0].side_line(itf.sides[0].side)[0]
+    spans = []
+    for ref, mesh in zip(itf.sides, meshes, strict=True):
+        _, _, lo, hi = mesh.side_line(ref.side)
+        spans.append(ref.segment if ref.segment is not None else (lo, hi))
+    start, end = max(s[0] for s in spans), min(s[1] for s in spans)
+    covering = []
+    for index, (side_nodes, mesh) in enumerate(zip(nodes, meshes, strict=True)):
+        along = mesh.nodes[side_nodes, 1 - axis]
+        if side_nodes.size >= 2 and abs(along[0] - start) <= scale and abs(along[-1] - end) <= scale:
+            covering.append(index)
+    if not covering:
+        raise ModelError(
+            f"interface {itf.name!r}: neither side has nodes where the shared part "
+            f"[{start:g}, {end:g}] along {'yx'[axis]} begins and ends; place nodes of one of "
+            "the two meshes there")
+    slave = max(covering, key=lambda index: (nodes[index].size, -index))
+    master = 1 - slave
+    master_ref = itf.sides[master]
+    master_all = meshes[master].side_nodes(master_ref.side)
+    slave_at = meshes[slave].nodes[nodes[slave], 1 - axis]
+    master_at = meshes[master].nodes[master_all, 1 - axis]
+    projection = dual_mortar_projection(slave_at, master_at)
+    used = np.flatnonzero(np.asarray(abs(projection).sum(axis=0)).ravel() > 0.0)
+    return MortarCoupling(slave, nodes[slave], master_all[used].astype(np.int64),
+                          projection[:, used].tocsr())
+
+
+def dual_mortar_projection(slave_at: FloatArray, master_at: FloatArray) -> sp.csr_matrix:
+    """P = D⁻¹ M for piecewise-linear traces on a straight interface: the slave's nodes at
+    (increasing) positions ``slave_at``, the master's at ``master_at``; the interface is the
+    slave's span [slave_at[0], slave_at[-1]], which the master's must cover."""
+    lo, hi = float(slave_at[0]), float(slave_at[-1])
+    tolerance = 1e-12 * (hi - lo)
+    if master_at[0] > lo + tolerance or master_at[-1] < hi - tolerance:
+        raise ModelError("mortar interface: the master side does not cover the slave side "
+                         f"[{lo:g}, {hi:g}]")
+    breaks = np.unique(np.concatenate([slave_at, np.clip(master_at, lo, hi)]))
+    length = np.diff(breaks)
+    keep = length > tolerance
+    a, length = breaks[:-1][keep], length[keep]
+    x = (a[:, None] + length[:, None] * _GAUSS[None, :]).ravel()  # Gauss points
+    w = np.repeat(0.5 * length, 2)
+    e = np.clip(np.searchsorted(slave_at, x) - 1, 0, slave_at.size - 2)  # slave edge
+    xi = (x - slave_at[e]) / (slave_at[e + 1] - slave_at[e])
+    m = np.clip(np.searchsorted(master_at, x) - 1, 0, master_at.size - 2)  # master edge
+    eta = (x - master_at[m]) / (master_at[m + 1] - master_at[m])
+    dual = (2.0 - 3.0 * xi, 3.0 * xi - 1.0)  # μ of the edge's first and second node
+    shape = (1.0 - eta, eta)
+    rows, cols, vals = [], [], []
+    for i_local, mu in enumerate(dual):
+        for j_local, psi in enumerate(shape):
+            rows.append(e + i_local)
+            cols.append(m + j_local)
+            vals.append(w * mu * psi)
+    mixed = sp.csr_matrix((np.concatenate(vals), (np.concatenate(rows), np.concatenate(cols))),
+                          shape=(slave_at.size, master_at.size))
+    edge = np.diff(slave_at)
+    dual_cell = np.zeros(slave_at.size)
+    dual_cell[:-1] += 0.5 * edge
+    dual_cell[1:] += 0.5 * edge
+    projection = sp.diags(1.0 / dual_cell) @ mixed
+    projection.data[np.abs(projection.data) < 1e-14] = 0.0
+    projection.eliminate_zeros()
+    return projection.tocsr()
