@@ -157,7 +157,7 @@ def test_good_contact_model_is_accepted():
         (lambda d: d["interfaces"][0].update(type="glue"),
          "interfaces[0].type: unknown interface type 'glue'"),
         (lambda d: d["interfaces"][0].update(type="perfect"),
-         "interfaces[0]: friction and gap apply to type = 'contact' only"),
+         "interfaces[0]: friction, gap and reach apply to type = 'contact' only"),
     ],
 )
 def test_contact_errors_name_field_and_value(change, expected):

@@ -80,3 +80,22 @@ def test_b3_warm_started_hole_positions_equal_standalone_solves(tmp_path: Path) 
         alone = float(model.solve({"xc": xc, "rc": 5.0}).qoi["R_stop"])
         assert value == pytest.approx(alone, rel=1e-3)
     assert (tmp_path / "deformed.png").exists()
+
+
+def test_hertz_contact_converges_to_the_closed_form_and_latin_equals_the_reference(
+        tmp_path: Path) -> None:
+    """A cylinder on a plate, meshed by gmsh, its curved face joined to the plate's
+    non-matching mesh by mortar contact: under refinement near the contact the half-width
+    and the peak pressure converge to Hertz's (within the model's own O((a/R)²) ≈ 1 %: a
+    finite plate, a = R / 10), and LATIN equals the monolithic reference."""
+    pytest.importorskip("gmsh")
+    module = _example("hertz_contact")
+    rows = module.run(sizes=(0.2, 0.1, 0.05), solver="reference", out=tmp_path)
+    a_errors = [abs(row["a_error"]) for row in rows]
+    p0_errors = [abs(row["p0_error"]) for row in rows]
+    assert a_errors[0] > a_errors[1] > a_errors[2] and a_errors[2] < 0.015
+    assert p0_errors[0] > p0_errors[1] > p0_errors[2] and p0_errors[2] < 0.01
+    assert (tmp_path / "hertz.png").exists()
+    latin = module.run(sizes=(0.1,), solver="latin")[0]
+    assert latin["a"] == pytest.approx(rows[1]["a"], rel=1e-12)
+    assert latin["p0"] == pytest.approx(rows[1]["p0"], rel=1e-5)

@@ -223,3 +223,42 @@ def test_torch_backend_on_mortar_interfaces():
         torch = solve_latin(assembly, LatinOptions(tol=1e-10, max_iter=20000, backend="torch"))
         assert torch.iterations == numpy.iterations
         assert largest_difference(torch, numpy) < 1e-12
+
+
+@pytest.mark.parametrize(("line", "message"), [
+    ("reach = -1.0", r"interfaces\[0\].reach: expected a distance >= 0, got -1.0"),
+    ('reach = "far"', r"interfaces\[0\].reach: expected a distance >= 0, got 'far'"),
+])
+def test_bad_reach_is_refused(line, message):
+    text = (BLOCK_ON_BASE.replace("NB", "10").replace("NK", "7").replace("X0", "2.0")
+            .replace("X1", "6.0").replace("friction = 0.3", f"friction = 0.3\n{line}"))
+    with pytest.raises(ModelError, match=message):
+        ModelSpec.from_string(text)
+
+
+def test_reach_applies_to_contact_only():
+    text = BAR.replace("NX", "7").replace("NY", "5").replace(
+        "INTERFACE", '[[interfaces]]\nbetween = ["bar[1,0]", "bar"]\ntype = "perfect"\n'
+        "reach = 1.0")
+    with pytest.raises(ModelError, match="friction, gap and reach apply to type = 'contact'"):
+        ModelSpec.from_string(text)
+
+
+def test_a_curved_face_is_the_chain_of_boundary_edges_within_reach():
+    """A quarter disc's lower arc near the line y = 0: the nodes within reach along the
+    arc, in order, each further along x; the straight side x = 0 is left out."""
+    from multilatin.fem.mesh import UnstructuredMesh
+
+    angles = np.linspace(-np.pi / 2, 0.0, 9)
+    arc = np.column_stack([np.cos(angles), 1.0 + np.sin(angles)])  # (0, 0) … (1, 1)
+    nodes = np.vstack([arc, [[0.0, 1.0], [0.0, 0.5]]])
+    centre, axis_mid = 9, 10
+    cells = [[i, i + 1, centre] for i in range(8)]
+    cells[0] = [0, 1, axis_mid]
+    cells.append([1, centre, axis_mid])
+    mesh = UnstructuredMesh(0.0, 1.0, 0.0, 1.0, nodes, np.array(cells, dtype=np.int64))
+    face = mesh.side_nodes("bottom", reach=0.25)
+    assert face.tolist() == [0, 1, 2, 3]  # heights 0, 0.019, 0.076, 0.169; the next 0.293
+    assert mesh.side_nodes("bottom").tolist() == [0]
+    with pytest.raises(ValueError, match="not one chain"):
+        mesh.side_nodes("left", reach=2.0)

@@ -38,6 +38,20 @@ def test_readme_python_example_runs(tmp_path: Path, monkeypatch: pytest.MonkeyPa
     assert (tmp_path / "results" / "line" / "study.nc").exists()
 
 
+def test_readme_gmsh_example_runs_and_matches_the_reference(
+        tmp_path: Path, monkeypatch: pytest.MonkeyPatch) -> None:
+    pytest.importorskip("gmsh")
+    (code,) = _blocks("py")
+    monkeypatch.chdir(tmp_path)
+    namespace: dict[str, object] = {}
+    exec(compile(code, "README.md", "exec"), namespace)  # noqa: S102
+    result, reference = namespace["result"], namespace["reference"]
+    assert isinstance(result, ml.SolveResult) and isinstance(reference, ml.SolveResult)
+    assert result.converged
+    assert result.qoi["u_punch"] == pytest.approx(reference.qoi["u_punch"], rel=1e-4)
+    assert (tmp_path / "plate.msh").exists()
+
+
 def test_ci_runs_the_readme_test_command_and_the_readme_is_short() -> None:
     commands = [b.strip() for b in _blocks("bash") if b.strip().startswith("python3 -m pip")]
     test_command = next(c for c in commands if "pytest" in c)

@@ -76,10 +76,15 @@ class SideRef:
     substructure: int
     side: str
     segment: tuple[float, float] | None = None
+    reach: float = 0.0  # > 0: a curved face near the side (``UnstructuredMesh.side_nodes``)
+
+    def all_nodes(self, mesh: RectMesh | UnstructuredMesh) -> IntArray:
+        """Every node of the side (or of the curved face within ``reach``), in order."""
+        return mesh.side_nodes(self.side, self.reach)
 
     def nodes(self, mesh: RectMesh | UnstructuredMesh) -> IntArray:
         """The side's nodes (ordered along it) that the reference covers."""
-        nodes = mesh.side_nodes(self.side)
+        nodes = self.all_nodes(mesh)
         if self.segment is None:
             return nodes
         axis, _, lo, hi = mesh.side_line(self.side)

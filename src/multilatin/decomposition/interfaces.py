@@ -57,9 +57,11 @@ def discretise_side(node_coords: FloatArray, nodes: IntArray, kind: str,
                     thickness: float) -> SideDiscretisation:
     """Interface elements of kind ``kind`` on a side whose ordered nodes are ``nodes``."""
     xy = node_coords[nodes]
-    edge_len = np.linalg.norm(np.diff(xy, axis=0), axis=1)
-    n_edges = edge_len.size
     along = xy[:, int(np.argmax(np.abs(xy[-1] - xy[0])))]  # the coordinate that varies
+    # lengths along the side: a curved face near it (``SideRef.reach``) counts its
+    # projection, so that tractions are per unit length of the side it faces
+    edge_len = np.abs(np.diff(along))
+    n_edges = edge_len.size
     if kind == "nodal":
         dual = np.zeros(n_edges + 1)
         dual[:-1] += 0.5 * edge_len
@@ -133,7 +135,10 @@ class InterfacePoints:
     macro_only: tuple[int, ...]  # macro-only interfaces (eq. [20]), possibly non-matching
     contact_pairs: tuple[IntArray, IntArray]  # contact interfaces, a on side E (normal n_E)
     contact_friction: FloatArray  # per contact pair
-    contact_gap: FloatArray
+    contact_gap: FloatArray  # the law's gap + ``contact_offset``
+    # per contact pair: n_a · (X_b − X_a), the initial distance between the two sides'
+    # traces of the node positions (0 on straight sides; a curved face's own gaps)
+    contact_offset: FloatArray
     stops: IntArray  # points in contact with a rigid obstacle
     stop_friction: FloatArray
     stop_gap: FloatArray
@@ -174,6 +179,7 @@ def build_points(assembly: Assembly, kind: str = "nodal", *,
             per_sub[itf.sides[side_index].substructure].append((i, side_index, disc))
 
     substructure, interface, coords, weights, traces = [], [], [], [], []
+    positions = []  # the trace of the node positions at every point
     normals, extents = [], []
     side_points: dict[tuple[int, int], IntArray] = {}
     offsets = [0]
@@ -188,6 +194,7 @@ def build_points(assembly: Assembly, kind: str = "nodal", *,
             substructure.append(np.full(n, s))
             interface.append(np.full(n, i))
             coords.append(disc.coords)
+            positions.append(disc.trace @ assembly.substructures[s].mesh.nodes[disc.nodes])
             weights.append(disc.weights)
             extents.append(disc.extents)
             side = assembly.interfaces[i].sides[side_index].side
@@ -235,6 +242,10 @@ def build_points(assembly: Assembly, kind: str = "nodal", *,
     boundary = cat(bnd)
     is_displacement = (np.concatenate(bnd_disp) if bnd_disp else np.zeros((0, 2), dtype=bool))
     all_normals = np.concatenate(normals) if normals else np.zeros((0, 2))
+    at = np.concatenate(positions) if positions else np.zeros((0, 2))
+    a, b = contact_pairs
+    contact_offset = np.einsum("pi,pi->p", all_normals[a], at[b] - at[a])
+    contact_offset[np.abs(contact_offset) <= 1e-12 * max(np.ptp(at), 1.0)] = 0.0
     key = _node_key(cat(substructure), all_coords)
     fixed = _prescribed_components(key, boundary, is_displacement)
     held = _held_corners(key, fixed, contact_pairs, stops, all_normals)
@@ -258,7 +269,8 @@ def build_points(assembly: Assembly, kind: str = "nodal", *,
         stops=stops,
         boundary=boundary,
         boundary_is_displacement=is_displacement,
-        **_contact_data(assembly, side_points),
+        **_contact_data(assembly, side_points, contact_offset),
+        contact_offset=contact_offset,
         side_points=side_points,
         corner=held["corner"],
         corner_stops=held["corner_stops"],
@@ -270,10 +282,11 @@ def build_points(assembly: Assembly, kind: str = "nodal", *,
     )
 
 
-def _contact_data(assembly: Assembly, side_points: dict[tuple[int, int], IntArray]
-                  ) -> dict[str, Any]:
+def _contact_data(assembly: Assembly, side_points: dict[tuple[int, int], IntArray],
+                  contact_offset: FloatArray) -> dict[str, Any]:
     """Friction coefficients and initial gaps per contact pair and per stop point, in the
-    order of ``InterfacePoints.contact_pairs`` and ``stops``."""
+    order of ``InterfacePoints.contact_pairs`` and ``stops``; the pairs' gaps include
+    ``contact_offset``."""
     parts: dict[str, list[FloatArray]] = {"contact_friction": [], "contact_gap": [],
                                           "stop_friction": [], "stop_gap": []}
     for i, itf in enumerate(assembly.interfaces):
@@ -284,14 +297,16 @@ def _contact_data(assembly: Assembly, side_points: dict[tuple[int, int], IntArra
         prefix = "stop" if itf.is_stop else "contact"
         parts[f"{prefix}_friction"].append(np.full(n, itf.contact.friction))
         parts[f"{prefix}_gap"].append(np.full(n, itf.contact.gap))
-    return {name: np.concatenate(values) if values else np.zeros(0)
+    data = {name: np.concatenate(values) if values else np.zeros(0)
             for name, values in parts.items()}
+    data["contact_gap"] = data["contact_gap"] + contact_offset
+    return data
 
 
 def with_contact_data(points: InterfacePoints, assembly: Assembly) -> InterfacePoints:
     """``points`` (built for an assembly of the same geometry) with the friction
     coefficients and gaps of ``assembly``: what changes between the cases of a batch."""
-    data = _contact_data(assembly, points.side_points)
+    data = _contact_data(assembly, points.side_points, points.contact_offset)
     return dataclasses.replace(points, contact_friction=data["contact_friction"],
                                contact_gap=data["contact_gap"],
                                stop_friction=data["stop_friction"], stop_gap=data["stop_gap"])

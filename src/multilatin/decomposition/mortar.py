@@ -64,10 +64,9 @@ def mortar_coupling(assembly: Assembly, itf: Interface) -> MortarCoupling | None
             meshes[0].nodes[nodes[0]], meshes[1].nodes[nodes[1]], atol=scale):
         return None
     axis = meshes[0].side_line(itf.sides[0].side)[0]
-    spans = []
-    for ref, mesh in zip(itf.sides, meshes, strict=True):
-        _, _, lo, hi = mesh.side_line(ref.side)
-        spans.append(ref.segment if ref.segment is not None else (lo, hi))
+    spans = [ref.segment if ref.segment is not None else
+             (float(mesh.nodes[side_nodes[0], 1 - axis]), float(mesh.nodes[side_nodes[-1], 1 - axis]))
+             for ref, mesh, side_nodes in zip(itf.sides, meshes, nodes, strict=True)]
     start, end = max(s[0] for s in spans), min(s[1] for s in spans)
     covering = []
     for index, (side_nodes, mesh) in enumerate(zip(nodes, meshes, strict=True)):
@@ -82,7 +81,7 @@ def mortar_coupling(assembly: Assembly, itf: Interface) -> MortarCoupling | None
     slave = max(covering, key=lambda index: (nodes[index].size, -index))
     master = 1 - slave
     master_ref = itf.sides[master]
-    master_all = meshes[master].side_nodes(master_ref.side)
+    master_all = master_ref.all_nodes(meshes[master])
     slave_at = meshes[slave].nodes[nodes[slave], 1 - axis]
     master_at = meshes[master].nodes[master_all, 1 - axis]
     projection = dual_mortar_projection(slave_at, master_at)

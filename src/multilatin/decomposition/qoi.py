@@ -22,12 +22,14 @@ class ContactPressures:
     it: the nodal normal force over the node's dual cell (a *lumped* value).
 
     ``bodies[i]`` names the two bodies the node ``i`` joins; ``extents[i]`` is its dual cell
-    (start and end along the interface); ``pressure`` is shaped (n_steps, n_nodes).
+    (start and end along the interface); ``pressure`` is shaped (n_steps, n_nodes);
+    ``positions[i]`` is where the node is (on a curved face, the node of that face).
     """
 
     bodies: list[frozenset[str]] = field(default_factory=list)
     extents: FloatArray = field(default_factory=lambda: np.zeros((0, 2)))
     pressure: FloatArray = field(default_factory=lambda: np.zeros((1, 0)))
+    positions: FloatArray = field(default_factory=lambda: np.zeros((0, 2)))
 
     def mean(self, bodies: frozenset[str], segment: tuple[float, float],
              recovery: str = "consistent") -> FloatArray:
@@ -124,7 +126,7 @@ def latin_contact_pressures(assembly: Assembly, points: InterfacePoints,
     bodies = [frozenset(assembly.substructures[ref.substructure].body
                         for ref in assembly.interfaces[j].sides)
               for j in points.interface[first]]
-    return ContactPressures(bodies, points.extents[first], pressure)
+    return ContactPressures(bodies, points.extents[first], pressure, points.coords[first])
 
 
 def evaluate_qois(

@@ -9,6 +9,7 @@ import numpy as np
 
 from ..fem.elasticity import FloatArray
 from .assembly import Assembly
+from .qoi import ContactPressures
 from .uniqueness import FreeMotion
 
 
@@ -57,6 +58,9 @@ class SolveResult:
     #: LATIN stopped this case on its QoIs' estimated errors (``LatinOptions.qoi_rtol``)
     #: before η reached ``tol``
     stopped_on_qoi: bool = False
+    #: the contact pressure at the nodes of the contact interfaces between bodies, per step
+    #: (None without contact between bodies)
+    contact: ContactPressures | None = None
 
     @property
     def wall_s(self) -> float:

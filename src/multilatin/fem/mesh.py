@@ -104,8 +104,9 @@ class RectMesh(RectangleSides):
     def hy(self) -> float:
         return (self.y1 - self.y0) / self.ny
 
-    def side_nodes(self, side: str) -> IntArray:
-        """Node indices of ``side``, ordered by increasing coordinate along it."""
+    def side_nodes(self, side: str, reach: float = 0.0) -> IntArray:
+        """Node indices of ``side``, ordered by increasing coordinate along it (``reach``:
+        see ``UnstructuredMesh.side_nodes``; a rectangle's sides are straight)."""
         row = self.nx + 1
         if side == "bottom":
             return np.arange(row, dtype=np.int64)
@@ -153,12 +154,40 @@ class UnstructuredMesh(RectangleSides):
     def n_cells(self) -> int:
         return int(self.cells.shape[0])
 
-    def side_nodes(self, side: str) -> IntArray:
-        """Node indices on ``side``, ordered by increasing coordinate along it."""
+    def side_nodes(self, side: str, reach: float = 0.0) -> IntArray:
+        """Node indices on ``side``, ordered by increasing coordinate along it.
+
+        reach: > 0 for a curved face near the side (a cylinder touching a plane): the
+            boundary nodes within ``reach`` of the side's line that lie on boundary edges
+            running along it (not across: the other sides' edges are left out), which must
+            form one chain, each node further along the side than the last.
+        """
         axis, level, _, _ = self.side_line(side)
         scale = 1e-9 * max(self.x1 - self.x0, self.y1 - self.y0)
-        on_side = np.flatnonzero(np.abs(self.nodes[:, axis] - level) <= scale)
-        return on_side[np.argsort(self.nodes[on_side, 1 - axis])].astype(np.int64)
+        if reach <= 0.0:
+            on_side = np.flatnonzero(np.abs(self.nodes[:, axis] - level) <= scale)
+            return on_side[np.argsort(self.nodes[on_side, 1 - axis])].astype(np.int64)
+        edges = self.boundary_edges
+        near = np.abs(self.nodes[:, axis] - level) <= reach + scale
+        along = self.nodes[:, 1 - axis]
+        chosen = edges[near[edges].all(axis=1)
+                       & (np.abs(along[edges[:, 0]] - along[edges[:, 1]]) > scale)]
+        nodes = np.unique(chosen)
+        nodes = nodes[np.argsort(along[nodes])]
+        degree = np.bincount(chosen.ravel(), minlength=self.n_nodes)[nodes]
+        if nodes.size < 2 or np.any(degree > 2) or np.count_nonzero(degree == 1) != 2 \
+                or np.any(np.diff(along[nodes]) <= scale):
+            raise ValueError(f"the boundary within {reach:g} of the {side} side of {self!r} "
+                             "is not one chain of edges running along the side")
+        return nodes.astype(np.int64)
+
+    @property
+    def boundary_edges(self) -> IntArray:
+        """(n, 2) node pairs of the edges that belong to one cell only."""
+        edges = np.stack([self.cells, np.roll(self.cells, -1, axis=1)], axis=2).reshape(-1, 2)
+        ordered = np.sort(edges, axis=1)
+        _, index, counts = np.unique(ordered, axis=0, return_index=True, return_counts=True)
+        return np.asarray(edges[index[counts == 1]], dtype=np.int64)
 
     def locate(self, point: npt.ArrayLike) -> tuple[int, FloatArray]:
         """The cell containing ``point`` and the point's reference coordinates in it

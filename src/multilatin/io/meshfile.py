@@ -4,6 +4,8 @@ checked before use."""
 
 from __future__ import annotations
 
+import contextlib
+import io
 from pathlib import Path
 
 import numpy as np
@@ -22,7 +24,8 @@ def read_mesh(path: str | Path, where: str) -> tuple[FloatArray, IntArray]:
     import meshio
 
     try:
-        mesh = meshio.read(path)
+        with contextlib.redirect_stdout(io.StringIO()):  # meshio prints blank lines (gmsh)
+            mesh = meshio.read(path)
     except (OSError, meshio.ReadError, ValueError, KeyError) as exc:
         raise ModelError(f"{where}: cannot read mesh file {str(path)!r}: {exc}") from None
     found = {block.type for block in mesh.cells}

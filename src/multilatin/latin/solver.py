@@ -203,6 +203,7 @@ def solve_latin_batch(
             options=asdict(options),
             free_motions=motions,
             failure=failure,
+            contact=pressures if a.size else None,
             qoi_error=_per_qoi(assembly, estimates),
             stopped_on_qoi=bool(state.stopped_on_qoi[c]),
         ))

@@ -57,6 +57,7 @@ class ContactSet:
     gap: FloatArray
     weight: FloatArray
     extent: FloatArray
+    position: FloatArray  # (n, 2) where the first side's node is (the slave's, when mortar)
     bodies: list[frozenset[str]]
     boundary: list[str | None]
 
@@ -89,22 +90,32 @@ def contact_set(assembly: Assembly, maps: list[IntArray],
             nodes = coupling.slave_nodes
         weight = cells.weights
         lo, hi = cells.extents[:, 0], cells.extents[:, 1]
+        position = cells.coords
         bodies = frozenset(assembly.substructures[r.substructure].body for r in itf.sides)
         boundary = None
+        normal = sub.mesh.outward_normal(ref.side)
+        offset = np.zeros(nodes.size)  # initial distance of a curved face (SideRef.reach)
         if coupling is not None:
             assert mortar_points is not None
             first, second = mortar_points[index]
+            master_sub = assembly.substructures[itf.sides[coupling.master].substructure]
+            at = [slave_sub.mesh.nodes[coupling.slave_nodes],
+                  coupling.projection @ master_sub.mesh.nodes[coupling.master_nodes]]
+            if coupling.slave == 1:
+                at.reverse()
+            offset = (at[1] - at[0]) @ normal
         elif len(itf.sides) == 2:
             first = maps[ref.substructure][nodes]
             other = itf.sides[1]
-            second = maps[other.substructure][
-                other.nodes(assembly.substructures[other.substructure].mesh)]
+            other_mesh = assembly.substructures[other.substructure].mesh
+            second = maps[other.substructure][other.nodes(other_mesh)]
+            offset = (other_mesh.nodes[other.nodes(other_mesh)] - sub.mesh.nodes[nodes]) @ normal
         else:
             first = maps[ref.substructure][nodes]
             second = np.full(nodes.size, -1)
             assert itf.condition is not None
             boundary = itf.condition.name
-        normal = sub.mesh.outward_normal(ref.side)
+        offset[np.abs(offset) <= 1e-12 * max(float(np.ptp(sub.mesh.nodes)), 1.0)] = 0.0
         for p in range(nodes.size):
             key = (int(first[p]), int(second[p]))
             if key in records:
@@ -112,8 +123,8 @@ def contact_set(assembly: Assembly, maps: list[IntArray],
                 rec[4] += weight[p]
                 rec[5] = (min(rec[5][0], lo[p]), max(rec[5][1], hi[p]))
             else:
-                records[key] = [normal, itf.contact.friction, itf.contact.gap, bodies,
-                                weight[p], (lo[p], hi[p]), boundary]
+                records[key] = [normal, itf.contact.friction, itf.contact.gap + offset[p], bodies,
+                                weight[p], (lo[p], hi[p]), boundary, position[p]]
     keys = list(records)
     vals = list(records.values())
     return ContactSet(
@@ -124,6 +135,7 @@ def contact_set(assembly: Assembly, maps: list[IntArray],
         gap=np.array([v[2] for v in vals], dtype=float),
         weight=np.array([v[4] for v in vals], dtype=float),
         extent=np.array([v[5] for v in vals], dtype=float).reshape(-1, 2),
+        position=np.array([v[7] for v in vals], dtype=float).reshape(-1, 2),
         bodies=[v[3] for v in vals],
         boundary=[v[6] for v in vals],
     )

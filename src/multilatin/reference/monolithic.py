@@ -221,6 +221,7 @@ def solve_monolithic(assembly: Assembly) -> SolveResult:
         extents=contacts.extent[pair],
         pressure=multipliers[:, pair, 0] / contacts.weight[pair] if multipliers.size
         else np.zeros((n_steps, 0)),
+        positions=contacts.position[pair],
     )
     displacements = {
         sub.name: np.stack([u[2 * gmap], u[2 * gmap + 1]], axis=-1).transpose(1, 0, 2)
@@ -239,4 +240,5 @@ def solve_monolithic(assembly: Assembly) -> SolveResult:
         displacements=displacements,
         reactions=reactions,
         qoi=qoi,
+        contact=pressures if pair.any() else None,
     )

@@ -4,6 +4,7 @@ file: the substructures with their meshes and materials (holes placed by ``decom
 from __future__ import annotations
 
 import itertools
+import math
 from collections.abc import Mapping
 from typing import Any
 
@@ -131,7 +132,9 @@ class BodySections(SectionReader):
                 mesh = self.file_mesh(table, where)
                 read[name] = mesh
                 x0, x1, y0, y1 = mesh.x0, mesh.x1, mesh.y0, mesh.y1
-                nx, ny = mesh.n_cells, 1
+                # the size guard's equivalent square mesh: as many nodes (a strip of
+                # n_cells x 1 would count every node on the boundary)
+                nx = ny = max(int(math.ceil(math.sqrt(mesh.n_nodes))) - 1, 1)
             else:
                 x0, x1, y0, y1 = self.rectangle(table, where)
                 nx, ny = (positive_int(v, f"{where}.elements")

@@ -4,6 +4,7 @@ substructures, declared or found where sides face each other."""
 from __future__ import annotations
 
 import itertools
+import math
 
 import numpy as np
 
@@ -17,17 +18,22 @@ class InterfaceSections(SectionReader):
     """Interfaces between substructures."""
 
     def interfaces(self, subs: list[Substructure]) -> list[Interface]:
-        declared: dict[frozenset[str], tuple[str, ContactLaw | None, str]] = {}
+        declared: dict[frozenset[str], tuple[str, ContactLaw | None, str, float]] = {}
         for d, table in enumerate(self.data.get("interfaces", [])):
             where = f"interfaces[{d}]"
-            check_keys(table, {"between", "type", "friction", "gap"}, where)
+            check_keys(table, {"between", "type", "friction", "gap", "reach"}, where)
             a, b = pair(require(table, "between", where), f"{where}.between")
             kind = table.get("type", "perfect")
             if kind not in ("perfect", "contact", "macro"):
                 raise ModelError(f"{where}.type: unknown interface type {kind!r} "
                                  "(known: perfect, contact, macro)")
-            if kind != "contact" and ({"friction", "gap"} & set(table)):
-                raise ModelError(f"{where}: friction and gap apply to type = 'contact' only")
+            if kind != "contact" and ({"friction", "gap", "reach"} & set(table)):
+                raise ModelError(f"{where}: friction, gap and reach apply to type = 'contact' "
+                                 "only")
+            reach = table.get("reach", 0.0)
+            if isinstance(reach, bool) or not isinstance(reach, (int, float)) \
+                    or not 0.0 <= reach < math.inf:
+                raise ModelError(f"{where}.reach: expected a distance >= 0, got {reach!r}")
             known = {s.name for s in subs} | {s.body for s in subs}
             if self.split and not {a, b} <= known:
                 continue  # names substructures that a caller's split has replaced
@@ -38,7 +44,7 @@ class InterfaceSections(SectionReader):
                 raise ModelError(f"{where}.between: an interface joins two different parts, "
                                  f"got {a!r} twice")
             law = self.contact_law(table, where) if kind == "contact" else None
-            declared[frozenset((a, b))] = (kind, law, where)
+            declared[frozenset((a, b))] = (kind, law, where, float(reach))
         scale = 1e-9 * max(max(s.mesh.x1 - s.mesh.x0, s.mesh.y1 - s.mesh.y0) for s in subs)
         found: list[Interface] = []
         used_declarations: set[frozenset[str]] = set()
@@ -58,13 +64,16 @@ class InterfaceSections(SectionReader):
                                 else (start, end))
                 ref_b = SideRef(j, other, None if abs(start - lo_b) + abs(end - hi_b)
                                 <= 2 * scale else (start, end))
-                kind, law = "perfect", None
+                kind, law, reach = "perfect", None, 0.0
                 # the most specific declaration wins: body-body, then with one name, then names
                 for key in (frozenset((a.body, b.body)), frozenset((a.name, b.body)),
                             frozenset((a.body, b.name)), frozenset((a.name, b.name))):
                     if key in declared:
-                        kind, law, _ = declared[key]
+                        kind, law, _, reach = declared[key]
                         used_declarations.add(key)
+                if reach > 0.0:  # a curved face: the shared part is where the faces' nodes are
+                    ref_a, ref_b, start, end = _curved_faces(a, b, side, other, reach, where,
+                                                             (i, j))
                 na, nb = ref_a.nodes(a.mesh), ref_b.nodes(b.mesh)
                 covers = []  # the sides with nodes where the shared part begins and ends
                 for mesh, nodes in ((a.mesh, na), (b.mesh, nb)):
@@ -83,7 +92,7 @@ class InterfaceSections(SectionReader):
                 # (``decomposition.mortar``); macro ones transmit macro quantities only
                 found.append(Interface(f"{a.name}|{b.name}", kind,
                                        (ref_a, ref_b), contact=law))
-        for key, (_, _, where) in declared.items():
+        for key, (_, _, where, _) in declared.items():
             if key not in used_declarations:
                 a, b = sorted(key)
                 raise ModelError(
@@ -91,3 +100,26 @@ class InterfaceSections(SectionReader):
                 )
         return found
 
+
+
+def _curved_faces(a: Substructure, b: Substructure, side: str, other: str, reach: float,
+                  where: str, indices: tuple[int, int]) -> tuple[SideRef, SideRef, float, float]:
+    """The sides of a contact interface declared with ``reach`` (a curved face near a
+    straight side: its boundary nodes within ``reach``, each with its own initial gap) and
+    the part of them both span."""
+    axis = a.mesh.side_line(side)[0]
+    spans = []
+    for sub, name in ((a, side), (b, other)):
+        try:
+            nodes = sub.mesh.side_nodes(name, reach)
+        except ValueError as exc:
+            raise ModelError(f"{where}: {exc}") from None
+        spans.append((float(sub.mesh.nodes[nodes[0], 1 - axis]),
+                      float(sub.mesh.nodes[nodes[-1], 1 - axis])))
+    start, end = max(s[0] for s in spans), min(s[1] for s in spans)
+    if end <= start:
+        raise ModelError(f"{where}: the faces within reach = {reach:g} do not overlap")
+    refs = tuple(SideRef(index, name, None if abs(span[0] - start) + abs(span[1] - end)
+                         <= 1e-9 * (end - start) else (start, end), reach)
+                 for index, name, span in zip(indices, (side, other), spans, strict=True))
+    return refs[0], refs[1], start, end
