@@ -99,3 +99,20 @@ def test_hertz_contact_converges_to_the_closed_form_and_latin_equals_the_referen
     latin = module.run(sizes=(0.1,), solver="latin")[0]
     assert latin["a"] == pytest.approx(rows[1]["a"], rel=1e-12)
     assert latin["p0"] == pytest.approx(rows[1]["p0"], rel=1e-5)
+
+
+def test_roller_stick_zone_follows_cattaneo_mindlin_and_slides_at_mu_p() -> None:
+    """The bundled roller (gmsh meshes, curved face, mortar contact with friction): the stick
+    zone's half-width within 0.03 a of Cattaneo–Mindlin's at every shifted step that
+    sticks, Q = μ P once it slides, LATIN = the monolithic reference."""
+    module = _example("roller_mindlin")
+    latin = module.run("latin")
+    reference = module.run("reference")
+    assert any(row["ratio"] < 0.5 for row in latin) and latin[-1]["ratio"] == pytest.approx(1.0)
+    for row, ref in zip(latin, reference, strict=True):
+        if row["ratio"] < 0.99:
+            assert abs(row["c_over_a"] - row["mindlin"]) < 0.03
+        else:
+            assert row["Q"] == pytest.approx(module.MU * row["P"], rel=1e-6)
+        assert row["Q"] == pytest.approx(ref["Q"], rel=1e-6)
+        assert row["c_over_a"] == pytest.approx(ref["c_over_a"], abs=1e-12)

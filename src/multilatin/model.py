@@ -128,9 +128,10 @@ def load_model(name_or_path: str | Path) -> Model:
     """A bundled model by name (``"b0"``) or a model file by path."""
     text = str(name_or_path)
     if text in bundled_models():
-        resource = resources.files("multilatin") / "models" / f"{text}.toml"
+        folder = resources.files("multilatin") / "models"
+        resource = folder / f"{text}.toml"
         return Model(ModelSpec.from_string(resource.read_text(encoding="utf-8"), name=text,
-                                           source=f"bundled:{text}"))
+                                           source=f"bundled:{text}", folder=Path(str(folder))))
     path = Path(text)
     if not path.exists():
         raise ModelError(

@@ -23,13 +23,16 @@ class ContactPressures:
 
     ``bodies[i]`` names the two bodies the node ``i`` joins; ``extents[i]`` is its dual cell
     (start and end along the interface); ``pressure`` is shaped (n_steps, n_nodes);
-    ``positions[i]`` is where the node is (on a curved face, the node of that face).
+    ``positions[i]`` is where the node is (on a curved face, the node of that face);
+    ``shear`` the tangential traction there, (n_steps, n_nodes), along the first side's
+    normal turned by +90° (the same lumped value as ``pressure``).
     """
 
     bodies: list[frozenset[str]] = field(default_factory=list)
     extents: FloatArray = field(default_factory=lambda: np.zeros((0, 2)))
     pressure: FloatArray = field(default_factory=lambda: np.zeros((1, 0)))
     positions: FloatArray = field(default_factory=lambda: np.zeros((0, 2)))
+    shear: FloatArray = field(default_factory=lambda: np.zeros((1, 0)))
 
     def mean(self, bodies: frozenset[str], segment: tuple[float, float],
              recovery: str = "consistent") -> FloatArray:
@@ -118,15 +121,17 @@ def _integral(nodes: FloatArray, values: FloatArray, segment: tuple[float, float
 
 
 def latin_contact_pressures(assembly: Assembly, points: InterfacePoints,
-                            pressure: FloatArray) -> ContactPressures:
+                            pressure: FloatArray, shear: FloatArray | None = None
+                            ) -> ContactPressures:
     """``ContactPressures`` on the first side of every contact pair of the interface
     ``points``, with ``pressure`` (n, n_pairs) there (LATIN's fields, or unit columns for the
-    mean's weights)."""
+    mean's weights) and ``shear`` (zero when not given)."""
     first = points.contact_pairs[0]
     bodies = [frozenset(assembly.substructures[ref.substructure].body
                         for ref in assembly.interfaces[j].sides)
               for j in points.interface[first]]
-    return ContactPressures(bodies, points.extents[first], pressure, points.coords[first])
+    return ContactPressures(bodies, points.extents[first], pressure, points.coords[first],
+                            np.zeros_like(pressure) if shear is None else shear)
 
 
 def evaluate_qois(

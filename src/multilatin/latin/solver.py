@@ -174,8 +174,10 @@ def solve_latin_batch(
         fields = fields_of[c]
         reactions = _reactions(assembly, pts, state.f_hat[c])
         a = pts.contact_pairs[0]
+        tangents = np.column_stack([-pts.normals[a, 1], pts.normals[a, 0]])
         pressures = latin_contact_pressures(
-            assembly, pts, -np.sum(state.f_hat[c][:, a] * pts.normals[a], axis=2))
+            assembly, pts, -np.sum(state.f_hat[c][:, a] * pts.normals[a], axis=2),
+            np.sum(state.f_hat[c][:, a] * tangents, axis=2))
         qoi = evaluate_qois(assembly, fields, reactions, pressures)
         converged, failure = _outcome(history, qoi, options, bool(state.stopped_on_qoi[c]))
         if state.drifting[c]:

@@ -222,6 +222,8 @@ def solve_monolithic(assembly: Assembly) -> SolveResult:
         pressure=multipliers[:, pair, 0] / contacts.weight[pair] if multipliers.size
         else np.zeros((n_steps, 0)),
         positions=contacts.position[pair],
+        shear=-multipliers[:, pair, 1] / contacts.weight[pair] if multipliers.size
+        else np.zeros((n_steps, 0)),
     )
     displacements = {
         sub.name: np.stack([u[2 * gmap], u[2 * gmap + 1]], axis=-1).transpose(1, 0, 2)

@@ -53,7 +53,10 @@ class ModelSpec:
         return ModelSpec.from_string(text, name=path.stem, source=str(path))
 
     @staticmethod
-    def from_string(text: str, name: str = "model", source: str = "") -> ModelSpec:
+    def from_string(text: str, name: str = "model", source: str = "",
+                    folder: Path | None = None) -> ModelSpec:
+        """folder: where the file's mesh files are (default: the folder of ``source``, or
+        the working folder without one)."""
         try:
             data = tomllib.loads(text)
         except tomllib.TOMLDecodeError as exc:
@@ -62,7 +65,7 @@ class ModelSpec:
             raise ModelError(f"model file {source or name!r}: arrays or tables nested too "
                              "deeply") from None
         # mesh files are named relative to the model file (to the working folder without one)
-        base = Path(source).parent if source else Path.cwd()
+        base = folder if folder is not None else Path(source).parent if source else Path.cwd()
         for table in data.get("substructures", []):
             if isinstance(table, dict) and isinstance(table.get("mesh_file"), str):
                 table["mesh_file"] = str(base / table["mesh_file"])
