@@ -171,16 +171,85 @@ def test_twisted_or_non_convex_quadrilaterals_are_refused_by_cell(tmp_path: Path
             ml.ModelSpec.from_toml(tmp_path / "plate.toml")
 
 
-def test_a_level_set_hole_in_a_file_mesh_is_refused_by_name(tmp_path: Path) -> None:
-    _gmsh_rectangle(tmp_path / "plate.msh", 20.0, 10.0, None)
-    (tmp_path / "holed.toml").write_text(TENSION + """
+HOLE = """
 [[holes]]
 name = "hole"
 body = "plate"
 shape = "circle"
-centre = [10.0, 5.0]
+centre = [CX, 5.0]
 radius = 2.0
-""")
-    with pytest.raises(ml.ModelError, match=r"holes\[0\] \('hole'\): substructure 'plate' is "
-                                            "meshed from a file"):
+"""
+
+
+def _gmsh_holed(path: Path, size: float, recombine: bool) -> Path:
+    """[0, 20] × [0, 10] minus the disc of radius 2 at (10, 5), elements of ``size``."""
+    gmsh.initialize()
+    try:
+        gmsh.option.setNumber("General.Verbosity", 0)
+        occ = gmsh.model.occ
+        occ.cut([(2, occ.addRectangle(0.0, 0.0, 0.0, 20.0, 10.0))],
+                [(2, occ.addDisk(10.0, 5.0, 0.0, 2.0, 2.0))])
+        occ.synchronize()
+        gmsh.option.setNumber("Mesh.MeshSizeMax", size)
+        gmsh.option.setNumber("Mesh.RecombineAll", 1 if recombine else 0)
+        gmsh.option.setNumber("Mesh.Algorithm", 8 if recombine else 6)
+        gmsh.model.mesh.generate(2)
+        gmsh.write(str(path))
+    finally:
+        gmsh.finalize()
+    return path
+
+
+@pytest.mark.parametrize("recombine", [True, False], ids=["Q4", "T3"])
+def test_level_set_hole_on_an_unstructured_mesh_converges_to_the_conforming_mesh(
+        tmp_path: Path, recombine: bool) -> None:
+    """X-FEM on gmsh meshes (Q4 and T3 cells cut by the circle): the material area
+    converges at order 2, the stretch of a plate with a hole converges to that of a fine
+    mesh with the hole cut out, and LATIN equals the monolithic solution on the same
+    X-FEM mesh."""
+    (tmp_path / "holed.toml").write_text(TENSION + HOLE.replace("CX", "10.0"))
+    _gmsh_holed(tmp_path / "plate.msh", 0.25, recombine)
+    (tmp_path / "plate.toml").write_text(TENSION)
+    conforming = ml.Model(ml.ModelSpec.from_toml(tmp_path / "plate.toml")).reference()
+    area_errors, stretch_errors = [], []
+    for size in (2.0, 1.0, 0.5):
+        _sized_rectangle(tmp_path / "plate.msh", size, recombine)
+        model = ml.Model(ml.ModelSpec.from_toml(tmp_path / "holed.toml"))
+        sub = model.assemble().substructures[0]
+        assert sub.cut is not None and sub.cut.cut.size > 0
+        cells = sub.mesh.nodes[sub.mesh.cells]
+        x, y = cells[..., 0], cells[..., 1]
+        cell_area = 0.5 * np.abs(np.sum(x * np.roll(y, -1, axis=1) - np.roll(x, -1, axis=1) * y,
+                                        axis=1))
+        area = float(cell_area @ sub.cut.material_fraction)
+        area_errors.append(abs(area - (200.0 - np.pi * 4.0)))
+        reference = model.reference(mesh="same")
+        stretch_errors.append(abs(reference.qoi["ux"] / conforming.qoi["ux"] - 1.0))
+    assert area_errors[2] < area_errors[0] / 8.0  # order 2: 16 for two halvings
+    assert stretch_errors[0] > stretch_errors[2] and stretch_errors[2] < 5e-3
+    latin = model.solve(options=TIGHT)
+    assert latin.qoi["ux"] == pytest.approx(reference.qoi["ux"], rel=1e-7)
+
+
+def _sized_rectangle(path: Path, size: float, recombine: bool) -> Path:
+    gmsh.initialize()
+    try:
+        gmsh.option.setNumber("General.Verbosity", 0)
+        gmsh.model.occ.addRectangle(0.0, 0.0, 0.0, 20.0, 10.0)
+        gmsh.model.occ.synchronize()
+        gmsh.option.setNumber("Mesh.MeshSizeMax", size)
+        gmsh.option.setNumber("Mesh.RecombineAll", 1 if recombine else 0)
+        gmsh.option.setNumber("Mesh.Algorithm", 8 if recombine else 6)
+        gmsh.model.mesh.generate(2)
+        gmsh.write(str(path))
+    finally:
+        gmsh.finalize()
+    return path
+
+
+def test_a_level_set_hole_meeting_the_file_mesh_boundary_is_refused(tmp_path: Path) -> None:
+    _gmsh_holed(tmp_path / "plate.msh", 1.0, True)
+    (tmp_path / "holed.toml").write_text(TENSION + HOLE.replace("CX", "12.5"))
+    with pytest.raises(ml.ModelError, match=r"holes\[0\] \('hole'\): the hole meets the "
+                                            "boundary of substructure 'plate'"):
         ml.ModelSpec.from_toml(tmp_path / "holed.toml")

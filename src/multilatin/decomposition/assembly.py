@@ -40,8 +40,9 @@ class Material:
 
 @dataclass(frozen=True)
 class Substructure:
-    """A substructure: its own Q4 mesh and material, and optionally a hole, the region where
-    the level set ``hole`` is negative, integrated X-FEM style on the fixed mesh (paper §5)."""
+    """A substructure: its own mesh (Q4 or T3) and material, and optionally a hole, the
+    region where the level set ``hole`` is negative, integrated X-FEM style on the fixed mesh
+    (paper §5)."""
 
     name: str
     body: str
@@ -59,8 +60,6 @@ class Substructure:
         """Cells classified against the hole (None without a hole)."""
         if self.hole is None:
             return None
-        if not isinstance(self.mesh, RectMesh):
-            raise TypeError(f"{self.name}: level-set holes need a structured mesh")
         return cut_cells(self.mesh, self.hole)
 
     def stiffness(self) -> sp.csr_matrix:

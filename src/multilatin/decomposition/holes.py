@@ -17,7 +17,7 @@ import numpy as np
 
 from ..errors import ModelError
 from ..fem.levelset import Circle, LevelSet, Slot, Union
-from ..fem.mesh import RectMesh
+from ..fem.mesh import UnstructuredMesh
 from ..parameters import Mu
 from .assembly import Substructure
 
@@ -107,10 +107,6 @@ def place_holes(tables: Sequence[Mapping[str, Any]], subs: list[Substructure], m
         if level_set is None:
             continue
         sub = subs[index]
-        if not isinstance(sub.mesh, RectMesh):
-            raise ModelError(f"{where}: substructure {sub.name!r} is meshed from a file; a "
-                             "level-set hole needs a structured mesh (cut the hole out of the "
-                             "file's mesh instead)")
         holed = dataclasses.replace(sub, hole=level_set)
         assert holed.cut is not None
         if not np.any(holed.cut.material_fraction > 0.0):
@@ -124,6 +120,18 @@ def place_holes(tables: Sequence[Mapping[str, Any]], subs: list[Substructure], m
                 f"{where}: the hole crosses the boundary of substructure {sub.name!r} "
                 f"{_box(sub)} (hole extent [{x0:g}, {x1:g}] x [{y0:g}, {y1:g}]){params}; a hole "
                 "must lie strictly inside one substructure")
+        if isinstance(sub.mesh, UnstructuredMesh):  # its own boundary: curved faces, holes
+            edges = sub.mesh.nodes[sub.mesh.boundary_edges]  # (e, 2, 2)
+            middle = 0.5 * (edges[:, 0] + edges[:, 1])
+            half = 0.5 * np.linalg.norm(edges[:, 1] - edges[:, 0], axis=1)
+            near = np.flatnonzero(level_set(middle) <= half * (1.0 + 1e-12))
+            along = np.linspace(0.0, 1.0, 33)[None, :, None]
+            samples = edges[near, :1] + along * (edges[near, 1:] - edges[near, :1])
+            if near.size and np.any(level_set(samples) <= 0.0):
+                raise ModelError(
+                    f"{where}: the hole meets the boundary of substructure {sub.name!r}'s "
+                    f"mesh (read from a file){params}; a hole must lie strictly inside the "
+                    "material")
         holes.setdefault(index, []).append(level_set)
         single[index] = holed
     out = list(subs)

@@ -7,13 +7,15 @@ are, and so are the min of several (a union of holes). Cells are classified with
 (a cell whose centre is farther from the boundary than its half-diagonal is not cut), so a
 hole smaller than a cell is still found.
 
-Cut cells are integrated on their material part only, with no new unknowns: each is split
-into ``subdivisions``² sub-squares, each sub-square into two triangles, φ is interpolated
-linearly on each triangle from its exact values at the vertices, and the material part of the
-triangle (a triangle or a quadrangle, cut into two triangles) carries a degree-2 triangle
-rule. On the axis-aligned rectangles of ``RectMesh`` the Q4 stiffness integrand has total
-degree 2, so the stiffness of a cell cut by a straight line is integrated exactly; a curved
-boundary is approximated by segments of length h / ``subdivisions``.
+Cut cells are integrated on their material part only, with no new unknowns: each reference
+cell is split into ``subdivisions``² small triangles (a Q4's square into sub-squares, two
+triangles each; a T3's triangle into triangles), φ is interpolated linearly on each from its
+exact values at the (mapped) vertices, and the material part of the triangle (a triangle or
+a quadrangle, cut into two triangles) carries a degree-2 triangle rule. On the
+axis-aligned rectangles of ``RectMesh`` the Q4 stiffness integrand has total degree 2, and
+on a T3 it is constant, so the stiffness of a cell cut by a straight line is integrated
+exactly; a curved boundary is approximated by segments of length h / ``subdivisions``.
+Unstructured Q4 and T3 meshes (mesh files) are cut the same way.
 """
 
 from __future__ import annotations
@@ -24,8 +26,8 @@ from dataclasses import dataclass
 import numpy as np
 import numpy.typing as npt
 
-from .elasticity import FloatArray, IntArray, Quadrature
-from .mesh import RectMesh
+from .elasticity import FloatArray, IntArray, Quadrature, shape_functions
+from .mesh import RectMesh, UnstructuredMesh
 
 LevelSet = Callable[[FloatArray], FloatArray]
 
@@ -131,51 +133,64 @@ def _material_triangles(vertices: FloatArray, phi: FloatArray) -> tuple[FloatArr
     return pieces, np.where(used, area, 0.0)
 
 
-def cut_cells(mesh: RectMesh, level_set: LevelSet, subdivisions: int = 4,
-              min_fraction: float = 1e-6) -> CutCells:
-    """Classify the cells of ``mesh`` against ``level_set`` and integrate the cut ones on
-    their material part (see the module docstring); vectorised over the cut cells.
+def _reference_triangles(n_corners: int, m: int) -> tuple[FloatArray, float]:
+    """The reference cell cut into small triangles: (n_tri, 3, 2) vertices, and the cell's
+    reference area. Q4: the square [−1, 1]² in m² sub-squares, two triangles each; T3: the
+    triangle (0, 0), (1, 0), (0, 1) in m² triangles."""
+    if n_corners == 4:
+        ticks = np.linspace(-1.0, 1.0, m + 1)
+        i, j = (a.ravel() for a in np.meshgrid(np.arange(m), np.arange(m), indexing="ij"))
+        lower = np.stack([np.stack([i, j], -1), np.stack([i + 1, j], -1),
+                          np.stack([i + 1, j + 1], -1)], axis=1)
+        upper = np.stack([np.stack([i, j], -1), np.stack([i + 1, j + 1], -1),
+                          np.stack([i, j + 1], -1)], axis=1)
+        return ticks[np.concatenate([lower, upper])], 4.0
+    ticks = np.linspace(0.0, 1.0, m + 1)
+    i, j = (a.ravel() for a in np.meshgrid(np.arange(m), np.arange(m), indexing="ij"))
+    keep_lower, keep_upper = i + j <= m - 1, i + j <= m - 2
+    lower = np.stack([np.stack([i, j], -1), np.stack([i + 1, j], -1),
+                      np.stack([i, j + 1], -1)], axis=1)[keep_lower]
+    upper = np.stack([np.stack([i + 1, j], -1), np.stack([i + 1, j + 1], -1),
+                      np.stack([i, j + 1], -1)], axis=1)[keep_upper]
+    return ticks[np.concatenate([lower, upper])], 0.5
 
-    A cell with less than ``min_fraction`` of material (a hole through a node leaves slivers
-    of 1e-30) counts as void: its stiffness would be of that order, and its nodes could be
-    left with no stiffness at all.
+
+def cut_cells(mesh: RectMesh | UnstructuredMesh, level_set: LevelSet, subdivisions: int = 4,
+              min_fraction: float = 1e-6) -> CutCells:
+    """Classify the cells of ``mesh`` (Q4, structured or not, or T3) against ``level_set``
+    and integrate the cut ones on their material part (see the module docstring);
+    vectorised over the cut cells.
+
+    A cell is a candidate when |φ| at its centroid is at most the distance from the centroid
+    to its farthest corner (1-Lipschitz φ). A cell with less than ``min_fraction`` of
+    material (a hole through a node leaves slivers of 1e-30) counts as void: its stiffness
+    would be of that order, and its nodes could be left with no stiffness at all.
     """
     if subdivisions < 1:
         raise ValueError(f"subdivisions must be >= 1, got {subdivisions}")
-    corners = mesh.nodes[mesh.cells]  # (c, 4, 2)
-    lower, upper = corners[:, 0], corners[:, 2]
-    centre = 0.5 * (lower + upper)
-    half = 0.5 * (upper - lower)
+    corners = mesh.nodes[mesh.cells]  # (c, a, 2)
+    n_corners = corners.shape[1]
+    centre = corners.mean(axis=1)
     phi_centre = level_set(centre)
-    reach = np.linalg.norm(half, axis=1)
+    reach = np.linalg.norm(corners - centre[:, None, :], axis=2).max(axis=1)
     fraction = np.where(phi_centre >= 0.0, 1.0, 0.0)
     candidates = np.flatnonzero(np.abs(phi_centre) <= reach * (1.0 + 1e-12))
 
-    m = subdivisions
-    ticks = np.linspace(-1.0, 1.0, m + 1)
-    gx, gy = np.meshgrid(ticks, ticks, indexing="ij")  # (m+1, m+1)
-    ref_grid = np.stack([gx, gy], axis=-1)
-    phys = centre[candidates, None, None, :] + ref_grid * half[candidates, None, None, :]
-    phi_grid = level_set(phys)  # (n_cand, m+1, m+1)
-    grid_i, grid_j = np.meshgrid(np.arange(m), np.arange(m), indexing="ij")
-    i, j = grid_i.ravel(), grid_j.ravel()
-    triangles = np.stack([np.stack([i, i + 1, i + 1], -1), np.stack([j, j, j + 1], -1),
-                          np.stack([i, i + 1, i], -1), np.stack([j, j + 1, j + 1], -1)])
-    tri_i = np.concatenate([triangles[0], triangles[2]])  # (2 m², 3)
-    tri_j = np.concatenate([triangles[1], triangles[3]])
-    vertices = ref_grid[tri_i, tri_j]  # (n_tri, 3, 2) in reference coordinates
-    phi_tri = phi_grid[:, tri_i, tri_j]  # (n_cand, n_tri, 3)
+    vertices, full_area = _reference_triangles(n_corners, subdivisions)  # (n_tri, 3, 2)
+    shapes, _ = shape_functions(vertices, n_corners)  # (n_tri, 3, a)
+    phys = np.einsum("tva,cad->ctvd", shapes, corners[candidates])
+    phi_tri = level_set(phys)  # (n_cand, n_tri, 3)
     pieces, area = _material_triangles(
         np.broadcast_to(vertices, phi_tri.shape + (2,)), phi_tri)
-    material_area = area.sum(axis=(1, 2))  # reference area, 4 for a full cell
-    material_area = np.where(material_area < 4.0 * min_fraction, 0.0, material_area)
-    full = material_area >= 4.0 * (1.0 - 1e-12)
-    fraction[candidates] = np.where(full, 1.0, material_area / 4.0)
+    material_area = area.sum(axis=(1, 2))  # reference area: ``full_area`` for a full cell
+    material_area = np.where(material_area < full_area * min_fraction, 0.0, material_area)
+    full = material_area >= full_area * (1.0 - 1e-12)
+    fraction[candidates] = np.where(full, 1.0, material_area / full_area)
     cut_mask = (material_area > 0.0) & ~full
     cut = candidates[cut_mask]
     points = np.einsum("qv,ctpvd->ctpqd", _TRIANGLE_POINTS, pieces[cut_mask])
     weights = area[cut_mask][..., None] * _TRIANGLE_WEIGHTS
-    per_cell = tri_i.shape[0] * 2 * _TRIANGLE_WEIGHTS.size  # triangles x pieces x points
+    per_cell = vertices.shape[0] * 2 * _TRIANGLE_WEIGHTS.size  # triangles x pieces x points
     quadrature = Quadrature(points.reshape(cut.size, per_cell, 2),
                             weights.reshape(cut.size, per_cell))
 
