@@ -54,7 +54,8 @@ def test_good_model_is_accepted():
         (lambda d: d["boundary"][0].update(type="glue"),
          "boundary[0] ('clamp').type: unknown boundary type 'glue'"),
         (lambda d: d["boundary"][0].update(side="middle"),
-         "boundary[0] ('clamp').side: must be one of"),
+         "boundary[0] ('clamp').side: substructure 'a' has no side or group named 'middle' "
+         "(sides: bottom, right, top, left; groups of its mesh files: none)"),
         (lambda d: d["boundary"][1].update(side="left"),
          "boundary[1] ('pull'): side 'left' of 'b' already belongs to an interface"),
         (lambda d: d["boundary"].pop(0),

@@ -253,3 +253,95 @@ def test_a_level_set_hole_meeting_the_file_mesh_boundary_is_refused(tmp_path: Pa
     with pytest.raises(ml.ModelError, match=r"holes\[0\] \('hole'\): the hole meets the "
                                             "boundary of substructure 'plate'"):
         ml.ModelSpec.from_toml(tmp_path / "holed.toml")
+
+
+def _gmsh_notched(path: Path, closed_hole: bool = False) -> Path:
+    """[0, 60] × [0, 20] with a semicircular notch of radius 4 at (30, 20) in its top, the
+    notch's arc a physical group "notch" (and, with ``closed_hole``, a round hole at (10, 10)
+    as one closed group "hole")."""
+    gmsh.initialize()
+    try:
+        gmsh.option.setNumber("General.Verbosity", 0)
+        occ = gmsh.model.occ
+        tools = [(2, occ.addDisk(30.0, 20.0, 0.0, 4.0, 4.0))]
+        if closed_hole:
+            tools.append((2, occ.addDisk(10.0, 10.0, 0.0, 2.0, 2.0)))
+        occ.cut([(2, occ.addRectangle(0.0, 0.0, 0.0, 60.0, 20.0))], tools)
+        occ.synchronize()
+        boxes = {"notch": (26.0, 34.0, 16.0, 20.0), "hole": (8.0, 12.0, 8.0, 12.0)}
+        for name, (x0, x1, y0, y1) in boxes.items():
+            arcs = []
+            for _, tag in gmsh.model.getEntities(1):
+                bx0, by0, _, bx1, by1, _ = gmsh.model.getBoundingBox(1, tag)
+                if (bx0 > x0 - 1e-3 and bx1 < x1 + 1e-3 and by0 > y0 - 1e-3
+                        and by1 < y1 + 1e-3 and by1 - by0 > 1.0):
+                    arcs.append(tag)
+            if arcs:
+                gmsh.model.addPhysicalGroup(1, arcs, name=name)
+        gmsh.model.addPhysicalGroup(2, [tag for _, tag in gmsh.model.getEntities(2)],
+                                    name="plate")
+        gmsh.option.setNumber("Mesh.MeshSizeMax", 1.0)
+        gmsh.model.mesh.generate(2)
+        gmsh.write(str(path))
+    finally:
+        gmsh.finalize()
+    return path
+
+
+NOTCH = HEAD + """
+[[boundary]]
+name = "clamp"
+face = "plate.left"
+type = "displacement"
+value = [0.0, 0.0]
+[[boundary]]
+name = "bearing"
+face = "plate.notch"             # the mesh file's physical group
+type = "force"
+value = [0.0, -3.0]
+[[qoi]]
+name = "v"
+type = "displacement"
+point = [60.0, 20.0]
+component = "y"
+"""
+
+
+def test_a_named_group_of_edges_takes_a_boundary_condition(tmp_path: Path) -> None:
+    """A traction on a gmsh physical group (a notch's arc): its resultant is the traction
+    times the arc's (polyline) length, the clamp takes it, and LATIN equals the monolithic
+    solution."""
+    _gmsh_notched(tmp_path / "plate.msh")
+    (tmp_path / "notch.toml").write_text(NOTCH)
+    model = ml.Model(ml.ModelSpec.from_toml(tmp_path / "notch.toml"))
+    mesh = model.assemble().substructures[0].mesh
+    arc = mesh.nodes[mesh.side_nodes("notch")]
+    assert np.allclose(np.hypot(arc[:, 0] - 30.0, arc[:, 1] - 20.0), 4.0)
+    assert arc[0].tolist() == pytest.approx([26.0, 20.0]) and arc[-1].tolist() == \
+        pytest.approx([34.0, 20.0])
+    normals = mesh.face_normals("notch")  # out of the material: towards the notch's centre
+    towards = np.array([30.0, 20.0]) - arc
+    assert np.all(np.einsum("ij,ij->i", normals, towards) > 0.0)
+    length = float(np.linalg.norm(np.diff(arc, axis=0), axis=1).sum())
+    latin, reference = model.solve(options=TIGHT), model.reference()
+    for result in (latin, reference):
+        assert result.reactions["bearing"][0, 1] == pytest.approx(-3.0 * length, rel=1e-12)
+        assert result.reactions["clamp"][0, 1] == pytest.approx(3.0 * length, rel=1e-7)
+    assert latin.qoi["v"] == pytest.approx(reference.qoi["v"], rel=1e-7)
+
+
+def test_named_groups_errors_name_the_groups(tmp_path: Path) -> None:
+    _gmsh_notched(tmp_path / "plate.msh", closed_hole=True)
+    (tmp_path / "a.toml").write_text(NOTCH.replace("plate.notch", "plate.slot"))
+    with pytest.raises(ml.ModelError, match=r"boundary\[1\] \('bearing'\).face: body 'plate' "
+                       r"has no side or group named 'slot' \(sides: bottom, right, top, left; "
+                       r"groups of its mesh files: hole, notch\)"):
+        ml.ModelSpec.from_toml(tmp_path / "a.toml")
+    (tmp_path / "b.toml").write_text(NOTCH.replace("plate.notch", "plate.hole"))
+    with pytest.raises(ml.ModelError, match="group 'hole' .* is not one open chain of edges"):
+        ml.ModelSpec.from_toml(tmp_path / "b.toml")
+    (tmp_path / "c.toml").write_text(NOTCH.replace('type = "force"\nvalue = [0.0, -3.0]',
+                                                   'type = "stop"'))
+    with pytest.raises(ml.ModelError, match="a named group of edges takes displacement, force "
+                       "or mixed conditions, not 'stop'"):
+        ml.ModelSpec.from_toml(tmp_path / "c.toml")

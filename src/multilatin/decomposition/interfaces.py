@@ -35,7 +35,7 @@ import scipy.sparse as sp
 
 from ..errors import ModelError
 from ..fem.elasticity import FloatArray, IntArray
-from ..fem.mesh import normal_axis
+from ..fem.mesh import SIDES, normal_axis
 from .assembly import DISPLACEMENT, FORCE, Assembly, Interface
 from .mortar import mortar_coupling
 
@@ -54,13 +54,17 @@ class SideDiscretisation:
 
 
 def discretise_side(node_coords: FloatArray, nodes: IntArray, kind: str,
-                    thickness: float) -> SideDiscretisation:
-    """Interface elements of kind ``kind`` on a side whose ordered nodes are ``nodes``."""
+                    thickness: float, projected: bool = False) -> SideDiscretisation:
+    """Interface elements of kind ``kind`` on a side whose ordered nodes are ``nodes``.
+
+    projected: lengths measured along the coordinate that varies most (a curved face in
+        contact with a straight side, ``SideRef.reach``: tractions per unit length of that
+        side); else along the edges (arc length).
+    """
     xy = node_coords[nodes]
     along = xy[:, int(np.argmax(np.abs(xy[-1] - xy[0])))]  # the coordinate that varies
-    # lengths along the side: a curved face near it (``SideRef.reach``) counts its
-    # projection, so that tractions are per unit length of the side it faces
-    edge_len = np.abs(np.diff(along))
+    edge_len = (np.abs(np.diff(along)) if projected
+                else np.linalg.norm(np.diff(xy, axis=0), axis=1))
     n_edges = edge_len.size
     if kind == "nodal":
         dual = np.zeros(n_edges + 1)
@@ -104,14 +108,15 @@ def _discretise_interface(assembly: Assembly, itf: Interface, kind: str
     coupling = mortar_coupling(assembly, itf)
     if coupling is None:
         return [discretise_side(sub.mesh.nodes, ref.nodes(sub.mesh), kind,
-                                sub.material.thickness)
+                                sub.material.thickness, projected=ref.reach > 0.0)
                 for ref, sub in zip(itf.sides, subs, strict=True)]
     if kind != "nodal":
         raise ModelError(f"interface {itf.name!r} joins non-matching meshes (mortar), which "
                          f"needs interface_elements = 'nodal', got {kind!r}")
     slave_sub = subs[coupling.slave]
     slave = discretise_side(slave_sub.mesh.nodes, coupling.slave_nodes, "nodal",
-                            slave_sub.material.thickness)
+                            slave_sub.material.thickness,
+                            projected=itf.sides[coupling.slave].reach > 0.0)
     master = dataclasses.replace(slave, nodes=coupling.master_nodes, trace=coupling.projection)
     return [slave, master] if coupling.slave == 0 else [master, slave]
 
@@ -198,8 +203,12 @@ def build_points(assembly: Assembly, kind: str = "nodal", *,
             weights.append(disc.weights)
             extents.append(disc.extents)
             side = assembly.interfaces[i].sides[side_index].side
-            normals.append(np.broadcast_to(assembly.substructures[s].mesh.outward_normal(side),
-                                           (n, 2)))
+            mesh = assembly.substructures[s].mesh
+            if side in SIDES:
+                normals.append(np.broadcast_to(mesh.outward_normal(side), (n, 2)))
+            else:  # a named group of boundary edges (mesh files): the normals of its nodes
+                at_points = disc.trace @ mesh.face_normals(side)
+                normals.append(at_points / np.linalg.norm(at_points, axis=1, keepdims=True))
             scatter = sp.csr_matrix(
                 (np.ones(disc.nodes.size), (np.arange(disc.nodes.size), disc.nodes)),
                 shape=(disc.nodes.size, n_nodes),

@@ -49,6 +49,14 @@ class RectangleSides:
             return 0, self.x1, self.y0, self.y1
         raise ValueError(f"unknown side {side!r}; expected one of {SIDES}")
 
+    def side_nodes(self, side: str, reach: float = 0.0) -> IntArray:
+        raise NotImplementedError
+
+    def face_normals(self, side: str) -> FloatArray:
+        """Outward unit normals at the nodes of ``side`` (``side_nodes`` order)."""
+        return np.broadcast_to(self.outward_normal(side),
+                               (self.side_nodes(side).size, 2)).copy()
+
     def outward_normal(self, side: str) -> FloatArray:
         return {
             "bottom": np.array([0.0, -1.0]),
@@ -132,7 +140,8 @@ class RectMesh(RectangleSides):
 class UnstructuredMesh(RectangleSides):
     """A Q4 or T3 mesh (``cells`` of 4 or 3 nodes, counter-clockwise) of (part of) the
     rectangle ``[x0, x1] × [y0, y1]``, e.g. with holes; its side nodes are the nodes on the
-    rectangle's sides."""
+    rectangle's sides. ``groups``: named chains of boundary edges (a mesh file's physical
+    groups of lines), faces of their own for boundary conditions."""
 
     x0: float
     x1: float
@@ -140,6 +149,7 @@ class UnstructuredMesh(RectangleSides):
     y1: float
     nodes: FloatArray
     cells: IntArray
+    groups: dict[str, IntArray] = field(default_factory=dict)  # name -> (n, 2) edges
 
     def __repr__(self) -> str:
         digest = hashlib.sha1(self.nodes.tobytes() + self.cells.tobytes()).hexdigest()[:12]
@@ -162,6 +172,8 @@ class UnstructuredMesh(RectangleSides):
             running along it (not across: the other sides' edges are left out), which must
             form one chain, each node further along the side than the last.
         """
+        if side in self.groups:
+            return self._chain(side)
         axis, level, _, _ = self.side_line(side)
         scale = 1e-9 * max(self.x1 - self.x0, self.y1 - self.y0)
         if reach <= 0.0:
@@ -180,6 +192,47 @@ class UnstructuredMesh(RectangleSides):
             raise ValueError(f"the boundary within {reach:g} of the {side} side of {self!r} "
                              "is not one chain of edges running along the side")
         return nodes.astype(np.int64)
+
+    def _chain(self, group: str) -> IntArray:
+        """The nodes of a named group of edges, in order along it from the end with the
+        smaller (x, y)."""
+        edges = self.groups[group]
+        nodes, degree = np.unique(edges, return_counts=True)
+        ends = nodes[degree == 1]
+        if edges.shape[0] == 0 or ends.size != 2 or np.any(degree > 2):
+            raise ValueError(f"group {group!r} of {self!r} is not one open chain of edges "
+                             f"({edges.shape[0]} edges, {ends.size} ends; split a closed "
+                             "curve into two groups)")
+        start = min(ends.tolist(), key=lambda n: (self.nodes[n, 0], self.nodes[n, 1]))
+        neighbours: dict[int, list[int]] = {}
+        for a, b in edges.tolist():
+            neighbours.setdefault(a, []).append(b)
+            neighbours.setdefault(b, []).append(a)
+        order, previous = [start], -1
+        while len(order) < nodes.size:
+            following = [n for n in neighbours[order[-1]] if n != previous]
+            previous = order[-1]
+            order.append(following[0])
+        return np.array(order, dtype=np.int64)
+
+    def face_normals(self, side: str) -> FloatArray:
+        """Outward unit normals at the nodes of ``side`` (``side_nodes`` order): a
+        rectangle's side has one; a named group's is the mean of its edges' at each node."""
+        if side not in self.groups:
+            return super().face_normals(side)
+        order = self._chain(side)
+        boundary = {tuple(edge): True for edge in self.boundary_edges.tolist()}
+        normals = np.zeros((order.size, 2))
+        for k in range(order.size - 1):
+            a, b = int(order[k]), int(order[k + 1])
+            if (a, b) not in boundary:  # the cell's counter-clockwise edge runs b -> a
+                a, b = b, a
+            direction = self.nodes[b] - self.nodes[a]
+            outward = np.array([direction[1], -direction[0]]) / np.linalg.norm(direction)
+            normals[k] += outward
+            normals[k + 1] += outward
+        return np.asarray(normals / np.linalg.norm(normals, axis=1, keepdims=True),
+                          dtype=np.float64)
 
     @property
     def boundary_edges(self) -> IntArray:

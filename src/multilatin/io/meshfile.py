@@ -7,6 +7,7 @@ from __future__ import annotations
 import contextlib
 import io
 from pathlib import Path
+from typing import Any
 
 import numpy as np
 
@@ -17,10 +18,12 @@ from ..fem.elasticity import FloatArray, IntArray
 _UNSUPPORTED = ("triangle6", "triangle7", "quad8", "quad9", "polygon")
 
 
-def read_mesh(path: str | Path, where: str) -> tuple[FloatArray, IntArray]:
-    """Nodes (n, 2) and counter-clockwise cells of the mesh in ``path``: Q4 (c, 4) or T3
-    (c, 3), one kind per substructure; nodes no cell uses are dropped. Errors name ``where``
-    (the model-file field) and the file."""
+def read_mesh(path: str | Path, where: str
+              ) -> tuple[FloatArray, IntArray, dict[str, IntArray]]:
+    """Nodes (n, 2), counter-clockwise cells of the mesh in ``path``, Q4 (c, 4) or T3 (c, 3),
+    one kind per substructure (nodes no cell uses are dropped), and its named groups of line
+    elements (gmsh's physical groups of curves) as (n, 2) edges, each edge on the mesh's
+    boundary. Errors name ``where`` (the model-file field) and the file."""
     import meshio
 
     try:
@@ -70,4 +73,29 @@ def read_mesh(path: str | Path, where: str) -> tuple[FloatArray, IntArray]:
                 f"{where}: mesh file {str(path)!r}: cell {bad} (nodes "
                 f"{[int(i) for i in used[cells[bad]]]}) is inverted, twisted or not convex "
                 f"(its Jacobian changes sign; {bad_cells.size} such cell(s))")
-    return nodes, cells
+    return nodes, cells, _line_groups(mesh, renumber, cells, path, where)
+
+
+def _line_groups(mesh: Any, renumber: IntArray, cells: IntArray, path: str | Path,
+                 where: str) -> dict[str, IntArray]:
+    """The named sets of line cells, renumbered; each edge must be a boundary edge."""
+    lines = [block.data for block in mesh.cells if block.type == "line"]
+    if not lines:
+        return {}
+    all_lines = np.vstack(lines).astype(np.int64)
+    cell_edges = np.sort(np.stack([cells, np.roll(cells, -1, axis=1)], axis=2)
+                         .reshape(-1, 2), axis=1)
+    unique, counts = np.unique(cell_edges, axis=0, return_counts=True)
+    boundary = {tuple(edge) for edge in unique[counts == 1].tolist()}
+    groups: dict[str, IntArray] = {}
+    for name, by_type in mesh.cell_sets_dict.items():
+        if "line" not in by_type or name.startswith("gmsh:"):
+            continue
+        edges = renumber[all_lines[np.asarray(by_type["line"], dtype=np.int64)]]
+        inside = [k for k, edge in enumerate(np.sort(edges, axis=1).tolist())
+                  if min(edge) < 0 or tuple(edge) not in boundary]
+        if inside:
+            raise ModelError(f"{where}: mesh file {str(path)!r}: group {name!r} holds "
+                             f"{len(inside)} edge(s) that are not on the mesh's boundary")
+        groups[str(name)] = edges
+    return groups

@@ -82,11 +82,13 @@ def contact_set(assembly: Assembly, maps: list[IntArray],
         coupling = mortar_coupling(assembly, itf) if index in (mortar_points or {}) else None
         if coupling is None:
             nodes = ref.nodes(sub.mesh)
-            cells = discretise_side(sub.mesh.nodes, nodes, "nodal", sub.material.thickness)
+            cells = discretise_side(sub.mesh.nodes, nodes, "nodal", sub.material.thickness,
+                                    projected=ref.reach > 0.0)
         else:  # the slave side's points
             slave_sub = assembly.substructures[itf.sides[coupling.slave].substructure]
             cells = discretise_side(slave_sub.mesh.nodes, coupling.slave_nodes, "nodal",
-                                    slave_sub.material.thickness)
+                                    slave_sub.material.thickness,
+                                    projected=itf.sides[coupling.slave].reach > 0.0)
             nodes = coupling.slave_nodes
         weight = cells.weights
         lo, hi = cells.extents[:, 0], cells.extents[:, 1]

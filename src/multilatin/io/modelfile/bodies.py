@@ -162,15 +162,16 @@ class BodySections(SectionReader):
         return subs, bodies
 
     def file_mesh(self, table: Mapping[str, Any], where: str) -> UnstructuredMesh:
-        """``mesh_file``: a Q4 mesh read with meshio; its bounding box is the substructure's
-        rectangle (``x`` and ``y``, when given, must be that box), whose sides carry the
-        interfaces and boundary conditions."""
+        """``mesh_file``: a Q4 or T3 mesh read with meshio; its bounding box is the
+        substructure's rectangle (``x`` and ``y``, when given, must be that box), whose sides
+        carry the interfaces and boundary conditions, and so do its named groups of boundary
+        edges (gmsh's physical groups)."""
         if "elements" in table:
             raise ModelError(f"{where}: give either elements or mesh_file, not both")
         if self.refine != 1:
             raise ModelError(f"{where}.mesh_file: a mesh read from a file cannot be refined "
                              f"(refine = {self.refine})")
-        nodes, cells = read_mesh(str(table["mesh_file"]), f"{where}.mesh_file")
+        nodes, cells, groups = read_mesh(str(table["mesh_file"]), f"{where}.mesh_file")
         (x0, y0), (x1, y1) = nodes.min(axis=0), nodes.max(axis=0)
         if "x" in table or "y" in table:
             given = self.rectangle(table, where)
@@ -178,7 +179,8 @@ class BodySections(SectionReader):
             if np.abs(np.array(given) - [x0, x1, y0, y1]).max() > 1e-9 * size:
                 raise ModelError(f"{where}: x {list(given[:2])} and y {list(given[2:])} are not "
                                  f"the mesh's extent x [{x0:g}, {x1:g}] y [{y0:g}, {y1:g}]")
-        return UnstructuredMesh(float(x0), float(x1), float(y0), float(y1), nodes, cells)
+        return UnstructuredMesh(float(x0), float(x1), float(y0), float(y1), nodes, cells,
+                                groups)
 
     @staticmethod
     def own_meshes(tables: Any, where: str, split: tuple[int, int]

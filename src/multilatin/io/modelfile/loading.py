@@ -3,7 +3,7 @@ boundary conditions (prescribed displacements, forces, rigid stops)."""
 
 from __future__ import annotations
 
-from collections.abc import Mapping
+from collections.abc import Callable, Mapping
 from typing import Any
 
 import numpy as np
@@ -67,6 +67,9 @@ class LoadingSections(SectionReader):
             names.add(name)
             kind = require(table, "type", where)
             refs = self._select_sides(table, where, subs, bodies)
+            if kind in (STOP, "wall") and any(ref.side not in SIDES for ref in refs):
+                raise ModelError(f"{where}.type: a named group of edges takes displacement, "
+                                 f"force or mixed conditions, not {kind!r}")
             law = None
             if {"friction", "gap"} & set(table) and kind != STOP:
                 raise ModelError(f"{where}: friction and gap apply to type = 'stop' only")
@@ -128,7 +131,8 @@ class LoadingSections(SectionReader):
             if body not in bodies:
                 raise ModelError(f"{where}.face: no body named {body!r} in {table['face']!r}")
             if side not in SIDES:
-                raise ModelError(f"{where}.face: side must be one of {SIDES}, got {side!r}")
+                return _named_groups(subs, side, f"{where}.face", lambda s: s.body == body,
+                                     f"body {body!r}")
             x0, x1, y0, y1 = bodies[body]
             level = {"left": x0, "right": x1, "bottom": y0, "top": y1}[side]
             return [
@@ -139,9 +143,29 @@ class LoadingSections(SectionReader):
         sub_name = require(table, "substructure", where)
         side = require(table, "side", where)
         if side not in SIDES:
-            raise ModelError(f"{where}.side: must be one of {SIDES}, got {side!r}")
+            return _named_groups(subs, str(side), f"{where}.side",
+                                 lambda s: s.name == sub_name, f"substructure {sub_name!r}")
         for i, s in enumerate(subs):
             if s.name == sub_name:
                 return [SideRef(i, side)]
         raise ModelError(f"{where}.substructure: no substructure named {sub_name!r}")
 
+
+
+def _named_groups(subs: list[Substructure], group: str, where: str,
+                  chosen: Callable[[Substructure], bool], owner: str) -> list[SideRef]:
+    """The faces named ``group`` (a mesh file's physical group of boundary edges) of the
+    chosen substructures; an error naming the sides and groups there are when none is."""
+    refs = [SideRef(i, group) for i, s in enumerate(subs)
+            if chosen(s) and group in getattr(s.mesh, "groups", {})]
+    if not refs:
+        groups = sorted({g for s in subs if chosen(s) for g in getattr(s.mesh, "groups", {})})
+        raise ModelError(f"{where}: {owner} has no side or group named {group!r} (sides: "
+                         f"{', '.join(SIDES)}; groups of its mesh files: "
+                         f"{', '.join(groups) or 'none'})")
+    for ref in refs:
+        try:
+            subs[ref.substructure].mesh.side_nodes(group)
+        except ValueError as exc:
+            raise ModelError(f"{where}: {exc}") from None
+    return refs
