@@ -116,3 +116,16 @@ def test_roller_stick_zone_follows_cattaneo_mindlin_and_slides_at_mu_p() -> None
             assert row["Q"] == pytest.approx(module.MU * row["P"], rel=1e-6)
         assert row["Q"] == pytest.approx(ref["Q"], rel=1e-6)
         assert row["c_over_a"] == pytest.approx(ref["c_over_a"], abs=1e-12)
+
+
+def test_lug_latin_equals_the_reference_and_friction_stiffens_the_joint() -> None:
+    """The bundled lug (gmsh meshes, frictional contact between two named curved faces that
+    do not match): LATIN equals the monolithic reference; friction raises the pull force
+    and lowers the pressure on the axis."""
+    module = _example("lug_bearing")
+    latin = module.run((0.0, 0.4))
+    reference = module.run((0.0, 0.4), solver="reference")
+    for row, ref in zip(latin, reference, strict=True):
+        assert row["F"] == pytest.approx(ref["F"], rel=1e-6)
+        assert row["p_axis"] == pytest.approx(ref["p_axis"], rel=1e-5)
+    assert latin[1]["F"] > latin[0]["F"] and latin[1]["p_axis"] < latin[0]["p_axis"]

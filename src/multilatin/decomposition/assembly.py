@@ -106,6 +106,9 @@ class BoundaryCondition:
     kinds: tuple[str, str]
     value: tuple[float, float]
     factor: str | None = None
+    #: a pressure ``value[0]`` normal to the face (traction −p n, n its outward normal at
+    #: each point: curved faces), instead of a uniform traction vector
+    pressure: bool = False
 
 
 @dataclass(frozen=True)

@@ -25,7 +25,6 @@ Choice of interface elements (``interface_elements``), decided by test
 from __future__ import annotations
 
 import dataclasses
-from collections.abc import Callable
 from dataclasses import dataclass
 from typing import Any
 
@@ -35,8 +34,9 @@ import scipy.sparse as sp
 
 from ..errors import ModelError
 from ..fem.elasticity import FloatArray, IntArray
-from ..fem.mesh import SIDES, normal_axis
+from ..fem.mesh import SIDES, UnstructuredMesh, normal_axis
 from .assembly import DISPLACEMENT, FORCE, Assembly, Interface
+from .held_nodes import held_corners, held_perfect_pairs, node_key, prescribed_components
 from .mortar import mortar_coupling
 
 INTERFACE_ELEMENTS = ("nodal", "edges", "edge-pairs")
@@ -54,24 +54,31 @@ class SideDiscretisation:
 
 
 def discretise_side(node_coords: FloatArray, nodes: IntArray, kind: str,
-                    thickness: float, projected: bool = False) -> SideDiscretisation:
+                    thickness: float, projected: bool = False,
+                    along: FloatArray | None = None) -> SideDiscretisation:
     """Interface elements of kind ``kind`` on a side whose ordered nodes are ``nodes``.
 
     projected: lengths measured along the coordinate that varies most (a curved face in
         contact with a straight side, ``SideRef.reach``: tractions per unit length of that
         side); else along the edges (arc length).
+    along: the nodes' positions on the interface's own coordinate (a mortar interface's,
+        ``MortarCoupling.slave_along``), for the lengths and the extents.
     """
     xy = node_coords[nodes]
-    along = xy[:, int(np.argmax(np.abs(xy[-1] - xy[0])))]  # the coordinate that varies
-    edge_len = (np.abs(np.diff(along)) if projected
-                else np.linalg.norm(np.diff(xy, axis=0), axis=1))
+    if along is None:
+        along = xy[:, int(np.argmax(np.abs(xy[-1] - xy[0])))]  # the coordinate that varies
+        edge_len = (np.abs(np.diff(along)) if projected
+                    else np.linalg.norm(np.diff(xy, axis=0), axis=1))
+    else:
+        edge_len = np.abs(np.diff(along))
     n_edges = edge_len.size
     if kind == "nodal":
         dual = np.zeros(n_edges + 1)
         dual[:-1] += 0.5 * edge_len
         dual[1:] += 0.5 * edge_len
         mid = 0.5 * (along[1:] + along[:-1])
-        extents = np.column_stack([np.r_[along[0], mid], np.r_[mid, along[-1]]])
+        extents = np.sort(np.column_stack([np.r_[along[0], mid], np.r_[mid, along[-1]]]),
+                          axis=1)
         return SideDiscretisation(nodes, sp.identity(n_edges + 1, format="csr"),
                                   np.asarray(dual * thickness, dtype=np.float64), xy.copy(),
                                   extents)
@@ -115,8 +122,7 @@ def _discretise_interface(assembly: Assembly, itf: Interface, kind: str
                          f"needs interface_elements = 'nodal', got {kind!r}")
     slave_sub = subs[coupling.slave]
     slave = discretise_side(slave_sub.mesh.nodes, coupling.slave_nodes, "nodal",
-                            slave_sub.material.thickness,
-                            projected=itf.sides[coupling.slave].reach > 0.0)
+                            slave_sub.material.thickness, along=coupling.slave_along)
     master = dataclasses.replace(slave, nodes=coupling.master_nodes, trace=coupling.projection)
     return [slave, master] if coupling.slave == 0 else [master, slave]
 
@@ -152,7 +158,7 @@ class InterfacePoints:
     side_points: dict[tuple[int, int], IntArray]  # (interface, side index) -> points
     corner: IntArray  # contact pairs whose two sides' tangential motion is rigidly held
     corner_stops: IntArray  # (n_corner, 2) index in ``stops`` holding side a / b, −1: fixed
-    # contact pairs held tangentially on one side only (``_held_corners``), per pair: the
+    # contact pairs held tangentially on one side only (``held_nodes.held_corners``), per pair: the
     # held side (0: a, 1: b, −1: neither or both), and what holds it: an index in
     # ``boundary`` (a prescribed displacement) or in ``stops`` (when closed), else −1
     held_side: IntArray
@@ -173,8 +179,8 @@ def build_points(assembly: Assembly, kind: str = "nodal", *,
                  held_nodes: bool = True) -> InterfacePoints:
     """Discretise every interface side of ``assembly`` with interface elements ``kind``.
 
-    held_nodes: find the contact and perfect pairs held on one side (``_held_corners``,
-        ``_held_perfect_pairs``); False leaves them to the two-sided rule (before issue 15).
+    held_nodes: find the contact and perfect pairs held on one side (``held_nodes.held_corners``,
+        ``held_nodes.held_perfect_pairs``); False leaves them to the two-sided rule (before issue 15).
     """
     per_sub: list[list[tuple[int, int, SideDiscretisation]]] = [
         [] for _ in assembly.substructures
@@ -207,7 +213,10 @@ def build_points(assembly: Assembly, kind: str = "nodal", *,
             if side in SIDES:
                 normals.append(np.broadcast_to(mesh.outward_normal(side), (n, 2)))
             else:  # a named group of boundary edges (mesh files): the normals of its nodes
-                at_points = disc.trace @ mesh.face_normals(side)
+                assert isinstance(mesh, UnstructuredMesh)
+                row = {int(node): k for k, node in enumerate(mesh.side_nodes(side))}
+                face = mesh.face_normals(side)[[row[int(node)] for node in disc.nodes]]
+                at_points = disc.trace @ face
                 normals.append(at_points / np.linalg.norm(at_points, axis=1, keepdims=True))
             scatter = sp.csr_matrix(
                 (np.ones(disc.nodes.size), (np.arange(disc.nodes.size), disc.nodes)),
@@ -255,10 +264,15 @@ def build_points(assembly: Assembly, kind: str = "nodal", *,
     a, b = contact_pairs
     contact_offset = np.einsum("pi,pi->p", all_normals[a], at[b] - at[a])
     contact_offset[np.abs(contact_offset) <= 1e-12 * max(np.ptp(at), 1.0)] = 0.0
-    key = _node_key(cat(substructure), all_coords)
-    fixed = _prescribed_components(key, boundary, is_displacement)
-    held = _held_corners(key, fixed, contact_pairs, stops, all_normals)
-    held.update(_held_perfect_pairs(key, fixed, (cat(pairs_a), cat(pairs_b))))
+    # named faces declared in contact touch: their polylines' distance (chords of
+    # different meshes of one curve sag differently) is a discretisation artefact
+    named = [i for i, itf in enumerate(assembly.interfaces)
+             if any(ref.side not in SIDES for ref in itf.sides)]
+    contact_offset[np.isin(cat(interface)[a], named)] = 0.0
+    key = node_key(cat(substructure), all_coords)
+    fixed = prescribed_components(key, boundary, is_displacement)
+    held = held_corners(key, fixed, contact_pairs, stops, all_normals)
+    held.update(held_perfect_pairs(key, fixed, (cat(pairs_a), cat(pairs_b))))
     if not held_nodes:
         for name in ("held_side", "held_boundary", "held_stop", "pair_held_side",
                      "pair_held_boundary"):
@@ -319,97 +333,6 @@ def with_contact_data(points: InterfacePoints, assembly: Assembly) -> InterfaceP
     return dataclasses.replace(points, contact_friction=data["contact_friction"],
                                contact_gap=data["contact_gap"],
                                stop_friction=data["stop_friction"], stop_gap=data["stop_gap"])
-
-
-NodeKey = Callable[[int], tuple[int, float, float]]
-
-
-def _held_corners(key: NodeKey, fixed: dict[tuple[tuple[int, float, float], int], int],
-                  contact_pairs: tuple[IntArray, IntArray], stops: IntArray,
-                  normals: FloatArray) -> dict[str, IntArray]:
-    """Contact pairs whose tangential displacement is held, at the same node of the same
-    substructure, by a prescribed displacement or a stop: the ends of a contact interface on
-    a clamped or pushed face or on a stop (cross points).
-
-    Held on both sides (B1's corner between the stop and the wall-held top block): the
-    friction force is statically indeterminate (any value in the cone balances); the local
-    stage keeps it at its previous step's value, the limit of any tangential compliance
-    (``corner``, ``corner_stops``). While the stop of such a corner is open, its prescribed
-    displacement holds alone: the one-sided rule below applies.
-
-    Held on one side only: the held node's tangential force is shared between the contact
-    point and the holding condition, and only their sum is determined: with nodal
-    interface fields that split is an (almost) neutral mode of the iteration, so slow
-    against a stiff partner that η hardly sees it (measured: R_push 3.7 % off at η < 3e-6
-    for a block on a 1 000 times stiffer foundation, ``benchmarks/slide.py``). The local
-    stage therefore gives that pair's friction from the *free* side alone, as against an
-    obstacle moving with the held node (``held_side``, ``held_boundary``, ``held_stop``).
-    """
-    stop_of = {(key(int(p)), int(np.argmax(np.abs(normals[p])))): q for q, p in enumerate(stops)}
-    n_pairs = contact_pairs[0].size
-    corner, corner_stops = [], []
-    held_side = np.full(n_pairs, -1, dtype=np.int64)
-    held_boundary = np.full(n_pairs, -1, dtype=np.int64)
-    held_stop = np.full(n_pairs, -1, dtype=np.int64)
-    for j, (a, b) in enumerate(zip(*contact_pairs, strict=True)):
-        tangential = 1 - int(np.argmax(np.abs(normals[a])))
-        holders: list[tuple[int, int, int]] = []  # (side, boundary index, stop index)
-        for side, p in enumerate((int(a), int(b))):
-            if (key(p), tangential) in fixed:
-                holders.append((side, fixed[(key(p), tangential)], -1))
-            elif (key(p), tangential) in stop_of:
-                holders.append((side, -1, stop_of[(key(p), tangential)]))
-        if len(holders) == 2:
-            corner.append(j)
-            corner_stops.append([-1 if stop < 0 else stop for _, _, stop in holders])
-            # while a stop holder is open, the other side's prescribed displacement holds
-            # alone: the one-sided rule (B1's (50, 100) before the stop closes)
-            by_displacement = [h for h in holders if h[1] >= 0]
-            if len(by_displacement) == 1:
-                held_side[j], held_boundary[j], held_stop[j] = by_displacement[0]
-        elif len(holders) == 1:
-            held_side[j], held_boundary[j], held_stop[j] = holders[0]
-    return {"corner": np.array(corner, dtype=np.int64),
-            "corner_stops": np.array(corner_stops, dtype=np.int64).reshape(-1, 2),
-            "held_side": held_side, "held_boundary": held_boundary, "held_stop": held_stop}
-
-
-def _node_key(substructure: IntArray, coords: FloatArray) -> NodeKey:
-    """A point's node: its substructure and coordinates (points of different sides of a
-    substructure at the same node share it)."""
-    def key(p: int) -> tuple[int, float, float]:
-        return (int(substructure[p]), round(float(coords[p, 0]), 9), round(float(coords[p, 1]), 9))
-    return key
-
-
-def _prescribed_components(key: NodeKey, boundary: IntArray,
-                           is_displacement: npt.NDArray[np.bool_]
-                           ) -> dict[tuple[tuple[int, float, float], int], int]:
-    """(node, component) -> index in ``boundary`` of the point prescribing its
-    displacement."""
-    return {(key(int(p)), c): i for i, (p, mask) in
-            enumerate(zip(boundary, is_displacement, strict=True)) for c in range(2) if mask[c]}
-
-
-def _held_perfect_pairs(key: NodeKey, fixed: dict[tuple[tuple[int, float, float], int], int],
-                        pairs: tuple[IntArray, IntArray]) -> dict[str, IntArray]:
-    """Perfect pairs whose node is held on one side only by a prescribed displacement
-    component (an interface ending on a clamped or pushed face next to a substructure that
-    is not held there): as for contact (``_held_corners``), only the sum of the pair's and
-    the holder's forces at the held node is determined, so the local stage takes the pair's
-    force from the free side's search direction against the prescribed displacement.
-    Held on both sides, the split is exactly neutral (it enters neither η nor any answer)
-    and is left alone."""
-    n_pairs = pairs[0].size
-    held_side = np.full((n_pairs, 2), -1, dtype=np.int64)
-    held_boundary = np.full((n_pairs, 2), -1, dtype=np.int64)
-    for j, (a, b) in enumerate(zip(*pairs, strict=True)):
-        for c in range(2):
-            holders = [(side, fixed[(key(int(p)), c)]) for side, p in enumerate((a, b))
-                       if (key(int(p)), c) in fixed]
-            if len(holders) == 1:
-                held_side[j, c], held_boundary[j, c] = holders[0]
-    return {"pair_held_side": held_side, "pair_held_boundary": held_boundary}
 
 
 def interface_functions(points: InterfacePoints, interface: int, n_sides: int

@@ -32,6 +32,7 @@ import scipy.sparse as sp
 
 from ..errors import ModelError
 from ..fem.elasticity import FloatArray, IntArray
+from ..fem.mesh import SIDES, RectMesh, UnstructuredMesh
 from .assembly import Assembly, Interface
 
 #: the two-point Gauss rule on [0, 1]: exact for the products of two linear functions
@@ -46,6 +47,9 @@ class MortarCoupling:
     slave_nodes: IntArray  # the slave side's nodes along the interface, in order
     master_nodes: IntArray  # the master side's nodes that P uses, in order
     projection: sp.csr_matrix  # P: (n_slave, n_master), master trace values at slave nodes
+    # the slave's nodes on the coordinate along the interface that P was computed on (a
+    # straight side's coordinate; the master's arc length for named curved faces)
+    slave_along: FloatArray
 
     @property
     def master(self) -> int:
@@ -63,6 +67,8 @@ def mortar_coupling(assembly: Assembly, itf: Interface) -> MortarCoupling | None
     if nodes[0].size == nodes[1].size and np.allclose(
             meshes[0].nodes[nodes[0]], meshes[1].nodes[nodes[1]], atol=scale):
         return None
+    if any(ref.side not in SIDES for ref in itf.sides):
+        return _curved_coupling(itf, meshes, nodes)
     axis = meshes[0].side_line(itf.sides[0].side)[0]
     spans = [ref.segment if ref.segment is not None else
              (float(mesh.nodes[side_nodes[0], 1 - axis]), float(mesh.nodes[side_nodes[-1], 1 - axis]))
@@ -80,14 +86,62 @@ def mortar_coupling(assembly: Assembly, itf: Interface) -> MortarCoupling | None
             "the two meshes there")
     slave = max(covering, key=lambda index: (nodes[index].size, -index))
     master = 1 - slave
-    master_ref = itf.sides[master]
-    master_all = master_ref.all_nodes(meshes[master])
+    master_all = itf.sides[master].all_nodes(meshes[master])
     slave_at = meshes[slave].nodes[nodes[slave], 1 - axis]
     master_at = meshes[master].nodes[master_all, 1 - axis]
-    projection = dual_mortar_projection(slave_at, master_at)
+    return _coupling(slave, nodes[slave], master_all, slave_at, master_at)
+
+
+def _coupling(slave: int, slave_nodes: IntArray, master_nodes: IntArray, slave_at: FloatArray,
+              master_at: FloatArray) -> MortarCoupling:
+    """P on the common coordinate (the slave's positions may run either way)."""
+    flip = slave_at[-1] < slave_at[0]
+    projection = dual_mortar_projection(slave_at[::-1] if flip else slave_at, master_at)
+    if flip:
+        projection = projection[::-1]
     used = np.flatnonzero(np.asarray(abs(projection).sum(axis=0)).ravel() > 0.0)
-    return MortarCoupling(slave, nodes[slave], master_all[used].astype(np.int64),
-                          projection[:, used].tocsr())
+    return MortarCoupling(slave, slave_nodes, master_nodes[used].astype(np.int64),
+                          projection[:, used].tocsr(), np.asarray(slave_at, dtype=np.float64))
+
+
+def _curved_coupling(itf: Interface, meshes: list[RectMesh | UnstructuredMesh],
+                     nodes: list[IntArray]) -> MortarCoupling:
+    """Named curved faces: each side's nodes projected on the other side's polyline (the
+    closest point); a side whose projections all fall on the other is covered by it. The
+    slave is the finer covered side; the common coordinate is the master's arc length."""
+    covered = []
+    for index in (0, 1):
+        master_xy = meshes[1 - index].nodes[nodes[1 - index]]
+        at, inside = _on_polyline(meshes[index].nodes[nodes[index]], master_xy)
+        monotone = np.all(np.diff(at) > 0) or np.all(np.diff(at) < 0)
+        if inside and monotone:
+            covered.append((index, at))
+    if not covered:
+        raise ModelError(f"interface {itf.name!r}: neither face lies along the other (each "
+                         "face's nodes must project, in order, onto the other face)")
+    slave, slave_at = max(covered, key=lambda item: (nodes[item[0]].size, -item[0]))
+    master_xy = meshes[1 - slave].nodes[nodes[1 - slave]]
+    master_at = np.r_[0.0, np.cumsum(np.linalg.norm(np.diff(master_xy, axis=0), axis=1))]
+    return _coupling(slave, nodes[slave], nodes[1 - slave], slave_at, master_at)
+
+
+def _on_polyline(points: FloatArray, polyline: FloatArray) -> tuple[FloatArray, bool]:
+    """Arc length along ``polyline`` of each point's closest point on it, and whether every
+    point projects inside it (not beyond its ends, up to 1e-9 of its length)."""
+    start, direction = polyline[:-1], np.diff(polyline, axis=0)
+    length = np.linalg.norm(direction, axis=1)
+    t = np.einsum("psd,sd->ps", points[:, None, :] - start[None], direction) / length**2
+    clipped = np.clip(t, 0.0, 1.0)
+    nearest = start[None] + clipped[..., None] * direction[None]
+    distance = np.linalg.norm(points[:, None, :] - nearest, axis=2)
+    segment = np.argmin(distance, axis=1)
+    rows = np.arange(points.shape[0])
+    cumulative = np.r_[0.0, np.cumsum(length)]
+    at = cumulative[segment] + clipped[rows, segment] * length[segment]
+    total = cumulative[-1]
+    beyond = (t[rows, segment] < -1e-9 * total / length[segment]) | (
+        t[rows, segment] > 1.0 + 1e-9 * total / length[segment])
+    return at, not bool(beyond.any())
 
 
 def dual_mortar_projection(slave_at: FloatArray, master_at: FloatArray) -> sp.csr_matrix:

@@ -78,7 +78,7 @@ def _contact_and_stops(displacement: FloatArray, force: FloatArray, w_hat: Float
                 trial_y = force[c, t, p, 1] - ky * dwy
                 closing = gap_stop[c, i] - (nx * prev_stop[i, 0] + ny * prev_stop[i, 1])
                 normal_force = (nx * trial_x + ny * trial_y
-                                + (abs(nx) * kx + abs(ny) * ky) * closing)
+                                + (nx * nx * kx + ny * ny * ky) * closing)
                 fx, fy = 0.0, 0.0
                 if normal_force <= 0.0:
                     fx, fy = _in_cone(trial_x, trial_y, normal_force, nx, ny, mu_stop[c, i])
@@ -103,8 +103,8 @@ def _contact_and_stops(displacement: FloatArray, force: FloatArray, w_hat: Float
                 closing = gap_contact[c, j] + (nx * (prev_b[j, 0] - prev_a[j, 0])
                                                + ny * (prev_b[j, 1] - prev_a[j, 1]))
                 normal_force = (nx * trial_x + ny * trial_y
-                                + (abs(nx) * hx + abs(ny) * hy) * closing)
-                # held on one side (``interfaces._held_corners``): the tangential trial
+                                + (nx * nx * hx + ny * ny * hy) * closing)
+                # held on one side (``held_nodes.held_corners``): the tangential trial
                 # force from the free side alone, against the held node's motion
                 hs = held_side[j]
                 target = 0.0

@@ -149,7 +149,7 @@ class LocalStage:
                                   fa + k * (w_hat[:, :, a] - wa))
         f_hat[:, :, b] = -f_hat[:, :, a]
         # a node held on one side by a prescribed displacement: Ŵ = W_d, and the pair's
-        # force from the free side's E+ (``interfaces._held_perfect_pairs``)
+        # force from the free side's E+ (``held_nodes.held_perfect_pairs``)
         j, d = np.nonzero(self.pair_held_side >= 0)
         if j.size:
             data = self.prescribed[:, :, self.pair_held_boundary[j, d], d]
@@ -167,7 +167,7 @@ class LocalStage:
 
     @functools.cached_property
     def held_pairs(self) -> IntArray:
-        """Contact pairs held tangentially on one side (``interfaces._held_corners``)."""
+        """Contact pairs held tangentially on one side (``held_nodes.held_corners``)."""
         return np.flatnonzero(self.held_side >= 0)
 
     @functools.cached_property
@@ -227,15 +227,16 @@ class LocalStage:
         n_cases = displacement.shape[0]
         a, b = self.contact_pairs
         k, kb, n = self.k_contact, self.k_contact_b, self.n_contact
-        # series stiffness k* = k_a k_b / (k_a + k_b), k / 2 when both sides are equal
+        # series stiffness k* = k_a k_b / (k_a + k_b), k / 2 when both sides are equal; its
+        # normal part n·k*·n (exact for any normal when k is isotropic, the default)
         equal = k == kb
         half = np.where(equal, 0.5 * k, k * kb / (k + kb))
-        half_normal = np.sum(np.abs(n) * half, axis=1)
+        half_normal = np.sum(n * n * half, axis=1)
         prev_a = np.zeros((n_cases, a.size, 2))
         prev_b = np.zeros((n_cases, a.size, 2))
         p = self.stops
         k_stop, n_stop = self.k_stop, self.n_stop
-        k_stop_normal = np.sum(np.abs(n_stop) * k_stop, axis=1)
+        k_stop_normal = np.sum(n_stop * n_stop * k_stop, axis=1)
         prev_stop = np.zeros((n_cases, p.size, 2))
         corner, corner_stops = self.corner, self.corner_stops
         previous_corner_force = np.zeros((n_cases, corner.size, 2))
@@ -302,8 +303,12 @@ def _prescribed(assembly: Assembly, points: InterfacePoints) -> FloatArray:
         assert itf.condition is not None
         n = points.side_points[(i, 0)].size
         factor = assembly.history.factor(itf.condition.factor)
-        prescribed[:, offset:offset + n] = (factor[:, None] *
-                                            np.asarray(itf.condition.value))[:, None, :]
+        if itf.condition.pressure:  # traction −p n at each point
+            traction = -itf.condition.value[0] * points.normals[points.side_points[(i, 0)]]
+            prescribed[:, offset:offset + n] = factor[:, None, None] * traction[None]
+        else:
+            prescribed[:, offset:offset + n] = (factor[:, None] *
+                                                np.asarray(itf.condition.value))[:, None, :]
         offset += n
     return prescribed
 

@@ -22,7 +22,7 @@ from ..decomposition.assembly import DISPLACEMENT, Assembly
 from ..decomposition.interfaces import InterfacePoints, build_points, macro_basis
 from ..errors import ModelError
 from ..fem.elasticity import FloatArray, IntArray
-from ..fem.mesh import normal_axis
+from ..fem.mesh import SIDES, normal_axis
 from .local_stage import macro_only_map
 
 if TYPE_CHECKING:
@@ -186,7 +186,11 @@ class LatinOperators:
                           for sub in source]
             for side_index, value in enumerate(values):
                 k[pts.side_points[(i, side_index)]] = value
-            if itf.contact is not None:
+            if itf.contact is not None and opts.tangential_ratio != 1.0:
+                if itf.sides[0].side not in SIDES:
+                    raise ModelError(f"interface {itf.name!r}: tangential_ratio != 1 needs an "
+                                     "axis-aligned contact normal (a rectangle's side), not "
+                                     f"the named face {itf.sides[0].side!r}")
                 tangential = 1 - normal_axis(itf.sides[0].side)
                 for side_index in range(len(itf.sides)):
                     k[pts.side_points[(i, side_index)], tangential] *= opts.tangential_ratio

@@ -42,7 +42,7 @@ class LatinOptions:
     held_nodes: at a node held on one side only by a prescribed displacement (or a closed
         stop, for contact) — an interface ending on a clamped or pushed face — the pair's
         force comes from the free side alone, against the held motion
-        (``interfaces._held_corners``): only the sum of the pair's and the holder's forces
+        (``held_nodes.held_corners``): only the sum of the pair's and the holder's forces
         is determined there, and the split was an almost neutral mode that η hardly sees
         (a block on a 1 000 times stiffer foundation stopped 3.7 % off). False: the
         earlier two-sided rule, for side-by-side benchmarks.

@@ -54,11 +54,11 @@ class TorchLocalStage:
         self.all_contact_equal = bool(np.all(k == kb))  # then one branch of the where
         half = np.where(k == kb, 0.5 * k, k * kb / np.where(k + kb > 0, k + kb, 1.0))
         self.half = tensor(half)
-        self.half_normal = tensor(np.sum(np.abs(n) * half, axis=1))
+        self.half_normal = tensor(np.sum(n * n * half, axis=1))
         self.stops = index(local.stops)
         self.n_stops = local.stops.size
         self.k_stop, self.n_stop = tensor(local.k_stop), tensor(local.n_stop)
-        self.k_stop_normal = tensor(np.sum(np.abs(local.n_stop) * local.k_stop, axis=1))
+        self.k_stop_normal = tensor(np.sum(local.n_stop**2 * local.k_stop, axis=1))
         self.corner = index(local.corner)
         self.n_corners = local.corner.size
         self.n_corner = tensor(n[local.corner])

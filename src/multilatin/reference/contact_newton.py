@@ -34,9 +34,10 @@ import scipy.sparse.linalg as spla
 
 from ..decomposition.assembly import Assembly
 from ..decomposition.interfaces import discretise_side
-from ..decomposition.mortar import mortar_coupling
+from ..decomposition.mortar import MortarCoupling, mortar_coupling
 from ..errors import NotConvergedError
 from ..fem.elasticity import FloatArray, IntArray
+from ..fem.mesh import SIDES
 
 log = logging.getLogger(__name__)
 
@@ -87,15 +88,14 @@ def contact_set(assembly: Assembly, maps: list[IntArray],
         else:  # the slave side's points
             slave_sub = assembly.substructures[itf.sides[coupling.slave].substructure]
             cells = discretise_side(slave_sub.mesh.nodes, coupling.slave_nodes, "nodal",
-                                    slave_sub.material.thickness,
-                                    projected=itf.sides[coupling.slave].reach > 0.0)
+                                    slave_sub.material.thickness, along=coupling.slave_along)
             nodes = coupling.slave_nodes
         weight = cells.weights
         lo, hi = cells.extents[:, 0], cells.extents[:, 1]
         position = cells.coords
         bodies = frozenset(assembly.substructures[r.substructure].body for r in itf.sides)
         boundary = None
-        normal = sub.mesh.outward_normal(ref.side)
+        normal = _first_side_normals(assembly, itf, coupling, nodes.size)
         offset = np.zeros(nodes.size)  # initial distance of a curved face (SideRef.reach)
         if coupling is not None:
             assert mortar_points is not None
@@ -105,19 +105,22 @@ def contact_set(assembly: Assembly, maps: list[IntArray],
                   coupling.projection @ master_sub.mesh.nodes[coupling.master_nodes]]
             if coupling.slave == 1:
                 at.reverse()
-            offset = (at[1] - at[0]) @ normal
+            offset = np.einsum("pi,pi->p", at[1] - at[0], normal)
         elif len(itf.sides) == 2:
             first = maps[ref.substructure][nodes]
             other = itf.sides[1]
             other_mesh = assembly.substructures[other.substructure].mesh
             second = maps[other.substructure][other.nodes(other_mesh)]
-            offset = (other_mesh.nodes[other.nodes(other_mesh)] - sub.mesh.nodes[nodes]) @ normal
+            offset = np.einsum("pi,pi->p", other_mesh.nodes[other.nodes(other_mesh)]
+                               - sub.mesh.nodes[nodes], normal)
         else:
             first = maps[ref.substructure][nodes]
             second = np.full(nodes.size, -1)
             assert itf.condition is not None
             boundary = itf.condition.name
         offset[np.abs(offset) <= 1e-12 * max(float(np.ptp(sub.mesh.nodes)), 1.0)] = 0.0
+        if any(r.side not in SIDES for r in itf.sides):  # named faces touch (as LATIN's)
+            offset[:] = 0.0
         for p in range(nodes.size):
             key = (int(first[p]), int(second[p]))
             if key in records:
@@ -125,7 +128,8 @@ def contact_set(assembly: Assembly, maps: list[IntArray],
                 rec[4] += weight[p]
                 rec[5] = (min(rec[5][0], lo[p]), max(rec[5][1], hi[p]))
             else:
-                records[key] = [normal, itf.contact.friction, itf.contact.gap + offset[p], bodies,
+                records[key] = [normal[p], itf.contact.friction, itf.contact.gap + offset[p],
+                                bodies,
                                 weight[p], (lo[p], hi[p]), boundary, position[p]]
     keys = list(records)
     vals = list(records.values())
@@ -141,6 +145,23 @@ def contact_set(assembly: Assembly, maps: list[IntArray],
         bodies=[v[3] for v in vals],
         boundary=[v[6] for v in vals],
     )
+
+
+def _first_side_normals(assembly: Assembly, itf: Any, coupling: MortarCoupling | None,
+                        n: int) -> FloatArray:
+    """The outward normal of the interface's first side at each of its ``n`` pairs: a
+    rectangle side's, a named face's at its nodes, or (mortar, first side the master) the
+    master's interpolated at the slave's nodes."""
+    ref = itf.sides[0]
+    mesh = assembly.substructures[ref.substructure].mesh
+    if ref.side in SIDES:
+        return np.broadcast_to(mesh.outward_normal(ref.side), (n, 2)).copy()
+    face = mesh.face_normals(ref.side)
+    if coupling is None or coupling.slave == 0:
+        return np.asarray(face, dtype=np.float64)
+    row = {int(node): k for k, node in enumerate(mesh.side_nodes(ref.side))}
+    at = coupling.projection @ face[[row[int(node)] for node in coupling.master_nodes]]
+    return np.asarray(at / np.linalg.norm(at, axis=1, keepdims=True), dtype=np.float64)
 
 
 def _held_corners(contacts: ContactSet, free: npt.NDArray[np.bool_]) -> tuple[IntArray, IntArray]:

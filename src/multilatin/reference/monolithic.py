@@ -164,13 +164,16 @@ def solve_monolithic(assembly: Assembly) -> SolveResult:
         # dual-cell length × thickness at each node: the consistent load of a uniform traction
         nodal_len = discretise_side(sub.mesh.nodes, side, "nodal", sub.material.thickness).weights
         mine = own_load.setdefault(cond.name, np.zeros((n_dofs, n_steps)))
+        value = np.broadcast_to(np.asarray(cond.value, dtype=float), (side.size, 2))
+        if cond.pressure:  # traction −p n at each node
+            value = -cond.value[0] * sub.mesh.face_normals(ref.side)[:side.size]
         for comp, kind in enumerate(cond.kinds):
             dofs = 2 * gnodes + comp
             if kind == DISPLACEMENT:
                 fixed_value[dofs] = cond.value[comp] * factor[None, :]
                 fixed_of.setdefault(cond.name, set()).update(dofs.tolist())
             else:
-                contribution = nodal_len[:, None] * cond.value[comp] * factor[None, :]
+                contribution = (nodal_len * value[:, comp])[:, None] * factor[None, :]
                 np.add.at(load, dofs, contribution)
                 np.add.at(mine, dofs, contribution)
 

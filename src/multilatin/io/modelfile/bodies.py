@@ -211,6 +211,11 @@ class BodySections(SectionReader):
         oy = np.minimum(box[:, None, 3], box[None, :, 3]) - np.maximum(box[:, None, 2], box[None, :, 2])
         overlap = (ox > scale) & (oy > scale)
         np.fill_diagonal(overlap, False)
+        for i, j in np.argwhere(np.triu(overlap)):  # boxes of curved parts: the cells decide
+            meshes = (subs[i].mesh, subs[j].mesh)
+            if any(isinstance(m, UnstructuredMesh) for m in meshes) and not (
+                    _cells_overlap(*meshes) or _cells_overlap(*meshes[::-1])):
+                overlap[i, j] = overlap[j, i] = False
         if overlap.any():
             i, j = np.argwhere(overlap)[0]
             a, b = subs[i], subs[j]
@@ -220,3 +225,24 @@ class BodySections(SectionReader):
                 f"x {[b.mesh.x0, b.mesh.x1]} y {[b.mesh.y0, b.mesh.y1]}"
             )
 
+
+
+def _cells_overlap(a: RectMesh | UnstructuredMesh, b: RectMesh | UnstructuredMesh) -> bool:
+    """Whether a cell centre of ``a`` lies inside a cell of ``b`` (convex cells)."""
+    from scipy.spatial import cKDTree
+
+    centres = a.nodes[a.cells].mean(axis=1)
+    corners = b.nodes[b.cells]
+    own = corners.mean(axis=1)
+    reach = float(np.linalg.norm(corners - own[:, None], axis=2).max())
+    found = cKDTree(own).query_ball_point(centres, r=reach * (1.0 + 1e-9))
+    pairs = [(p, c) for p, cells in enumerate(found) for c in cells]
+    if not pairs:
+        return False
+    point, cell = (np.array(v, dtype=np.int64) for v in zip(*pairs, strict=True))
+    xy = corners[cell]
+    edge = np.roll(xy, -1, axis=1) - xy
+    to_point = centres[point][:, None, :] - xy
+    cross = edge[..., 0] * to_point[..., 1] - edge[..., 1] * to_point[..., 0]
+    size = float(np.abs(edge).max())
+    return bool(np.any(np.all(cross > 1e-9 * size * size, axis=1)))

@@ -5,6 +5,7 @@ from __future__ import annotations
 
 import itertools
 import math
+from typing import Any
 
 import numpy as np
 
@@ -19,6 +20,7 @@ class InterfaceSections(SectionReader):
 
     def interfaces(self, subs: list[Substructure]) -> list[Interface]:
         declared: dict[frozenset[str], tuple[str, ContactLaw | None, str, float]] = {}
+        by_faces: list[Interface] = []  # between named groups of edges (mesh files)
         for d, table in enumerate(self.data.get("interfaces", [])):
             where = f"interfaces[{d}]"
             check_keys(table, {"between", "type", "friction", "gap", "reach"}, where)
@@ -34,6 +36,9 @@ class InterfaceSections(SectionReader):
             if isinstance(reach, bool) or not isinstance(reach, (int, float)) \
                     or not 0.0 <= reach < math.inf:
                 raise ModelError(f"{where}.reach: expected a distance >= 0, got {reach!r}")
+            if "." in a or "." in b:
+                by_faces.append(self._between_faces(table, where, subs, a, b, kind))
+                continue
             known = {s.name for s in subs} | {s.body for s in subs}
             if self.split and not {a, b} <= known:
                 continue  # names substructures that a caller's split has replaced
@@ -98,7 +103,39 @@ class InterfaceSections(SectionReader):
                 raise ModelError(
                     f"{where}.between: {a!r} and {b!r} do not face each other (they share no side)"
                 )
-        return found
+        return found + by_faces
+
+    def _between_faces(self, table: Any, where: str, subs: list[Substructure], a: str, b: str,
+                       kind: str) -> Interface:
+        """A perfect or contact interface between two named groups of boundary edges
+        (``body.group`` or ``substructure.group``): curved faces, joined node to node where
+        their nodes match and by mortar projection where they do not."""
+        if kind == "macro":
+            raise ModelError(f"{where}.type: an interface between named faces is perfect or "
+                             "contact, not macro")
+        if "reach" in table:
+            raise ModelError(f"{where}.reach: applies to a curved face facing a side, not "
+                             "to two named faces")
+        refs = []
+        for end in (a, b):
+            owner, _, group = end.partition(".")
+            chosen = [i for i, s in enumerate(subs) if owner in (s.name, s.body)
+                      and group in getattr(s.mesh, "groups", {})]
+            if len(chosen) != 1:
+                groups = sorted({f"{s.name}.{g}" for s in subs if owner in (s.name, s.body)
+                                 for g in getattr(s.mesh, "groups", {})})
+                raise ModelError(f"{where}.between: {end!r} names no group of edges of a "
+                                 f"mesh file (groups there: {', '.join(groups) or 'none'})")
+            try:
+                subs[chosen[0]].mesh.side_nodes(group)
+            except ValueError as exc:
+                raise ModelError(f"{where}.between: {exc}") from None
+            refs.append(SideRef(chosen[0], group))
+        if refs[0].substructure == refs[1].substructure:
+            raise ModelError(f"{where}.between: an interface joins two different parts, got "
+                             f"{a!r} and {b!r} of one substructure")
+        law = self.contact_law(table, where) if kind == "contact" else None
+        return Interface(f"{a}|{b}", kind, (refs[0], refs[1]), contact=law)
 
 
 

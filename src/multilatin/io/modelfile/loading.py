@@ -73,8 +73,14 @@ class LoadingSections(SectionReader):
             law = None
             if {"friction", "gap"} & set(table) and kind != STOP:
                 raise ModelError(f"{where}: friction and gap apply to type = 'stop' only")
-            if kind in (DISPLACEMENT, FORCE):
-                kinds: tuple[str, ...] = (kind, kind)
+            pressure = kind == "pressure"
+            if pressure:  # normal traction -p n: one value
+                kinds: tuple[str, ...] = (FORCE, FORCE)
+                table = {**table, "value": [table.get("value", 0.0), 0.0]}
+                if isinstance(table["value"][0], list):
+                    raise ModelError(f"{where}.value: a pressure is one number or expression")
+            elif kind in (DISPLACEMENT, FORCE):
+                kinds = (kind, kind)
             elif kind == "mixed":
                 kinds = tuple(pair(require(table, "components", where), f"{where}.components"))
                 for k in kinds:
@@ -95,7 +101,7 @@ class LoadingSections(SectionReader):
             else:
                 raise ModelError(
                     f"{where}.type: unknown boundary type {kind!r} "
-                    "(known: displacement, force, mixed, wall, stop)"
+                    "(known: displacement, force, pressure, mixed, wall, stop)"
                 )
             vx, vy = (self.num(v, f"{where}.value")
                       for v in pair(require(table, "value", where), f"{where}.value"))
@@ -106,7 +112,8 @@ class LoadingSections(SectionReader):
                     f"{where}.factor: {factor!r} is not a load factor of [history.factors] "
                     f"(defined: {known})"
                 )
-            condition = BoundaryCondition(name, (kinds[0], kinds[1]), (vx, vy), factor)
+            condition = BoundaryCondition(name, (kinds[0], kinds[1]), (vx, vy), factor,
+                                          pressure)
             if not refs:
                 raise ModelError(f"{where}.face: no substructure side lies on {table['face']!r}")
             for ref in refs:

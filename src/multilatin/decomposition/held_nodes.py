@@ -1,0 +1,103 @@
+"""Interface points held on one side or both (cross points), found once when the interface
+points are built (``interfaces.build_points``); the local stage's held-node rule (issue 15)
+uses them.
+"""
+
+from __future__ import annotations
+
+from collections.abc import Callable
+
+import numpy as np
+import numpy.typing as npt
+
+from ..fem.elasticity import FloatArray, IntArray
+
+NodeKey = Callable[[int], tuple[int, float, float]]
+
+
+def held_corners(key: NodeKey, fixed: dict[tuple[tuple[int, float, float], int], int],
+                  contact_pairs: tuple[IntArray, IntArray], stops: IntArray,
+                  normals: FloatArray) -> dict[str, IntArray]:
+    """Contact pairs whose tangential displacement is held, at the same node of the same
+    substructure, by a prescribed displacement or a stop: the ends of a contact interface on
+    a clamped or pushed face or on a stop (cross points).
+
+    Held on both sides (B1's corner between the stop and the wall-held top block): the
+    friction force is statically indeterminate (any value in the cone balances); the local
+    stage keeps it at its previous step's value, the limit of any tangential compliance
+    (``corner``, ``corner_stops``). While the stop of such a corner is open, its prescribed
+    displacement holds alone: the one-sided rule below applies.
+
+    Held on one side only: the held node's tangential force is shared between the contact
+    point and the holding condition, and only their sum is determined: with nodal
+    interface fields that split is an (almost) neutral mode of the iteration, so slow
+    against a stiff partner that η hardly sees it (measured: R_push 3.7 % off at η < 3e-6
+    for a block on a 1 000 times stiffer foundation, ``benchmarks/slide.py``). The local
+    stage therefore gives that pair's friction from the *free* side alone, as against an
+    obstacle moving with the held node (``held_side``, ``held_boundary``, ``held_stop``).
+    """
+    stop_of = {(key(int(p)), int(np.argmax(np.abs(normals[p])))): q for q, p in enumerate(stops)}
+    n_pairs = contact_pairs[0].size
+    corner, corner_stops = [], []
+    held_side = np.full(n_pairs, -1, dtype=np.int64)
+    held_boundary = np.full(n_pairs, -1, dtype=np.int64)
+    held_stop = np.full(n_pairs, -1, dtype=np.int64)
+    for j, (a, b) in enumerate(zip(*contact_pairs, strict=True)):
+        tangential = 1 - int(np.argmax(np.abs(normals[a])))
+        holders: list[tuple[int, int, int]] = []  # (side, boundary index, stop index)
+        for side, p in enumerate((int(a), int(b))):
+            if (key(p), tangential) in fixed:
+                holders.append((side, fixed[(key(p), tangential)], -1))
+            elif (key(p), tangential) in stop_of:
+                holders.append((side, -1, stop_of[(key(p), tangential)]))
+        if len(holders) == 2:
+            corner.append(j)
+            corner_stops.append([-1 if stop < 0 else stop for _, _, stop in holders])
+            # while a stop holder is open, the other side's prescribed displacement holds
+            # alone: the one-sided rule (B1's (50, 100) before the stop closes)
+            by_displacement = [h for h in holders if h[1] >= 0]
+            if len(by_displacement) == 1:
+                held_side[j], held_boundary[j], held_stop[j] = by_displacement[0]
+        elif len(holders) == 1:
+            held_side[j], held_boundary[j], held_stop[j] = holders[0]
+    return {"corner": np.array(corner, dtype=np.int64),
+            "corner_stops": np.array(corner_stops, dtype=np.int64).reshape(-1, 2),
+            "held_side": held_side, "held_boundary": held_boundary, "held_stop": held_stop}
+
+
+def node_key(substructure: IntArray, coords: FloatArray) -> NodeKey:
+    """A point's node: its substructure and coordinates (points of different sides of a
+    substructure at the same node share it)."""
+    def key(p: int) -> tuple[int, float, float]:
+        return (int(substructure[p]), round(float(coords[p, 0]), 9), round(float(coords[p, 1]), 9))
+    return key
+
+
+def prescribed_components(key: NodeKey, boundary: IntArray,
+                           is_displacement: npt.NDArray[np.bool_]
+                           ) -> dict[tuple[tuple[int, float, float], int], int]:
+    """(node, component) -> index in ``boundary`` of the point prescribing its
+    displacement."""
+    return {(key(int(p)), c): i for i, (p, mask) in
+            enumerate(zip(boundary, is_displacement, strict=True)) for c in range(2) if mask[c]}
+
+
+def held_perfect_pairs(key: NodeKey, fixed: dict[tuple[tuple[int, float, float], int], int],
+                        pairs: tuple[IntArray, IntArray]) -> dict[str, IntArray]:
+    """Perfect pairs whose node is held on one side only by a prescribed displacement
+    component (an interface ending on a clamped or pushed face next to a substructure that
+    is not held there): as for contact (``held_corners``), only the sum of the pair's and
+    the holder's forces at the held node is determined, so the local stage takes the pair's
+    force from the free side's search direction against the prescribed displacement.
+    Held on both sides, the split is exactly neutral (it enters neither η nor any answer)
+    and is left alone."""
+    n_pairs = pairs[0].size
+    held_side = np.full((n_pairs, 2), -1, dtype=np.int64)
+    held_boundary = np.full((n_pairs, 2), -1, dtype=np.int64)
+    for j, (a, b) in enumerate(zip(*pairs, strict=True)):
+        for c in range(2):
+            holders = [(side, fixed[(key(int(p)), c)]) for side, p in enumerate((a, b))
+                       if (key(int(p)), c) in fixed]
+            if len(holders) == 1:
+                held_side[j, c], held_boundary[j, c] = holders[0]
+    return {"pair_held_side": held_side, "pair_held_boundary": held_boundary}
