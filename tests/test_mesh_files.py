@@ -463,3 +463,14 @@ def test_curved_faces_in_contact_converge_to_lame(tmp_path: Path) -> None:
             assert latin.qoi["p_c"] == pytest.approx(reference.qoi["p_c"], rel=1e-3)
     assert errors[0][0] < 0.01 and errors[1][0] < errors[0][0] / 3.0 and errors[1][0] < 2e-3
     assert errors[0][1] < 0.03 and errors[1][1] < errors[0][1] / 3.0 and errors[1][1] < 5e-3
+
+
+def test_named_faces_apart_are_refused(tmp_path: Path) -> None:
+    """Named faces are taken to touch: faces with a clearance between them are refused by
+    name, never solved as if they touched."""
+    _gmsh_ring(tmp_path / "inner.msh", 5.0, 10.0, 1.0, ("bore", "rim"))
+    _gmsh_ring(tmp_path / "outer.msh", 10.5, 20.0, 1.6, ("seat", None))
+    (tmp_path / "rings.toml").write_text(RINGS)
+    with pytest.raises(ml.ModelError, match=r"interfaces\[0\].between: 'inner.rim' and "
+                       r"'outer.seat' do not touch: \d+ node\(s\) 0.5 apart at most"):
+        ml.ModelSpec.from_toml(tmp_path / "rings.toml")

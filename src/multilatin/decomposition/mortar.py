@@ -25,6 +25,7 @@ two when both do (the usual choice, which never over-constrains the finer side).
 
 from __future__ import annotations
 
+from collections.abc import Sequence
 from dataclasses import dataclass
 
 import numpy as np
@@ -33,7 +34,7 @@ import scipy.sparse as sp
 from ..errors import ModelError
 from ..fem.elasticity import FloatArray, IntArray
 from ..fem.mesh import SIDES, RectMesh, UnstructuredMesh
-from .assembly import Assembly, Interface
+from .assembly import Assembly, Interface, Substructure
 
 #: the two-point Gauss rule on [0, 1]: exact for the products of two linear functions
 _GAUSS = np.array([0.5 - 0.5 / np.sqrt(3.0), 0.5 + 0.5 / np.sqrt(3.0)])
@@ -56,12 +57,14 @@ class MortarCoupling:
         return 1 - self.slave
 
 
-def mortar_coupling(assembly: Assembly, itf: Interface) -> MortarCoupling | None:
+def mortar_coupling(assembly: Assembly | Sequence[Substructure], itf: Interface
+                    ) -> MortarCoupling | None:
     """The mortar coupling of a perfect or contact interface, None where its two sides have
     matching nodes (the interface is then node to node)."""
     if len(itf.sides) != 2 or itf.kind not in ("perfect", "contact"):
         return None
-    meshes = [assembly.substructures[ref.substructure].mesh for ref in itf.sides]
+    subs = assembly.substructures if isinstance(assembly, Assembly) else assembly
+    meshes = [subs[ref.substructure].mesh for ref in itf.sides]
     nodes = [ref.nodes(mesh) for ref, mesh in zip(itf.sides, meshes, strict=True)]
     scale = 1e-9 * max(max(m.x1 - m.x0, m.y1 - m.y0) for m in meshes)
     if nodes[0].size == nodes[1].size and np.allclose(
@@ -142,6 +145,23 @@ def _on_polyline(points: FloatArray, polyline: FloatArray) -> tuple[FloatArray, 
     beyond = (t[rows, segment] < -1e-9 * total / length[segment]) | (
         t[rows, segment] > 1.0 + 1e-9 * total / length[segment])
     return at, not bool(beyond.any())
+
+
+def face_distances(subs: Sequence[Substructure], itf: Interface) -> tuple[FloatArray, FloatArray]:
+    """Between the two faces of an interface, at each of its points (the slave's nodes):
+    the distance from the one face's node to the other face's (projected) trace, and the
+    longest edge next to the node."""
+    coupling = mortar_coupling(subs, itf)
+    meshes = [subs[ref.substructure].mesh for ref in itf.sides]
+    if coupling is None:
+        nodes = [ref.nodes(mesh) for ref, mesh in zip(itf.sides, meshes, strict=True)]
+        here, there = meshes[0].nodes[nodes[0]], meshes[1].nodes[nodes[1]]
+    else:
+        here = meshes[coupling.slave].nodes[coupling.slave_nodes]
+        there = coupling.projection @ meshes[coupling.master].nodes[coupling.master_nodes]
+    edges = np.linalg.norm(np.diff(here, axis=0), axis=1)
+    longest = np.maximum(np.r_[edges, 0.0], np.r_[0.0, edges])
+    return np.linalg.norm(there - here, axis=1), longest
 
 
 def dual_mortar_projection(slave_at: FloatArray, master_at: FloatArray) -> sp.csr_matrix:

@@ -10,6 +10,7 @@ from typing import Any
 import numpy as np
 
 from ...decomposition.assembly import ContactLaw, Interface, SideRef, Substructure
+from ...decomposition.mortar import face_distances
 from ...errors import ModelError
 from ...fem.mesh import SIDES
 from .checks import OPPOSITE, SectionReader, check_keys, pair, require
@@ -135,7 +136,22 @@ class InterfaceSections(SectionReader):
             raise ModelError(f"{where}.between: an interface joins two different parts, got "
                              f"{a!r} and {b!r} of one substructure")
         law = self.contact_law(table, where) if kind == "contact" else None
-        return Interface(f"{a}|{b}", kind, (refs[0], refs[1]), contact=law)
+        interface = Interface(f"{a}|{b}", kind, (refs[0], refs[1]), contact=law)
+        # named faces are taken to touch (no gap from their geometry): refuse faces apart
+        # by more than a quarter of an element, beyond the chords' own sag
+        try:
+            distance, edge = face_distances(subs, interface)
+        except ModelError as exc:
+            raise ModelError(f"{where}.between: {exc}") from None
+        apart = np.flatnonzero(distance > 0.25 * edge)
+        if apart.size:
+            worst = int(apart[np.argmax(distance[apart])])
+            raise ModelError(
+                f"{where}.between: {a!r} and {b!r} do not touch: {apart.size} node(s) "
+                f"{distance[worst]:.3g} apart at most (elements of {edge[worst]:.3g} there); "
+                "named faces in an interface must touch (a clearance between them is not "
+                "modelled)")
+        return interface
 
 
 
