@@ -50,3 +50,24 @@ def warm_b1_4_batch(options: Any) -> tuple[Any, ...]:
     assert neighbour.interface is not None
     warm = (neighbour.interface.displacement_hat, neighbour.interface.force_hat)
     return assemblies, ops, [None, warm, None, warm]
+
+
+def write_gmsh_mesh(path: Any, geometry: Callable[[Any], object], size: float,
+                    recombine: bool = False) -> Any:
+    """Mesh with gmsh the 2-D geometry that ``geometry(gmsh)`` builds (OCC; it may add
+    physical groups after synchronising) with elements of at most ``size``, quadrilaterals
+    when ``recombine``, and write it to ``path``."""
+    gmsh = pytest.importorskip("gmsh")
+    gmsh.initialize()
+    try:
+        gmsh.option.setNumber("General.Verbosity", 0)
+        geometry(gmsh)
+        gmsh.model.occ.synchronize()
+        gmsh.option.setNumber("Mesh.MeshSizeMax", size)
+        gmsh.option.setNumber("Mesh.RecombineAll", 1 if recombine else 0)
+        gmsh.option.setNumber("Mesh.Algorithm", 8 if recombine else 6)
+        gmsh.model.mesh.generate(2)
+        gmsh.write(str(path))
+    finally:
+        gmsh.finalize()
+    return path

@@ -3,6 +3,7 @@
 import numpy as np
 import pytest
 import scipy.sparse.linalg as spla
+from conftest import write_gmsh_mesh
 
 from multilatin.fem.elasticity import (
     PLANE_STRAIN,
@@ -78,21 +79,10 @@ def test_rigid_body_modes_are_the_kernel():
 def _gmsh_square(path, size: float, element: str):
     """An unstructured gmsh mesh of the unit square (Q4 recombined, or T3) read back as
     nodes and counter-clockwise cells (``multilatin.io.meshfile``)."""
-    gmsh = pytest.importorskip("gmsh")
     from multilatin.io.meshfile import read_mesh
 
-    gmsh.initialize()
-    try:
-        gmsh.option.setNumber("General.Verbosity", 0)
-        gmsh.model.occ.addRectangle(0.0, 0.0, 0.0, 1.0, 1.0)
-        gmsh.model.occ.synchronize()
-        gmsh.option.setNumber("Mesh.MeshSizeMax", size)
-        gmsh.option.setNumber("Mesh.RecombineAll", 1 if element == "Q4" else 0)
-        gmsh.option.setNumber("Mesh.Algorithm", 8 if element == "Q4" else 6)
-        gmsh.model.mesh.generate(2)
-        gmsh.write(str(path))
-    finally:
-        gmsh.finalize()
+    write_gmsh_mesh(path, lambda gmsh: gmsh.model.occ.addRectangle(0.0, 0.0, 0.0, 1.0, 1.0),
+                    size, recombine=element == "Q4")
     nodes, cells, _ = read_mesh(path, "test")
     return nodes, cells
 

@@ -5,9 +5,11 @@ and clear errors for meshes the elements cannot use."""
 from __future__ import annotations
 
 from pathlib import Path
+from typing import Any
 
 import numpy as np
 import pytest
+from conftest import write_gmsh_mesh
 
 import multilatin as ml
 
@@ -183,21 +185,12 @@ radius = 2.0
 
 def _gmsh_holed(path: Path, size: float, recombine: bool) -> Path:
     """[0, 20] × [0, 10] minus the disc of radius 2 at (10, 5), elements of ``size``."""
-    gmsh.initialize()
-    try:
-        gmsh.option.setNumber("General.Verbosity", 0)
+    def geometry(gmsh: Any) -> None:
         occ = gmsh.model.occ
         occ.cut([(2, occ.addRectangle(0.0, 0.0, 0.0, 20.0, 10.0))],
                 [(2, occ.addDisk(10.0, 5.0, 0.0, 2.0, 2.0))])
-        occ.synchronize()
-        gmsh.option.setNumber("Mesh.MeshSizeMax", size)
-        gmsh.option.setNumber("Mesh.RecombineAll", 1 if recombine else 0)
-        gmsh.option.setNumber("Mesh.Algorithm", 8 if recombine else 6)
-        gmsh.model.mesh.generate(2)
-        gmsh.write(str(path))
-    finally:
-        gmsh.finalize()
-    return path
+
+    return write_gmsh_mesh(path, geometry, size, recombine)
 
 
 @pytest.mark.parametrize("recombine", [True, False], ids=["Q4", "T3"])
@@ -232,19 +225,8 @@ def test_level_set_hole_on_an_unstructured_mesh_converges_to_the_conforming_mesh
 
 
 def _sized_rectangle(path: Path, size: float, recombine: bool) -> Path:
-    gmsh.initialize()
-    try:
-        gmsh.option.setNumber("General.Verbosity", 0)
-        gmsh.model.occ.addRectangle(0.0, 0.0, 0.0, 20.0, 10.0)
-        gmsh.model.occ.synchronize()
-        gmsh.option.setNumber("Mesh.MeshSizeMax", size)
-        gmsh.option.setNumber("Mesh.RecombineAll", 1 if recombine else 0)
-        gmsh.option.setNumber("Mesh.Algorithm", 8 if recombine else 6)
-        gmsh.model.mesh.generate(2)
-        gmsh.write(str(path))
-    finally:
-        gmsh.finalize()
-    return path
+    return write_gmsh_mesh(path, lambda gmsh: gmsh.model.occ.addRectangle(0.0, 0.0, 0.0, 20.0,
+                                                                         10.0), size, recombine)
 
 
 def test_a_level_set_hole_meeting_the_file_mesh_boundary_is_refused(tmp_path: Path) -> None:
@@ -259,9 +241,7 @@ def _gmsh_notched(path: Path, closed_hole: bool = False) -> Path:
     """[0, 60] × [0, 20] with a semicircular notch of radius 4 at (30, 20) in its top, the
     notch's arc a physical group "notch" (and, with ``closed_hole``, a round hole at (10, 10)
     as one closed group "hole")."""
-    gmsh.initialize()
-    try:
-        gmsh.option.setNumber("General.Verbosity", 0)
+    def geometry(gmsh: Any) -> None:
         occ = gmsh.model.occ
         tools = [(2, occ.addDisk(30.0, 20.0, 0.0, 4.0, 4.0))]
         if closed_hole:
@@ -280,12 +260,8 @@ def _gmsh_notched(path: Path, closed_hole: bool = False) -> Path:
                 gmsh.model.addPhysicalGroup(1, arcs, name=name)
         gmsh.model.addPhysicalGroup(2, [tag for _, tag in gmsh.model.getEntities(2)],
                                     name="plate")
-        gmsh.option.setNumber("Mesh.MeshSizeMax", 1.0)
-        gmsh.model.mesh.generate(2)
-        gmsh.write(str(path))
-    finally:
-        gmsh.finalize()
-    return path
+
+    return write_gmsh_mesh(path, geometry, 1.0)
 
 
 NOTCH = HEAD + """
@@ -351,9 +327,7 @@ def _gmsh_ring(path: Path, inner: float, outer: float, size: float,
                names: tuple[str | None, str | None]) -> Path:
     """The quarter ring inner <= r <= outer, x, y >= 0; its arcs are physical groups
     ``names`` (inner arc, outer arc; None: none)."""
-    gmsh.initialize()
-    try:
-        gmsh.option.setNumber("General.Verbosity", 0)
+    def geometry(gmsh: Any) -> None:
         occ = gmsh.model.occ
         disc = occ.addDisk(0.0, 0.0, 0.0, outer, outer)
         occ.cut([(2, disc)], [(2, occ.addDisk(0.0, 0.0, 0.0, inner, inner))])
@@ -367,12 +341,8 @@ def _gmsh_ring(path: Path, inner: float, outer: float, size: float,
                     gmsh.model.addPhysicalGroup(1, [tag], name=name)
         gmsh.model.addPhysicalGroup(2, [tag for _, tag in gmsh.model.getEntities(2)],
                                     name="ring")
-        gmsh.option.setNumber("Mesh.MeshSizeMax", size)
-        gmsh.model.mesh.generate(2)
-        gmsh.write(str(path))
-    finally:
-        gmsh.finalize()
-    return path
+
+    return write_gmsh_mesh(path, geometry, size)
 
 
 RINGS = """
