@@ -444,3 +444,69 @@ def test_named_faces_apart_are_refused(tmp_path: Path) -> None:
     with pytest.raises(ml.ModelError, match=r"interfaces\[0\].between: 'inner.rim' and "
                        r"'outer.seat' do not touch: \d+ node\(s\) 0.5 apart at most"):
         ml.ModelSpec.from_toml(tmp_path / "rings.toml")
+
+
+def _two_parts(path: Path) -> Path:
+    """One gmsh file of two parts meshed apart (their nodes do not match where they touch):
+    a block [10, 30] × [10, 20] on a base [0, 40] × [0, 10], named groups of surfaces."""
+    def geometry(gmsh: Any) -> None:
+        occ = gmsh.model.occ
+        base = occ.addRectangle(0.0, 0.0, 0.0, 40.0, 10.0)
+        block = occ.addRectangle(10.0, 10.0, 0.0, 20.0, 10.0)
+        occ.synchronize()
+        gmsh.model.addPhysicalGroup(2, [base], name="base")
+        gmsh.model.addPhysicalGroup(2, [block], name="block")
+        gmsh.model.mesh.setSize(gmsh.model.getBoundary([(2, block)], recursive=True), 1.3)
+
+    return write_gmsh_mesh(path, geometry, 2.0)
+
+
+PARTS = """
+[materials.m]
+E = 1000.0
+nu = 0.3
+[[substructures]]
+name = "base"
+mesh_file = "parts.msh"
+mesh_part = "base"
+material = "m"
+[[substructures]]
+name = "block"
+mesh_file = "parts.msh"
+mesh_part = "block"
+material = "m"
+[[boundary]]
+name = "clamp"
+face = "base.bottom"
+type = "displacement"
+value = [0.0, 0.0]
+[[boundary]]
+name = "load"
+face = "block.top"
+type = "force"
+value = [0.5, -2.0]
+[[qoi]]
+name = "u"
+type = "displacement"
+point = [30.0, 20.0]
+component = "x"
+"""
+
+
+def test_parts_of_one_mesh_file_are_substructures(tmp_path: Path) -> None:
+    """``mesh_part``: each named group of surfaces of one file is a substructure; the two
+    parts touch with other meshes there (mortar), and LATIN equals the monolithic solution;
+    an unknown part is an error that lists the parts."""
+    _two_parts(tmp_path / "parts.msh")
+    (tmp_path / "parts.toml").write_text(PARTS)
+    model = ml.Model(ml.ModelSpec.from_toml(tmp_path / "parts.toml"))
+    base, block = model.assemble().substructures
+    assert base.mesh.y1 == pytest.approx(10.0) and block.mesh.y0 == pytest.approx(10.0)
+    latin, reference = model.solve(options=TIGHT), model.reference()
+    assert reference.reactions["clamp"][0] == pytest.approx([-10.0, 40.0], rel=1e-9)
+    assert latin.qoi["u"] == pytest.approx(reference.qoi["u"], rel=1e-7)
+    (tmp_path / "bad.toml").write_text(PARTS.replace('mesh_part = "block"', 'mesh_part = "pin"'))
+    with pytest.raises(ml.ModelError, match=r"substructures\[1\] \('block'\).mesh_file: mesh "
+                       r"file .* has no named group of surfaces 'pin' \(groups of surfaces: "
+                       r"base, block\)"):
+        ml.ModelSpec.from_toml(tmp_path / "bad.toml")

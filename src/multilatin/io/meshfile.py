@@ -18,12 +18,14 @@ from ..fem.elasticity import FloatArray, IntArray
 _UNSUPPORTED = ("triangle6", "triangle7", "quad8", "quad9", "polygon")
 
 
-def read_mesh(path: str | Path, where: str
+def read_mesh(path: str | Path, where: str, part: str | None = None
               ) -> tuple[FloatArray, IntArray, dict[str, IntArray]]:
     """Nodes (n, 2), counter-clockwise cells of the mesh in ``path``, Q4 (c, 4) or T3 (c, 3),
     one kind per substructure (nodes no cell uses are dropped), and its named groups of line
     elements (gmsh's physical groups of curves) as (n, 2) edges, each edge on the mesh's
-    boundary. Errors name ``where`` (the model-file field) and the file."""
+    boundary. ``part``: the cells of that named group of surfaces only (a file holding
+    several parts), with the line groups' edges on it. Errors name ``where`` (the
+    model-file field) and the file."""
     import meshio
 
     try:
@@ -31,7 +33,8 @@ def read_mesh(path: str | Path, where: str
             mesh = meshio.read(path)
     except (OSError, meshio.ReadError, ValueError, KeyError) as exc:
         raise ModelError(f"{where}: cannot read mesh file {str(path)!r}: {exc}") from None
-    found = {block.type for block in mesh.cells}
+    by_type = _cells_by_type(mesh, path, where, part)
+    found = set(by_type)
     unsupported = sorted(found & set(_UNSUPPORTED))
     if unsupported:
         raise ModelError(f"{where}: mesh file {str(path)!r} holds {', '.join(unsupported)} "
@@ -42,11 +45,10 @@ def read_mesh(path: str | Path, where: str
                          "triangles; one kind per substructure (gmsh: Mesh.RecombineAll = 1 "
                          "for quadrilaterals only)")
     kind = "quad" if "quad" in found else "triangle"
-    blocks = [block.data for block in mesh.cells if block.type == kind]
-    if not blocks:
+    if kind not in by_type:
         raise ModelError(f"{where}: mesh file {str(path)!r} holds no quadrilateral or "
                          f"triangle cells (cell types: {', '.join(sorted(found)) or 'none'})")
-    cells = np.vstack(blocks).astype(np.int64)
+    cells = by_type[kind]
     points = np.asarray(mesh.points, dtype=np.float64)
     if points.shape[1] == 3 and np.ptp(points[:, 2]) > 1e-9 * max(np.ptp(points[:, :2]), 1e-300):
         raise ModelError(f"{where}: mesh file {str(path)!r} is not plane (z varies)")
@@ -76,6 +78,26 @@ def read_mesh(path: str | Path, where: str
     return nodes, cells, _line_groups(mesh, renumber, cells, path, where)
 
 
+def _cells_by_type(mesh: Any, path: str | Path, where: str, part: str | None
+                   ) -> dict[str, IntArray]:
+    """The 2-D cells of the file, or of its named group of surfaces ``part``, by type."""
+    blocks: dict[str, list[IntArray]] = {}
+    for block in mesh.cells:
+        blocks.setdefault(block.type, []).append(np.asarray(block.data, dtype=np.int64))
+    every = {kind: np.vstack(data) for kind, data in blocks.items() if kind != "vertex"}
+    if part is None:
+        return {kind: cells for kind, cells in every.items() if kind != "line"}
+    sets = mesh.cell_sets_dict
+    chosen = {kind: every[kind][np.asarray(index, dtype=np.int64)]
+              for kind, index in sets.get(part, {}).items() if kind not in ("line", "vertex")}
+    if not chosen:
+        surfaces = sorted(name for name, by_kind in sets.items()
+                          if set(by_kind) - {"line", "vertex"} and not name.startswith("gmsh:"))
+        raise ModelError(f"{where}: mesh file {str(path)!r} has no named group of surfaces "
+                         f"{part!r} (groups of surfaces: {', '.join(surfaces) or 'none'})")
+    return chosen
+
+
 def _line_groups(mesh: Any, renumber: IntArray, cells: IntArray, path: str | Path,
                  where: str) -> dict[str, IntArray]:
     """The named sets of line cells, renumbered; each edge must be a boundary edge."""
@@ -83,6 +105,7 @@ def _line_groups(mesh: Any, renumber: IntArray, cells: IntArray, path: str | Pat
     if not lines:
         return {}
     all_lines = np.vstack(lines).astype(np.int64)
+    on_part = np.all(renumber[all_lines] >= 0, axis=1)  # edges of this part's nodes
     cell_edges = np.sort(np.stack([cells, np.roll(cells, -1, axis=1)], axis=2)
                          .reshape(-1, 2), axis=1)
     unique, counts = np.unique(cell_edges, axis=0, return_counts=True)
@@ -91,7 +114,11 @@ def _line_groups(mesh: Any, renumber: IntArray, cells: IntArray, path: str | Pat
     for name, by_type in mesh.cell_sets_dict.items():
         if "line" not in by_type or name.startswith("gmsh:"):
             continue
-        edges = renumber[all_lines[np.asarray(by_type["line"], dtype=np.int64)]]
+        chosen = np.asarray(by_type["line"], dtype=np.int64)
+        chosen = chosen[on_part[chosen]]
+        if chosen.size == 0:
+            continue  # a group of another part's edges
+        edges = renumber[all_lines[chosen]]
         inside = [k for k, edge in enumerate(np.sort(edges, axis=1).tolist())
                   if min(edge) < 0 or tuple(edge) not in boundary]
         if inside:

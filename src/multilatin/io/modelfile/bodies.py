@@ -125,9 +125,11 @@ class BodySections(SectionReader):
                              f"(bodies: {', '.join(bodies) or 'none'})")
         for s, table in enumerate(self.data.get("substructures", [])):
             where = f"substructures[{s}]"
-            check_keys(table, common | {"body", "mesh_file"}, where)
+            check_keys(table, common | {"body", "mesh_file", "mesh_part"}, where)
             name = str(require(table, "name", where))
             where = f"substructures[{s}] ({name!r})"
+            if "mesh_part" in table and "mesh_file" not in table:
+                raise ModelError(f"{where}.mesh_part: applies with mesh_file only")
             if "mesh_file" in table:
                 mesh = self.file_mesh(table, where)
                 read[name] = mesh
@@ -171,7 +173,11 @@ class BodySections(SectionReader):
         if self.refine != 1:
             raise ModelError(f"{where}.mesh_file: a mesh read from a file cannot be refined "
                              f"(refine = {self.refine})")
-        nodes, cells, groups = read_mesh(str(table["mesh_file"]), f"{where}.mesh_file")
+        part = table.get("mesh_part")
+        if part is not None and not isinstance(part, str):
+            raise ModelError(f"{where}.mesh_part: expected the name of a group of surfaces, "
+                             f"got {part!r}")
+        nodes, cells, groups = read_mesh(str(table["mesh_file"]), f"{where}.mesh_file", part)
         (x0, y0), (x1, y1) = nodes.min(axis=0), nodes.max(axis=0)
         if "x" in table or "y" in table:
             given = self.rectangle(table, where)
