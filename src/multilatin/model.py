@@ -94,8 +94,9 @@ class Model:
                   split: Split | None = None, mesh: str = "auto") -> SolveResult:
         """Monolithic finite-element solution.
 
-        mesh: ``"same"``: on the same meshes as LATIN (holes by level set too; needs matching
-            meshes); ``"conforming"``: every holed body meshed with the hole cut out (gmsh,
+        mesh: ``"same"``: on the same meshes as LATIN (holes by level set too; non-matching
+            meshes joined by the same mortar constraint; not macro-only interfaces);
+            ``"conforming"``: every holed body meshed with the hole cut out (gmsh,
             ``multilatin.conforming``), one substructure per body; ``"auto"``: conforming
             when the model has holes or macro-only interfaces, else the same meshes.
         """
