@@ -34,10 +34,10 @@ import scipy.sparse as sp
 
 from ..errors import ModelError
 from ..fem.elasticity import FloatArray, IntArray
-from ..fem.mesh import SIDES, UnstructuredMesh, normal_axis
+from ..fem.mesh import SIDES, RectMesh, UnstructuredMesh, normal_axis
 from .assembly import DISPLACEMENT, FORCE, Assembly, Interface
 from .held_nodes import held_corners, held_perfect_pairs, node_key, prescribed_components
-from .mortar import mortar_coupling
+from .mortar import mortar_coupling, touching_by_declaration
 
 INTERFACE_ELEMENTS = ("nodal", "edges", "edge-pairs")
 
@@ -54,21 +54,17 @@ class SideDiscretisation:
 
 
 def discretise_side(node_coords: FloatArray, nodes: IntArray, kind: str,
-                    thickness: float, projected: bool = False,
-                    along: FloatArray | None = None) -> SideDiscretisation:
+                    thickness: float, along: FloatArray | None = None) -> SideDiscretisation:
     """Interface elements of kind ``kind`` on a side whose ordered nodes are ``nodes``.
 
-    projected: lengths measured along the coordinate that varies most (a curved face in
-        contact with a straight side, ``SideRef.reach``: tractions per unit length of that
-        side); else along the edges (arc length).
     along: the nodes' positions on the interface's own coordinate (a mortar interface's,
-        ``MortarCoupling.slave_along``), for the lengths and the extents.
+        ``MortarCoupling.slave_along``: a curved face meeting a side is measured along the
+        side), for the lengths and the extents; by default lengths are along the edges.
     """
     xy = node_coords[nodes]
     if along is None:
         along = xy[:, int(np.argmax(np.abs(xy[-1] - xy[0])))]  # the coordinate that varies
-        edge_len = (np.abs(np.diff(along)) if projected
-                    else np.linalg.norm(np.diff(xy, axis=0), axis=1))
+        edge_len = np.linalg.norm(np.diff(xy, axis=0), axis=1)
     else:
         edge_len = np.abs(np.diff(along))
     n_edges = edge_len.size
@@ -105,6 +101,22 @@ def discretise_side(node_coords: FloatArray, nodes: IntArray, kind: str,
                               np.asarray(centres, dtype=np.float64), extents)
 
 
+def point_normals(mesh: RectMesh | UnstructuredMesh, side: str, nodes: IntArray,
+                  trace: sp.csr_matrix | None = None) -> FloatArray:
+    """Outward unit normals of ``side`` at points whose values are ``trace`` (default: the
+    identity) times the values at its ``nodes``: a rectangle side's one normal, or a named
+    face's normals at its nodes, interpolated (a mortar master's at the slave's nodes)."""
+    n = nodes.size if trace is None else trace.shape[0]
+    if side in SIDES:
+        return np.broadcast_to(mesh.outward_normal(side), (n, 2)).copy()
+    assert isinstance(mesh, UnstructuredMesh)
+    row = {int(node): k for k, node in enumerate(mesh.side_nodes(side))}
+    at = mesh.face_normals(side)[[row[int(node)] for node in nodes]]
+    if trace is not None:
+        at = trace @ at
+    return np.asarray(at / np.linalg.norm(at, axis=1, keepdims=True), dtype=np.float64)
+
+
 def _discretise_interface(assembly: Assembly, itf: Interface, kind: str
                           ) -> list[SideDiscretisation]:
     """Interface elements on each side of ``itf``. Between non-matching meshes (mortar,
@@ -115,7 +127,7 @@ def _discretise_interface(assembly: Assembly, itf: Interface, kind: str
     coupling = mortar_coupling(assembly, itf)
     if coupling is None:
         return [discretise_side(sub.mesh.nodes, ref.nodes(sub.mesh), kind,
-                                sub.material.thickness, projected=ref.reach > 0.0)
+                                sub.material.thickness)
                 for ref, sub in zip(itf.sides, subs, strict=True)]
     if kind != "nodal":
         raise ModelError(f"interface {itf.name!r} joins non-matching meshes (mortar), which "
@@ -209,15 +221,8 @@ def build_points(assembly: Assembly, kind: str = "nodal", *,
             weights.append(disc.weights)
             extents.append(disc.extents)
             side = assembly.interfaces[i].sides[side_index].side
-            mesh = assembly.substructures[s].mesh
-            if side in SIDES:
-                normals.append(np.broadcast_to(mesh.outward_normal(side), (n, 2)))
-            else:  # a named group of boundary edges (mesh files): the normals of its nodes
-                assert isinstance(mesh, UnstructuredMesh)
-                row = {int(node): k for k, node in enumerate(mesh.side_nodes(side))}
-                face = mesh.face_normals(side)[[row[int(node)] for node in disc.nodes]]
-                at_points = disc.trace @ face
-                normals.append(at_points / np.linalg.norm(at_points, axis=1, keepdims=True))
+            normals.append(point_normals(assembly.substructures[s].mesh, side, disc.nodes,
+                                         disc.trace))
             scatter = sp.csr_matrix(
                 (np.ones(disc.nodes.size), (np.arange(disc.nodes.size), disc.nodes)),
                 shape=(disc.nodes.size, n_nodes),
@@ -264,11 +269,8 @@ def build_points(assembly: Assembly, kind: str = "nodal", *,
     a, b = contact_pairs
     contact_offset = np.einsum("pi,pi->p", all_normals[a], at[b] - at[a])
     contact_offset[np.abs(contact_offset) <= 1e-12 * max(np.ptp(at), 1.0)] = 0.0
-    # named faces declared in contact touch: their polylines' distance (chords of
-    # different meshes of one curve sag differently) is a discretisation artefact
-    named = [i for i, itf in enumerate(assembly.interfaces)
-             if any(ref.side not in SIDES for ref in itf.sides)]
-    contact_offset[np.isin(cat(interface)[a], named)] = 0.0
+    touching = [i for i, itf in enumerate(assembly.interfaces) if touching_by_declaration(itf)]
+    contact_offset[np.isin(cat(interface)[a], touching)] = 0.0
     key = node_key(cat(substructure), all_coords)
     fixed = prescribed_components(key, boundary, is_displacement)
     held = held_corners(key, fixed, contact_pairs, stops, all_normals)

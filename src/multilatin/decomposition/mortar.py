@@ -147,18 +147,29 @@ def _on_polyline(points: FloatArray, polyline: FloatArray) -> tuple[FloatArray, 
     return at, not bool(beyond.any())
 
 
-def face_distances(subs: Sequence[Substructure], itf: Interface) -> tuple[FloatArray, FloatArray]:
-    """Between the two faces of an interface, at each of its points (the slave's nodes):
-    the distance from the one face's node to the other face's (projected) trace, and the
-    longest edge next to the node."""
-    coupling = mortar_coupling(subs, itf)
+def touching_by_declaration(itf: Interface) -> bool:
+    """Named faces declared in an interface touch: the distance between their polylines
+    (chords of different meshes of one curve sag differently) is no gap."""
+    return any(ref.side not in SIDES for ref in itf.sides)
+
+
+def facing_positions(subs: Sequence[Substructure], itf: Interface,
+                     coupling: MortarCoupling | None) -> tuple[FloatArray, FloatArray]:
+    """Where each side of an interface is at its points (nodal): the two sides' nodes, or
+    (mortar) the slave's nodes and the master's projected trace, in side order."""
     meshes = [subs[ref.substructure].mesh for ref in itf.sides]
     if coupling is None:
-        nodes = [ref.nodes(mesh) for ref, mesh in zip(itf.sides, meshes, strict=True)]
-        here, there = meshes[0].nodes[nodes[0]], meshes[1].nodes[nodes[1]]
-    else:
-        here = meshes[coupling.slave].nodes[coupling.slave_nodes]
-        there = coupling.projection @ meshes[coupling.master].nodes[coupling.master_nodes]
+        return tuple(mesh.nodes[ref.nodes(mesh)]  # type: ignore[return-value]
+                     for ref, mesh in zip(itf.sides, meshes, strict=True))
+    slave = meshes[coupling.slave].nodes[coupling.slave_nodes]
+    master = coupling.projection @ meshes[coupling.master].nodes[coupling.master_nodes]
+    return (slave, master) if coupling.slave == 0 else (master, slave)
+
+
+def face_distances(subs: Sequence[Substructure], itf: Interface) -> tuple[FloatArray, FloatArray]:
+    """Between the two faces of an interface, at each of its points: the distance from the
+    one face to the other (``facing_positions``), and the longest edge next to the point."""
+    here, there = facing_positions(subs, itf, mortar_coupling(subs, itf))
     edges = np.linalg.norm(np.diff(here, axis=0), axis=1)
     longest = np.maximum(np.r_[edges, 0.0], np.r_[0.0, edges])
     return np.linalg.norm(there - here, axis=1), longest

@@ -28,6 +28,15 @@ def normal_axis(side: str) -> int:
     return 0 if side in ("left", "right") else 1
 
 
+def boundary_edges(cells: IntArray) -> IntArray:
+    """(n, 2) node pairs of the edges that belong to one of the counter-clockwise ``cells``
+    only, each in its cell's order (so the material lies to its left)."""
+    edges = np.stack([cells, np.roll(cells, -1, axis=1)], axis=2).reshape(-1, 2)
+    _, index, counts = np.unique(np.sort(edges, axis=1), axis=0, return_index=True,
+                                 return_counts=True)
+    return np.asarray(edges[index[counts == 1]], dtype=np.int64)
+
+
 class RectangleSides:
     """Sides of the rectangle ``[x0, x1] × [y0, y1]`` that a mesh covers."""
 
@@ -48,14 +57,6 @@ class RectangleSides:
         if side == "right":
             return 0, self.x1, self.y0, self.y1
         raise ValueError(f"unknown side {side!r}; expected one of {SIDES}")
-
-    def side_nodes(self, side: str, reach: float = 0.0) -> IntArray:
-        raise NotImplementedError
-
-    def face_normals(self, side: str) -> FloatArray:
-        """Outward unit normals at the nodes of ``side`` (``side_nodes`` order)."""
-        return np.broadcast_to(self.outward_normal(side),
-                               (self.side_nodes(side).size, 2)).copy()
 
     def outward_normal(self, side: str) -> FloatArray:
         return {
@@ -216,10 +217,9 @@ class UnstructuredMesh(RectangleSides):
         return np.array(order, dtype=np.int64)
 
     def face_normals(self, side: str) -> FloatArray:
-        """Outward unit normals at the nodes of ``side`` (``side_nodes`` order): a
-        rectangle's side has one; a named group's is the mean of its edges' at each node."""
-        if side not in self.groups:
-            return super().face_normals(side)
+        """Outward unit normals at the nodes of the named group ``side`` (``side_nodes``
+        order): the mean of its edges' at each node (a rectangle's side has one,
+        ``outward_normal``)."""
         order = self._chain(side)
         boundary = {tuple(edge): True for edge in self.boundary_edges.tolist()}
         normals = np.zeros((order.size, 2))
@@ -237,10 +237,7 @@ class UnstructuredMesh(RectangleSides):
     @property
     def boundary_edges(self) -> IntArray:
         """(n, 2) node pairs of the edges that belong to one cell only."""
-        edges = np.stack([self.cells, np.roll(self.cells, -1, axis=1)], axis=2).reshape(-1, 2)
-        ordered = np.sort(edges, axis=1)
-        _, index, counts = np.unique(ordered, axis=0, return_index=True, return_counts=True)
-        return np.asarray(edges[index[counts == 1]], dtype=np.int64)
+        return boundary_edges(self.cells)
 
     def locate(self, point: npt.ArrayLike) -> tuple[int, FloatArray]:
         """The cell containing ``point`` and the point's reference coordinates in it

@@ -13,6 +13,7 @@ import numpy as np
 
 from ..errors import ModelError
 from ..fem.elasticity import FloatArray, IntArray
+from ..fem.mesh import boundary_edges
 
 #: 2-D cell types meshio may return that the Q4 elements cannot use yet (issue 18)
 _UNSUPPORTED = ("triangle6", "triangle7", "quad8", "quad9", "polygon")
@@ -106,10 +107,7 @@ def _line_groups(mesh: Any, renumber: IntArray, cells: IntArray, path: str | Pat
         return {}
     all_lines = np.vstack(lines).astype(np.int64)
     on_part = np.all(renumber[all_lines] >= 0, axis=1)  # edges of this part's nodes
-    cell_edges = np.sort(np.stack([cells, np.roll(cells, -1, axis=1)], axis=2)
-                         .reshape(-1, 2), axis=1)
-    unique, counts = np.unique(cell_edges, axis=0, return_counts=True)
-    boundary = {tuple(edge) for edge in unique[counts == 1].tolist()}
+    boundary = {tuple(edge) for edge in np.sort(boundary_edges(cells), axis=1).tolist()}
     groups: dict[str, IntArray] = {}
     for name, by_type in mesh.cell_sets_dict.items():
         if "line" not in by_type or name.startswith("gmsh:"):

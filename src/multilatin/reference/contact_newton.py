@@ -33,11 +33,10 @@ import scipy.sparse as sp
 import scipy.sparse.linalg as spla
 
 from ..decomposition.assembly import Assembly
-from ..decomposition.interfaces import discretise_side
-from ..decomposition.mortar import MortarCoupling, mortar_coupling
+from ..decomposition.interfaces import discretise_side, point_normals
+from ..decomposition.mortar import MortarCoupling, facing_positions, touching_by_declaration
 from ..errors import NotConvergedError
 from ..fem.elasticity import FloatArray, IntArray
-from ..fem.mesh import SIDES
 
 log = logging.getLogger(__name__)
 
@@ -68,7 +67,7 @@ class ContactSet:
 
 
 def contact_set(assembly: Assembly, maps: list[IntArray],
-                mortar_points: dict[int, tuple[IntArray, IntArray]] | None = None
+                mortar_points: dict[int, tuple[IntArray, IntArray, MortarCoupling]] | None = None
                 ) -> ContactSet:
     """Contact pairs; a node pair met on two substructure sides (a cross point) is one pair
     with the weights added. ``mortar_points``: for a contact interface between
@@ -80,11 +79,10 @@ def contact_set(assembly: Assembly, maps: list[IntArray],
             continue
         ref = itf.sides[0]
         sub = assembly.substructures[ref.substructure]
-        coupling = mortar_coupling(assembly, itf) if index in (mortar_points or {}) else None
+        first, second, coupling = (mortar_points or {}).get(index, (None, None, None))
         if coupling is None:
             nodes = ref.nodes(sub.mesh)
-            cells = discretise_side(sub.mesh.nodes, nodes, "nodal", sub.material.thickness,
-                                    projected=ref.reach > 0.0)
+            cells = discretise_side(sub.mesh.nodes, nodes, "nodal", sub.material.thickness)
         else:  # the slave side's points
             slave_sub = assembly.substructures[itf.sides[coupling.slave].substructure]
             cells = discretise_side(slave_sub.mesh.nodes, coupling.slave_nodes, "nodal",
@@ -95,32 +93,26 @@ def contact_set(assembly: Assembly, maps: list[IntArray],
         position = cells.coords
         bodies = frozenset(assembly.substructures[r.substructure].body for r in itf.sides)
         boundary = None
-        normal = _first_side_normals(assembly, itf, coupling, nodes.size)
+        normal = (point_normals(sub.mesh, ref.side, nodes) if coupling is None or coupling.slave == 0
+                  else point_normals(sub.mesh, ref.side, coupling.master_nodes,
+                                     coupling.projection))
         offset = np.zeros(nodes.size)  # initial distance of a curved face (SideRef.reach)
-        if coupling is not None:
-            assert mortar_points is not None
-            first, second = mortar_points[index]
-            master_sub = assembly.substructures[itf.sides[coupling.master].substructure]
-            at = [slave_sub.mesh.nodes[coupling.slave_nodes],
-                  coupling.projection @ master_sub.mesh.nodes[coupling.master_nodes]]
-            if coupling.slave == 1:
-                at.reverse()
+        if len(itf.sides) == 2 and not touching_by_declaration(itf):
+            at = facing_positions(assembly.substructures, itf, coupling)
             offset = np.einsum("pi,pi->p", at[1] - at[0], normal)
+            offset[np.abs(offset) <= 1e-12 * max(float(np.ptp(sub.mesh.nodes)), 1.0)] = 0.0
+        if coupling is not None:  # merge_nodes gave the slave's and the virtual nodes
+            assert first is not None and second is not None
         elif len(itf.sides) == 2:
             first = maps[ref.substructure][nodes]
             other = itf.sides[1]
-            other_mesh = assembly.substructures[other.substructure].mesh
-            second = maps[other.substructure][other.nodes(other_mesh)]
-            offset = np.einsum("pi,pi->p", other_mesh.nodes[other.nodes(other_mesh)]
-                               - sub.mesh.nodes[nodes], normal)
+            second = maps[other.substructure][
+                other.nodes(assembly.substructures[other.substructure].mesh)]
         else:
             first = maps[ref.substructure][nodes]
             second = np.full(nodes.size, -1)
             assert itf.condition is not None
             boundary = itf.condition.name
-        offset[np.abs(offset) <= 1e-12 * max(float(np.ptp(sub.mesh.nodes)), 1.0)] = 0.0
-        if any(r.side not in SIDES for r in itf.sides):  # named faces touch (as LATIN's)
-            offset[:] = 0.0
         for p in range(nodes.size):
             key = (int(first[p]), int(second[p]))
             if key in records:
@@ -145,23 +137,6 @@ def contact_set(assembly: Assembly, maps: list[IntArray],
         bodies=[v[3] for v in vals],
         boundary=[v[6] for v in vals],
     )
-
-
-def _first_side_normals(assembly: Assembly, itf: Any, coupling: MortarCoupling | None,
-                        n: int) -> FloatArray:
-    """The outward normal of the interface's first side at each of its ``n`` pairs: a
-    rectangle side's, a named face's at its nodes, or (mortar, first side the master) the
-    master's interpolated at the slave's nodes."""
-    ref = itf.sides[0]
-    mesh = assembly.substructures[ref.substructure].mesh
-    if ref.side in SIDES:
-        return np.broadcast_to(mesh.outward_normal(ref.side), (n, 2)).copy()
-    face = mesh.face_normals(ref.side)
-    if coupling is None or coupling.slave == 0:
-        return np.asarray(face, dtype=np.float64)
-    row = {int(node): k for k, node in enumerate(mesh.side_nodes(ref.side))}
-    at = coupling.projection @ face[[row[int(node)] for node in coupling.master_nodes]]
-    return np.asarray(at / np.linalg.norm(at, axis=1, keepdims=True), dtype=np.float64)
 
 
 def _held_corners(contacts: ContactSet, free: npt.NDArray[np.bool_]) -> tuple[IntArray, IntArray]:

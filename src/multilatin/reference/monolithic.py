@@ -22,8 +22,8 @@ import scipy.sparse.csgraph as csgraph
 import scipy.sparse.linalg as spla
 
 from ..decomposition.assembly import DISPLACEMENT, Assembly
-from ..decomposition.interfaces import discretise_side
-from ..decomposition.mortar import mortar_coupling
+from ..decomposition.interfaces import discretise_side, point_normals
+from ..decomposition.mortar import MortarCoupling, mortar_coupling
 from ..decomposition.qoi import ContactPressures, evaluate_qois
 from ..decomposition.result import SolveResult
 from ..errors import ModelError, NotConvergedError
@@ -46,8 +46,9 @@ class GlobalNodes:
     maps: list[IntArray]  # per substructure: the global node of each local node
     constraint: sp.csr_matrix  # C (2 count × 2 count), zero columns at constrained dofs
     constrained: npt.NDArray[np.bool_]  # per dof
-    # non-matching contact interface → (global nodes of side 0's points, of side 1's points)
-    contact_points: dict[int, tuple[IntArray, IntArray]]
+    # non-matching contact interface → (global nodes of side 0's points, of side 1's
+    # points, its coupling)
+    contact_points: dict[int, tuple[IntArray, IntArray, MortarCoupling]]
 
 
 def merge_nodes(assembly: Assembly) -> GlobalNodes:
@@ -56,7 +57,7 @@ def merge_nodes(assembly: Assembly) -> GlobalNodes:
     n = int(offsets[-1])
     rows, cols = [], []
     projected: list[tuple[IntArray, IntArray, sp.csr_matrix]] = []  # (nodes, masters, P)
-    virtual: dict[int, tuple[IntArray, IntArray]] = {}  # contact → (slave, virtual) nodes
+    virtual: dict[int, tuple[IntArray, IntArray, MortarCoupling]] = {}  # contact interfaces
     n_virtual = 0
     for index, itf in enumerate(assembly.interfaces):
         if itf.kind not in ("perfect", "contact") or len(itf.sides) != 2:
@@ -77,7 +78,8 @@ def merge_nodes(assembly: Assembly) -> GlobalNodes:
             points = n + n_virtual + np.arange(slave.size)
             n_virtual += slave.size
             projected.append((points, master, projection))
-            virtual[index] = (slave, points) if coupling.slave == 0 else (points, slave)
+            virtual[index] = ((slave, points, coupling) if coupling.slave == 0
+                              else (points, slave, coupling))
             continue
         dense = projection.toarray()
         unit = np.isclose(dense.max(axis=1), 1.0, rtol=0.0, atol=1e-12)
@@ -166,7 +168,7 @@ def solve_monolithic(assembly: Assembly) -> SolveResult:
         mine = own_load.setdefault(cond.name, np.zeros((n_dofs, n_steps)))
         value = np.broadcast_to(np.asarray(cond.value, dtype=float), (side.size, 2))
         if cond.pressure:  # traction −p n at each node
-            value = -cond.value[0] * sub.mesh.face_normals(ref.side)[:side.size]
+            value = -cond.value[0] * point_normals(sub.mesh, ref.side, side)
         for comp, kind in enumerate(cond.kinds):
             dofs = 2 * gnodes + comp
             if kind == DISPLACEMENT:
