@@ -6,7 +6,9 @@ reference and to the closed form, whatever κ."""
 
 from __future__ import annotations
 
+from collections.abc import Callable
 from importlib import resources
+from typing import Any
 
 import numpy as np
 import pytest
@@ -210,3 +212,40 @@ def test_the_held_node_rule_is_what_removes_the_slow_split() -> None:
                          options=LatinOptions(held_nodes=False), check=False)
     assert not result.converged
     assert LatinOptions().held_nodes
+
+
+def test_branch_tape_replays_the_affine_map_of_the_recorded_statuses(
+        random_local_stage_input: Callable[[str, int], tuple[Any, ...]]) -> None:
+    """The local stage is piecewise affine in (W, F): recording its branches changes no
+    output; replaying them gives an affine map (issue 15's frozen-status Krylov experiment,
+    ``benchmarks/frozen_krylov.py``) that agrees with the true local stage at the recorded
+    point and near it, and not where the statuses differ."""
+    from multilatin.latin.local_stage import BranchTape
+
+    for name in ("b1", "b3"):
+        _, _, _, stage, w, f = random_local_stage_input(name, 7)
+        plain = stage(w, f)
+        tape = BranchTape()
+        stage.tape = tape
+        recorded = stage(w, f)
+        for a, b in zip(plain, recorded, strict=True):
+            np.testing.assert_array_equal(a, b)
+        assert any(e.dtype == np.bool_ and e.any() and not e.all() for e in tape.entries)
+        tape.replay()
+        replayed = stage(w, f)
+        for a, b in zip(plain, replayed, strict=True):
+            np.testing.assert_allclose(b, a, rtol=1e-12, atol=1e-12 * np.abs(a).max())
+        rng = np.random.default_rng(3)
+        dw, df = 1e-2 * rng.normal(size=w.shape), 1e3 * rng.normal(size=f.shape)
+        at = [stage(w + s * dw, f + s * df) for s in (0.0, 1.0, 2.0)]
+        for a0, a1, a2 in zip(*at, strict=True):  # affine along any line
+            np.testing.assert_allclose(a2 - a1, a1 - a0, rtol=1e-9,
+                                       atol=1e-9 * np.abs(a0).max())
+        stage.tape = None
+        true_far = stage(w + dw, f + df)
+        assert not all(np.allclose(a, b) for a, b in zip(true_far, at[1], strict=True))
+        again = BranchTape()
+        stage.tape = again
+        stage(w + 1e-9 * dw, f + 1e-9 * df)
+        assert tape.same_statuses(again)
+        stage.tape = None

@@ -56,6 +56,10 @@ class FieldEngine(Protocol):
     def keep(self, cases: IntArray) -> None:
         """Only the active cases at positions ``cases`` go on."""
 
+    def shift(self, cases: IntArray, dw: FloatArray, df: FloatArray) -> None:
+        """s ← s + (dw, df) for the active cases at positions ``cases`` (host arrays of
+        shape ``(len(cases), n_steps, n_points, 2)``; ``sliding``)."""
+
 
 class NumpyFields:
     """The reference backend: NumPy, with the Numba kernels where installed."""
@@ -149,6 +153,13 @@ class NumpyFields:
         assert self.w is not None and self.f is not None
         chosen = slice(None) if cases is None else cases
         return self.w[chosen], self.f[chosen], self.w_hat[chosen], self.f_hat[chosen]
+
+    def shift(self, cases: IntArray, dw: FloatArray, df: FloatArray) -> None:
+        assert self.w is not None and self.f is not None
+        self.w = np.array(self.w)  # its own array (not the linear stage's output)
+        self.f = np.array(self.f)
+        self.w[cases] += dw
+        self.f[cases] += df
 
     def keep(self, cases: IntArray) -> None:
         assert self.w is not None and self.f is not None

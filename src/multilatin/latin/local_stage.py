@@ -7,6 +7,7 @@ from __future__ import annotations
 import copy
 import functools
 from collections.abc import Sequence
+from typing import Any
 
 import numpy as np
 import numpy.typing as npt
@@ -18,6 +19,44 @@ from ..decomposition.interfaces import InterfacePoints, interface_functions
 from ..errors import ModelError
 from ..fem.elasticity import FloatArray, IntArray
 from . import kernels
+
+
+class BranchTape:
+    """The branches the contact local stage takes (contact or open, stop closed, stick or
+    slip with its direction and the sign of N), in the order it takes them. The local stage
+    is piecewise affine in (W, F); replaying a tape gives the affine map of those branches
+    (statuses frozen), which a Krylov method can solve exactly (``krylov``)."""
+
+    def __init__(self) -> None:
+        self.entries: list[npt.NDArray[Any]] = []
+        self.replaying = False
+        self.position = 0
+
+    def decide(self, value: npt.NDArray[Any]) -> npt.NDArray[Any]:
+        if not self.replaying:
+            self.entries.append(value)
+            return value
+        out = self.entries[self.position]
+        self.position += 1
+        return out
+
+    def replay(self) -> None:
+        """Read the recorded branches back from the start at the next local stage."""
+        self.replaying = True
+        self.position = 0
+
+    def same_statuses(self, other: BranchTape) -> bool:
+        """Whether ``other`` took the same branches: the same statuses, and slip in the same
+        direction where it slips (a direction follows its slip mask on the tape)."""
+        if len(self.entries) != len(other.entries):
+            return False
+        for i, (a, b) in enumerate(zip(self.entries, other.entries, strict=True)):
+            if a.dtype == np.bool_:
+                if not np.array_equal(a, b):
+                    return False
+            elif np.any(self.entries[i - 1] & (np.sum(a * b, axis=-1) <= 0.0)):
+                return False
+        return True
 
 
 class LocalStage:
@@ -70,6 +109,7 @@ class LocalStage:
                              "(pip install 'multilatin[fast]')")
         self.compiled = (kernels.contact_and_stops is not None if compiled is None
                          else compiled)
+        self.tape: BranchTape | None = None  # record / replay the branches (NumPy path)
         # per case: (n_cases, n) friction and gaps, (n_cases, n_steps, P_b, 2) W_d / F_d
         self.mu_contact = np.stack([p.contact_friction for p in points])
         self.gap_contact = np.stack([p.contact_gap for p in points])
@@ -100,7 +140,9 @@ class LocalStage:
                                                                                FloatArray]:
         w_hat = np.empty_like(displacement)
         f_hat = np.empty_like(force)
-        if self.compiled:
+        if self.tape is not None:
+            self.tape.position = 0
+        if self.compiled and self.tape is None:
             displacement = np.ascontiguousarray(displacement)
             force = np.ascontiguousarray(force)
             assert kernels.perfect_and_boundary is not None
@@ -120,7 +162,7 @@ class LocalStage:
             f_hat[:, :, m] = force[:, :, m] + k * (w_m - displacement[:, :, m])
         if not (self.contact_pairs[0].size or self.stops.size):
             return w_hat, f_hat
-        if self.compiled:
+        if self.compiled and self.tape is None:
             assert kernels.contact_and_stops is not None
             kernels.contact_and_stops(
                 np.ascontiguousarray(displacement), np.ascontiguousarray(force), w_hat, f_hat,
@@ -194,24 +236,34 @@ class LocalStage:
         holding = by_boundary | (stop_closed[:, stop] if stop_closed.shape[1] else False)
         return np.broadcast_to(holding, target.shape), target
 
-    @staticmethod
-    def _coulomb(trial: FloatArray, normal_force: FloatArray, normal: FloatArray,
+    def _coulomb(self, trial: FloatArray, normal_force: FloatArray, normal: FloatArray,
                  friction: FloatArray) -> FloatArray:
         """F̂ on side E from the trial force: contact where N ≤ 0, then stick or slip."""
-        contact_force = LocalStage._in_cone(trial, normal_force, normal, friction)
-        return np.where((normal_force <= 0.0)[..., None], contact_force, 0.0)
+        contact_force = self._in_cone(trial, normal_force, normal, friction)
+        contact = self._branch(normal_force <= 0.0)
+        return np.where(contact[..., None], contact_force, 0.0)
 
-    @staticmethod
-    def _in_cone(tangential_source: FloatArray, normal_force: FloatArray, normal: FloatArray,
-                 friction: FloatArray) -> FloatArray:
+    def _in_cone(self, tangential_source: FloatArray, normal_force: FloatArray,
+                 normal: FloatArray, friction: FloatArray) -> FloatArray:
         """N n plus the tangential part of ``tangential_source``, limited to μ |N|."""
         tangential = (tangential_source
                       - np.sum(tangential_source * normal, axis=-1)[..., None] * normal)
         size = np.sqrt(np.sum(tangential**2, axis=-1))
-        limit = friction * np.abs(normal_force)
-        scale = np.where(size > limit, limit / np.maximum(size, 1e-300), 1.0)
-        force: FloatArray = normal_force[..., None] * normal + scale[..., None] * tangential
+        negative = self._branch(normal_force < 0.0)
+        limit = friction * np.where(negative, -normal_force, normal_force)  # μ |N|
+        slip = self._branch(size > limit)
+        direction = self._branch(tangential / np.maximum(size, 1e-300)[..., None])
+        limited = np.where(slip[..., None], limit[..., None] * direction, tangential)
+        force: FloatArray = normal_force[..., None] * normal + limited
         return force
+
+    def _branch(self, value: npt.NDArray[Any]) -> npt.NDArray[Any]:
+        """A branch of the piecewise-affine local stage: recorded on ``tape`` while it
+        records, read back from it while it replays (``BranchTape``), else ``value``."""
+        tape = self.tape
+        if tape is None:
+            return value
+        return tape.decide(value)
 
     def _contact_and_stops(self, displacement: FloatArray, force: FloatArray,
                            w_hat: FloatArray, f_hat: FloatArray) -> None:
@@ -248,7 +300,7 @@ class LocalStage:
                 closing = self.gap_stop - np.sum(n_stop * prev_stop, axis=-1)
                 normal_force = np.sum(n_stop * trial, axis=-1) + k_stop_normal * closing
                 fp = self._coulomb(trial, normal_force, n_stop, self.mu_stop)
-                stop_closed = normal_force < 0.0
+                stop_closed = self._branch(normal_force < 0.0)
                 prev_stop = prev_stop + dw + (fp - force[:, t, p]) / k_stop
                 f_hat[:, t, p] = fp
                 w_hat[:, t, p] = prev_stop

@@ -61,6 +61,10 @@ class LatinOptions:
     acceleration: ``"relaxation"`` alone, or ``"anderson"``: Anderson mixing of the last
         ``anderson_depth`` iterates of the fixed point s ↦ linear(local(s)), damped by ω
         (combinations of admissible fields stay admissible).
+    extrapolate_sliding: a case whose fields move by the same increment window after window
+        while an open stop or contact closes — a body sliding freely toward it, resisted by
+        the search direction alone — jumps ahead to that closing (``sliding``); with
+        relaxation only (Anderson keeps its own history). The fixed point is unchanged.
     tangential_ratio: k_T / k_N on contact interfaces and stops (separate normal and
         tangential search directions).
     macro: solve the macro problem (eq. [14]–[15]); False gives the one-scale LATIN.
@@ -92,6 +96,7 @@ class LatinOptions:
     dirichlet_stiffening: float = 10.0
     acceleration: str = "relaxation"
     anderson_depth: int = 3
+    extrapolate_sliding: bool = True
     tangential_ratio: float = 1.0
     search_modulus: str = "own"
     held_nodes: bool = True

@@ -30,6 +30,7 @@ from .engine import FieldEngine, NumpyFields
 from .local_stage import LocalStage
 from .operators import LatinOperators, interface_families, operators_per_case
 from .options import LatinOptions
+from .sliding import SlidingExtrapolation
 from .tracking import WINDOW, QoiFunctionals, error_estimates, qoi_functionals
 
 __all__ = ["IterationObserver", "solve_latin", "solve_latin_batch"]
@@ -356,6 +357,10 @@ def _iterate(ops: LatinOperators, local: LocalStage, options: LatinOptions,
                      geometries or ([ops], np.zeros(n_cases, dtype=np.int64)))
     relaxation = np.full(n_cases, options.relaxation)  # per active case
     anderson = options.acceleration == "anderson"
+    k = ops.search_direction
+    sliding = (SlidingExtrapolation(local, (pts.weights[:, None] * k).ravel(),
+                                    (pts.weights[:, None] / k).ravel(), n_cases)
+               if options.extrapolate_sliding and not anderson else None)
     for iteration in range(1, options.max_iter + 1):
         engine.linear_stage(relaxation)
         if observer is not None:
@@ -392,6 +397,9 @@ def _iterate(ops: LatinOperators, local: LocalStage, options: LatinOptions,
         if options.qoi_rtol is not None and functionals and iteration >= WINDOW + 5:
             on_qoi = (_qoi_settled(out, active, iteration, options.qoi_rtol) & ~done
                       & np.isfinite(eta))
+            if sliding is not None:  # the QoIs' recent history spans a jump: not yet
+                on_qoi &= (sliding.jumped_at[active] < 0) | (
+                    iteration - sliding.jumped_at[active] > RECENT)
             out.stopped_on_qoi[active[on_qoi]] = True
             done |= on_qoi
         if done.any():
@@ -404,6 +412,8 @@ def _iterate(ops: LatinOperators, local: LocalStage, options: LatinOptions,
             active = active[keep]
             relaxation = relaxation[keep]
             engine.keep(keep)
+        if sliding is not None:
+            sliding(iteration, active, engine)
     out.t_linear, out.t_macro, out.t_local = engine.t_linear, engine.t_macro, engine.t_local
     return out
 

@@ -222,6 +222,12 @@ class TorchFields:
             out.append(np.asarray(chosen.cpu().numpy(), dtype=np.float64))
         return out[0], out[1], out[2], out[3]
 
+    def shift(self, cases: IntArray, dw: FloatArray, df: FloatArray) -> None:
+        assert self.w is not None and self.f is not None
+        index = self._index(cases)
+        self.w = self.w.index_add(0, index, self._tensor(dw))
+        self.f = self.f.index_add(0, index, self._tensor(df))
+
     def keep(self, cases: IntArray) -> None:
         assert self.w is not None and self.f is not None
         chosen = self._index(cases)

@@ -1,0 +1,106 @@
+"""Extrapolation of a steady sliding (issue 15: the slow tail of low-friction cases).
+
+Where a body slides freely toward a stop or a contact that is still open (friction at its
+limit, the gap not yet closed), nothing but the search direction resists the motion, and
+LATIN moves the body by the same amount every iteration: the fields change *linearly*, at a
+speed of about (unbalanced force) / k per iteration, until the gap closes. Measured on B1 at
+κ = 1, (μ1, μ2) = (0, 0.05): the centre block's corner crawls toward the stop at load step 5
+by 1.1e-4 mm per iteration for 250 iterations (351 iterations in all, against 108 at
+(0.3, 0)); at κ = 0.5 the crawl is twice as fast and still takes ~80 iterations.
+
+A linear crawl is extrapolated exactly: every ``WINDOW`` iterations, a case whose state
+s = (W, F) moved by the same increment over the last two windows (to ``STEADY``, in the
+indicator's norm) while an open gap (stop or contact, open by more than ``MATERIAL`` times
+the largest displacement) closes, jumps ahead along that increment to the first closing —
+the next contact event. The jump is an affine combination of admissible fields (so s stays
+admissible) followed by a local stage (so ŝ is on Γ again); the iteration then resumes from
+there. The fixed point is unchanged — only the start of the rest of the iteration moves —
+so the converged answer is the same (``tests/test_sliding.py``).
+"""
+
+from __future__ import annotations
+
+import numpy as np
+
+from ..fem.elasticity import FloatArray, IntArray
+from .engine import FieldEngine, norms
+from .local_stage import LocalStage
+
+__all__ = ["MATERIAL", "MAX_JUMP", "STEADY", "WINDOW", "SlidingExtrapolation"]
+
+#: iterations between two looks; a crawl must hold over two windows
+WINDOW = 10
+#: the two windows' increments agree to this fraction of the last one (indicator's norm)
+STEADY = 0.02
+#: a gap counts as open when wider than this fraction of the case's largest displacement
+MATERIAL = 1e-3
+#: the longest jump, in iterations of the crawl
+MAX_JUMP = 2000.0
+
+
+class SlidingExtrapolation:
+    """Watches the active cases of a batch and makes their steady crawls jump to the next
+    contact event (module docstring). ``jumped_at[c]``: the iteration of case c's last
+    jump (−1: none); ``jumps[c]``: how many."""
+
+    def __init__(self, local: LocalStage, displacement_weight: FloatArray,
+                 force_weight: FloatArray, n_cases: int) -> None:
+        self.local = local  # the whole batch's (cases by their index in the batch)
+        self.displacement_weight = displacement_weight
+        self.force_weight = force_weight
+        self.marks: dict[int, list[tuple[FloatArray, FloatArray]]] = {}
+        self.jumped_at = np.full(n_cases, -1, dtype=np.int64)
+        self.jumps = np.zeros(n_cases, dtype=np.int64)
+
+    def openings(self, case: int, displacement: FloatArray) -> FloatArray:
+        """The normal openings of every stop point and contact pair at every step (> 0:
+        open), from the displacements ``(n_steps, n_points, 2)`` of one case."""
+        local = self.local
+        parts = [np.zeros(0)]
+        if local.stops.size:
+            parts.append((local.gap_stop[case] - np.sum(
+                local.n_stop * displacement[:, local.stops], axis=-1)).ravel())
+        a, b = local.contact_pairs
+        if a.size:
+            parts.append((local.gap_contact[case] + np.sum(
+                local.n_contact * (displacement[:, b] - displacement[:, a]), axis=-1)).ravel())
+        return np.concatenate(parts)
+
+    def __call__(self, iteration: int, active: IntArray, engine: FieldEngine) -> None:
+        """At every ``WINDOW``-th iteration: record s, and shift the steady crawls."""
+        if iteration % WINDOW or not active.size:
+            return
+        w, f = engine.fields()[:2]
+        positions: list[int] = []
+        shifts_w: list[FloatArray] = []
+        shifts_f: list[FloatArray] = []
+        for i, case in enumerate(active.tolist()):
+            marks = self.marks.setdefault(case, [])
+            marks.append((np.array(w[i]), np.array(f[i])))
+            del marks[:-3]
+            if len(marks) < 3:
+                continue
+            (w0, f0), (w1, f1), (w2, f2) = marks
+            dw, df = w2 - w1, f2 - f1
+            step = self._norm(dw, df)
+            if not step > 0.0 or self._norm(dw - (w1 - w0), df - (f1 - f0)) > STEADY * step:
+                continue
+            opening = self.openings(case, w2)
+            rate = (opening - self.openings(case, w1)) / WINDOW
+            closing = (opening > MATERIAL * np.abs(w2).max()) & (rate < 0.0)
+            if not closing.any():  # no event ahead: a slide without end is not extrapolated
+                continue
+            ahead = min(float(np.min(opening[closing] / -rate[closing])), MAX_JUMP)
+            positions.append(i)
+            shifts_w.append(ahead / WINDOW * dw)
+            shifts_f.append(ahead / WINDOW * df)
+            marks.clear()
+            self.jumped_at[case] = iteration
+            self.jumps[case] += 1
+        if positions:
+            engine.shift(np.array(positions), np.stack(shifts_w), np.stack(shifts_f))
+            engine.local_stage()
+
+    def _norm(self, dw: FloatArray, df: FloatArray) -> float:
+        return float(norms(self.displacement_weight, self.force_weight, dw[None],
+                           df[None])[0])

@@ -1,0 +1,129 @@
+"""The extrapolation of a steady sliding (``multilatin.latin.sliding``, issue 15): a crawl of
+the fields toward an open gap jumps to the closing, and the converged answer is unchanged."""
+
+from __future__ import annotations
+
+import numpy as np
+import pytest
+
+import multilatin as ml
+from multilatin.latin import LatinOperators, LatinOptions, solve_latin
+from multilatin.latin.local_stage import LocalStage
+from multilatin.latin.sliding import WINDOW, SlidingExtrapolation
+
+
+class CrawlingFields:
+    """A stand-in for the solver's field engine whose s moves by a fixed increment per
+    iteration; records the shifts and local stages it is asked for."""
+
+    def __init__(self, w0: np.ndarray, dw: np.ndarray) -> None:
+        self.w, self.dw = w0.copy(), dw
+        self.f = np.zeros_like(w0)
+        self.shifts: list[tuple[np.ndarray, np.ndarray, np.ndarray]] = []
+        self.local_stages = 0
+
+    def step(self) -> None:
+        self.w = self.w + self.dw
+
+    def fields(self, cases: object = None) -> tuple[np.ndarray, ...]:
+        return self.w, self.f, self.w, self.f
+
+    def shift(self, cases: np.ndarray, dw: np.ndarray, df: np.ndarray) -> None:
+        self.shifts.append((cases, dw, df))
+        self.w[cases] += dw
+        self.f[cases] += df
+
+    def local_stage(self) -> None:
+        self.local_stages += 1
+
+
+@pytest.fixture(scope="module")
+def b1_stage() -> tuple[LatinOperators, LocalStage]:
+    assembly = ml.load_model("b1").assemble({"mu1": 0.0, "mu2": 0.05})
+    ops = LatinOperators(assembly, LatinOptions())
+    return ops, LocalStage([assembly], [ops.points], ops.search_direction,
+                           macro_only=ops.macro_only)
+
+
+def _watch(ops: LatinOperators, stage: LocalStage) -> SlidingExtrapolation:
+    k, weights = ops.search_direction, ops.points.weights[:, None]
+    return SlidingExtrapolation(stage, (weights * k).ravel(), (weights / k).ravel(), 1)
+
+
+def test_a_steady_crawl_jumps_exactly_to_the_first_closing(b1_stage) -> None:
+    ops, stage = b1_stage
+    pts = ops.points
+    shape = (1, stage.prescribed.shape[1], pts.n_points, 2)
+    w0 = np.zeros(shape)
+    dw = np.zeros(shape)
+    dw[0, 5, stage.stops] = 1e-4 * stage.n_stop  # step 5's stop points move toward the stop
+    engine = CrawlingFields(w0, dw)
+    watch = _watch(ops, stage)
+    active = np.array([0])
+    for iteration in range(1, 3 * WINDOW + 1):
+        engine.step()
+        watch(iteration, active, engine)  # type: ignore[arg-type]
+        if engine.shifts:
+            break
+    assert iteration == 3 * WINDOW and watch.jumps[0] == 1 and engine.local_stages == 1
+    # the stop's opening at step 5 is gap − 1e-4 × iterations: it closes exactly
+    opening = stage.gap_stop[0] - np.sum(stage.n_stop * engine.w[0, 5, stage.stops], axis=-1)
+    gap = float(stage.gap_stop[0].min())
+    assert gap > 0.0
+    np.testing.assert_allclose(opening, 0.0, atol=1e-12)
+    cases, shift_w, shift_f = engine.shifts[0]
+    assert cases.tolist() == [0] and not shift_f.any()
+    np.testing.assert_allclose(shift_w[0], (gap / 1e-4 - 3 * WINDOW) * dw[0], rtol=1e-9)
+
+
+def test_no_jump_without_a_closing_gap_or_a_steady_increment(b1_stage) -> None:
+    ops, stage = b1_stage
+    shape = (1, stage.prescribed.shape[1], ops.points.n_points, 2)
+    toward = np.zeros(shape)
+    toward[0, 5, stage.stops] = 1e-4 * stage.n_stop
+    for dw, accelerating in ((-toward, False), (np.zeros(shape), False), (toward, True)):
+        engine = CrawlingFields(np.zeros(shape), dw)
+        watch = _watch(ops, stage)
+        for iteration in range(1, 6 * WINDOW + 1):
+            engine.step()
+            if accelerating:  # increments growing by 10 % per iteration: not a crawl
+                engine.dw = 1.1 * engine.dw
+            watch(iteration, np.array([0]), engine)  # type: ignore[arg-type]
+        assert not engine.shifts and watch.jumps[0] == 0
+
+
+def test_low_friction_b1_at_kappa_1_converges_to_the_reference() -> None:
+    """At κ = 1 the centre block crawls toward the stop for ~250 iterations at (0, 0.05);
+    without the extrapolation the drift check stops it at 200 as "no equilibrium", with it
+    the case converges in fewer iterations than (0, 0.05) needs at κ = 0.5 without it, to
+    the monolithic reference."""
+    model = ml.load_model("b1")
+    params = {"mu1": 0.0, "mu2": 0.05}
+    assembly = model.assemble(params)
+    before = solve_latin(assembly, LatinOptions(kappa=1.0, extrapolate_sliding=False),
+                         check=False)
+    assert not before.converged and before.failure.startswith("no equilibrium")
+    now = solve_latin(assembly, LatinOptions(kappa=1.0))
+    assert now.iterations < 150
+    tight = solve_latin(assembly, LatinOptions(kappa=1.0, tol=1e-9, max_iter=5000))
+    reference = model.reference(params)
+    # (u_A is not unique while the bottom contact is frictionless: README)
+    assert tight.qoi["R_stop"] == pytest.approx(reference.qoi["R_stop"], rel=1e-6)
+    assert now.qoi["R_stop"] == pytest.approx(reference.qoi["R_stop"], rel=1e-4)
+
+
+def test_the_answer_does_not_depend_on_the_extrapolation() -> None:
+    """Tight solves of a low-friction case, with and without jumps, at two κ: the same
+    answer (the fixed point does not move), reached in fewer iterations with them."""
+    assembly = ml.load_model("b1").assemble({"mu1": 0.05, "mu2": 0.0})
+
+    def tight(kappa: float, sliding: bool) -> ml.SolveResult:
+        return solve_latin(assembly, LatinOptions(kappa=kappa, tol=1e-10, max_iter=20000,
+                                                  extrapolate_sliding=sliding))
+
+    plain = tight(0.5, False)
+    for kappa in (0.5, 1.0):
+        jumped = tight(kappa, True)
+        assert jumped.iterations < plain.iterations
+        for name in ("R_stop", "p_B"):
+            assert np.allclose(jumped.qoi[name], plain.qoi[name], rtol=1e-7, atol=1e-7)
