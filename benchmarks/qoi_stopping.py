@@ -3,6 +3,7 @@
 (η < 1e-10), for multiresolution and cold; prints a markdown table.
 
     python benchmarks/qoi_stopping.py --model b1 --rtols 3e-3 1e-3
+    python benchmarks/qoi_stopping.py --model b1 --kappa 1 --tol 1e-5
     python benchmarks/qoi_stopping.py --model b3 --grid xc=23:27:5 yc=73:77:5 rc=3 --rtols 1e-3
 """
 
@@ -22,6 +23,11 @@ def main() -> None:
     parser.add_argument("--grid", nargs="*", default=["mu1=0:0.6:13", "mu2=0:0.6:13"],
                         help="grid items as on the command line (default: B1's 13 x 13)")
     parser.add_argument("--rtols", nargs="*", type=float, default=[1e-3])
+    parser.add_argument("--kappa", type=float, default=ml.LatinOptions().kappa,
+                        help="search direction of the studies (the tight solves keep the "
+                             "default)")
+    parser.add_argument("--tol", type=float, default=ml.LatinOptions().tol,
+                        help="η tolerance of the studies")
     args = parser.parse_args()
     model = ml.load_model(args.model)
     grid = ml.Grid.parse(args.grid)
@@ -31,12 +37,13 @@ def main() -> None:
     for index in np.ndindex(*grid.shape):
         mu = {n: grid[n][i] for n, i in zip(names, index, strict=True)}
         tight[index] = float(model.solve(mu, options=tight_options).qoi["R_stop"])  # type: ignore[arg-type]
-    print(f"{args.model}, grid {' '.join(args.grid)}, R_stop against η < 1e-10")
+    print(f"{args.model}, grid {' '.join(args.grid)}, κ = {args.kappa:g}, R_stop against "
+          "η < 1e-10")
     print("| stopping | mode | iterations | mean per case | study (s) | R_stop within 0.1 % "
           "| worst R_stop error | stopped on QoIs |")
     print("|---|---|---|---|---|---|---|---|")
     for rtol in [None, *args.rtols]:
-        options = ml.LatinOptions(qoi_rtol=rtol)
+        options = ml.LatinOptions(qoi_rtol=rtol, kappa=args.kappa, tol=args.tol)
         with tempfile.TemporaryDirectory() as folder:
             study = ml.run_study(model, grid, options=options, modes=("multiresolution", "cold"),
                                  out=folder, progress=False)
@@ -46,7 +53,8 @@ def main() -> None:
             error = np.abs(found - tight) / np.maximum(np.abs(tight), 1.0)
             iterations = sum(r["iterations"] for r in records)
             on_qoi = sum(bool(r.get("stopped_on_qoi")) for r in records)
-            label = "η < 3e-6" if rtol is None else f"qoi_rtol {rtol:g} (or η < 3e-6)"
+            label = (f"η < {args.tol:g}" if rtol is None
+                     else f"qoi_rtol {rtol:g} (or η < {args.tol:g})")
             print(f"| {label} | {mode} | {iterations} | {iterations / len(records):.0f} | "
                   f"{study.elapsed_s[mode]:.2f} | {int(np.sum(error <= 1e-3))}/{error.size} | "
                   f"{100 * float(np.nanmax(error)):.3f} % | {on_qoi} |")

@@ -62,7 +62,7 @@ def test_a_steady_crawl_jumps_exactly_to_the_first_closing(b1_stage) -> None:
     active = np.array([0])
     for iteration in range(1, 3 * WINDOW + 1):
         engine.step()
-        watch(iteration, active, engine)  # type: ignore[arg-type]
+        watch(iteration, active, np.ones(1), engine)  # type: ignore[arg-type]
         if engine.shifts:
             break
     assert iteration == 3 * WINDOW and watch.jumps[0] == 1 and engine.local_stages == 1
@@ -74,6 +74,46 @@ def test_a_steady_crawl_jumps_exactly_to_the_first_closing(b1_stage) -> None:
     cases, shift_w, shift_f = engine.shifts[0]
     assert cases.tolist() == [0] and not shift_f.any()
     np.testing.assert_allclose(shift_w[0], (gap / 1e-4 - 3 * WINDOW) * dw[0], rtol=1e-9)
+
+
+def test_a_jump_that_raises_eta_is_taken_back_for_good(b1_stage) -> None:
+    ops, stage = b1_stage
+    shape = (1, stage.prescribed.shape[1], ops.points.n_points, 2)
+    dw = np.zeros(shape)
+    dw[0, 5, stage.stops] = 1e-4 * stage.n_stop
+    engine = CrawlingFields(np.zeros(shape), dw)
+    watch = _watch(ops, stage)
+    active = np.array([0])
+    for iteration in range(1, 3 * WINDOW + 1):
+        engine.step()
+        watch(iteration, active, np.array([1e-3]), engine)  # type: ignore[arg-type]
+    assert len(engine.shifts) == 1
+    engine.step()
+    watch(4 * WINDOW, active, np.array([2e-3]), engine)  # type: ignore[arg-type]
+    assert len(engine.shifts) == 2 and watch.taken_back[0]
+    np.testing.assert_array_equal(engine.shifts[1][1], -engine.shifts[0][1])
+    for iteration in range(4 * WINDOW + 1, 10 * WINDOW + 1):  # still crawling: no jump
+        engine.step()
+        watch(iteration, active, np.array([1e-3]), engine)  # type: ignore[arg-type]
+    assert len(engine.shifts) == 2 and watch.jumps[0] == 1
+
+
+def test_warm_starts_are_not_slowed_by_jumps_that_overshoot() -> None:
+    """A warm start whose block slides to a new equilibrium set by friction, not by the
+    stop: a crawl that ends before the gap closes (before the take-back and leading rules,
+    16 jumps and back, not converged at the cap of 1 000)."""
+    model = ml.load_model("b1")
+    counts = []
+    for sliding in (False, True):
+        options = LatinOptions(kappa=1.0, tol=5e-6, extrapolate_sliding=sliding)
+        first = model.assemble({"mu1": 0.05, "mu2": 0.05})
+        ops = LatinOperators(first, options)
+        start = solve_latin(first, options, operators=ops).interface
+        assert start is not None
+        result = solve_latin(model.assemble({"mu1": 0.1, "mu2": 0.05}), options,
+                             operators=ops, initial=(start.displacement_hat, start.force_hat))
+        counts.append(result.iterations)
+    assert counts[1] <= counts[0] + 2 * WINDOW
 
 
 def test_no_jump_without_a_closing_gap_or_a_steady_increment(b1_stage) -> None:
@@ -88,7 +128,7 @@ def test_no_jump_without_a_closing_gap_or_a_steady_increment(b1_stage) -> None:
             engine.step()
             if accelerating:  # increments growing by 10 % per iteration: not a crawl
                 engine.dw = 1.1 * engine.dw
-            watch(iteration, np.array([0]), engine)  # type: ignore[arg-type]
+            watch(iteration, np.array([0]), np.ones(1), engine)  # type: ignore[arg-type]
         assert not engine.shifts and watch.jumps[0] == 0
 
 
@@ -127,3 +167,14 @@ def test_the_answer_does_not_depend_on_the_extrapolation() -> None:
         assert jumped.iterations < plain.iterations
         for name in ("R_stop", "p_B"):
             assert np.allclose(jumped.qoi[name], plain.qoi[name], rtol=1e-7, atol=1e-7)
+
+
+def test_command_line_switch(capsys: pytest.CaptureFixture[str]) -> None:
+    """`--no-sliding-jumps` turns the extrapolation off: the κ = 1 crawl case then fails."""
+    from multilatin.cli import main
+
+    args = ["solve", "b1", "--set", "mu1=0", "--set", "mu2=0.05", "--kappa", "1", "--json"]
+    assert main(args) == 0
+    assert '"converged": true' in capsys.readouterr().out
+    assert main([*args, "--no-sliding-jumps"]) == 3
+    assert "no equilibrium" in capsys.readouterr().out

@@ -86,6 +86,9 @@ def _add_latin_arguments(parser: argparse.ArgumentParser, qoi_rtol: float | None
     parser.add_argument("--relaxation", type=float, default=d.relaxation,
                         help="relaxation ω of the linear stage, in (0, 1] (default: %(default)s)")
     parser.add_argument("--no-macro", action="store_true", help="skip the macro problem")
+    parser.add_argument("--no-sliding-jumps", action="store_true",
+                        help="do not extrapolate a block's steady sliding to the stop or "
+                        "contact it closes (LatinOptions.extrapolate_sliding)")
     parser.add_argument("--interface-elements", default=d.interface_elements,
                         choices=["nodal", "edges", "edge-pairs"])
     parser.add_argument("--backend", default=d.backend, choices=list(BACKENDS),
@@ -246,6 +249,7 @@ def _latin_options(args: argparse.Namespace) -> LatinOptions:
     return LatinOptions(kappa=args.kappa, tol=args.tol, max_iter=args.max_iter,
                         qoi_rtol=args.qoi_rtol,
                         relaxation=args.relaxation, macro=not args.no_macro,
+                        extrapolate_sliding=not args.no_sliding_jumps,
                         interface_elements=args.interface_elements,
                         backend=args.backend, device=args.device, fuse=args.fuse)
 

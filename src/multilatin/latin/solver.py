@@ -413,7 +413,7 @@ def _iterate(ops: LatinOperators, local: LocalStage, options: LatinOptions,
             relaxation = relaxation[keep]
             engine.keep(keep)
         if sliding is not None:
-            sliding(iteration, active, engine)
+            sliding(iteration, active, eta[~done], engine)
     out.t_linear, out.t_macro, out.t_local = engine.t_linear, engine.t_macro, engine.t_local
     return out
 
