@@ -4,6 +4,7 @@
     python benchmarks/b1_tolerance.py --models b1 --grid   # the 13 x 13 study grid (~5 min)
     python benchmarks/b1_tolerance.py --grid --kappa 1     # the same at another κ
     python benchmarks/b1_tolerance.py --grid --no-sliding  # without the sliding extrapolation
+    python benchmarks/b1_tolerance.py --models b1 --grid --acceleration rre
 
 For each model and friction pair, R_stop at η < tol (a cold solve) is compared with the
 tightly converged value (η < 1e-9). The cases of a tolerance are solved as batches
@@ -27,11 +28,12 @@ EXACT = 1e-9
 
 
 def solve(model: ml.Model, cases: list[tuple[float, float]], tol: float, kappa: float = 0.5,
-          sliding: bool = True) -> tuple[np.ndarray, np.ndarray]:
+          sliding: bool = True, acceleration: str = "relaxation"
+          ) -> tuple[np.ndarray, np.ndarray]:
     """R_stop and iterations of every case, cold, at η < tol."""
     assemblies = [model.assemble({"mu1": a, "mu2": b}) for a, b in cases]
     options = ml.LatinOptions(tol=tol, max_iter=20000, kappa=kappa,
-                              extrapolate_sliding=sliding)
+                              extrapolate_sliding=sliding, acceleration=acceleration)
     operators = LatinOperators(assemblies[0], options)
     r_stop, iterations = [], []
     for start in range(0, len(assemblies), 13):
@@ -52,13 +54,16 @@ def main() -> None:
     parser.add_argument("--no-sliding", action="store_true",
                         help="without the extrapolation of steady slidings (as before "
                              "issue 15's LatinOptions.extrapolate_sliding)")
+    parser.add_argument("--acceleration", default=ml.LatinOptions().acceleration,
+                        help="LatinOptions.acceleration of the solves at each tolerance")
     args = parser.parse_args()
     values = [round(0.05 * i, 2) for i in range(13)]
     cases = [(a, b) for a in values for b in values] if args.grid else CASES
     for name in args.models:
         model = ml.load_model(name)
         exact, _ = solve(model, cases, EXACT)
-        table = {tol: solve(model, cases, tol, args.kappa, not args.no_sliding)
+        table = {tol: solve(model, cases, tol, args.kappa, not args.no_sliding,
+                           args.acceleration)
                  for tol in TOLERANCES}
         large = exact > 200.0
         if not args.grid:

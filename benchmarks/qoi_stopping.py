@@ -28,6 +28,8 @@ def main() -> None:
                              "default)")
     parser.add_argument("--tol", type=float, default=ml.LatinOptions().tol,
                         help="η tolerance of the studies")
+    parser.add_argument("--acceleration", default=ml.LatinOptions().acceleration,
+                        help="LatinOptions.acceleration of the studies")
     args = parser.parse_args()
     model = ml.load_model(args.model)
     grid = ml.Grid.parse(args.grid)
@@ -37,13 +39,14 @@ def main() -> None:
     for index in np.ndindex(*grid.shape):
         mu = {n: grid[n][i] for n, i in zip(names, index, strict=True)}
         tight[index] = float(model.solve(mu, options=tight_options).qoi["R_stop"])  # type: ignore[arg-type]
-    print(f"{args.model}, grid {' '.join(args.grid)}, κ = {args.kappa:g}, R_stop against "
-          "η < 1e-10")
+    print(f"{args.model}, grid {' '.join(args.grid)}, κ = {args.kappa:g}, "
+          f"{args.acceleration}, R_stop against η < 1e-10")
     print("| stopping | mode | iterations | mean per case | study (s) | R_stop within 0.1 % "
           "| worst R_stop error | stopped on QoIs |")
     print("|---|---|---|---|---|---|---|---|")
     for rtol in [None, *args.rtols]:
-        options = ml.LatinOptions(qoi_rtol=rtol, kappa=args.kappa, tol=args.tol)
+        options = ml.LatinOptions(qoi_rtol=rtol, kappa=args.kappa, tol=args.tol,
+                                  acceleration=args.acceleration)
         with tempfile.TemporaryDirectory() as folder:
             study = ml.run_study(model, grid, options=options, modes=("multiresolution", "cold"),
                                  out=folder, progress=False)

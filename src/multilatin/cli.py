@@ -24,7 +24,7 @@ from .decomposition.result import SolveResult
 from .errors import ModelError, NotConvergedError
 from .io.files import ensure_writable_folder
 from .latin import LatinOptions
-from .latin.options import BACKENDS, STUDY_QOI_RTOL
+from .latin.options import ACCELERATIONS, BACKENDS, STUDY_QOI_RTOL
 from .limits import MEMORY_ENVIRONMENT
 from .model import REFERENCE_MESHES, Model, bundled_models, load_model
 from .parameters import label, parse_assignments
@@ -86,6 +86,10 @@ def _add_latin_arguments(parser: argparse.ArgumentParser, qoi_rtol: float | None
     parser.add_argument("--relaxation", type=float, default=d.relaxation,
                         help="relaxation ω of the linear stage, in (0, 1] (default: %(default)s)")
     parser.add_argument("--no-macro", action="store_true", help="skip the macro problem")
+    parser.add_argument("--acceleration", default=d.acceleration, choices=list(ACCELERATIONS),
+                        help="relaxation alone, Anderson mixing, or relaxation with a "
+                        "reduced-rank extrapolation every 10 iterations (fewer iterations, "
+                        "docs/convergence.md) (default: %(default)s)")
     parser.add_argument("--no-sliding-jumps", action="store_true",
                         help="do not extrapolate a block's steady sliding to the stop or "
                         "contact it closes (LatinOptions.extrapolate_sliding)")
@@ -250,6 +254,7 @@ def _latin_options(args: argparse.Namespace) -> LatinOptions:
                         qoi_rtol=args.qoi_rtol,
                         relaxation=args.relaxation, macro=not args.no_macro,
                         extrapolate_sliding=not args.no_sliding_jumps,
+                        acceleration=args.acceleration,
                         interface_elements=args.interface_elements,
                         backend=args.backend, device=args.device, fuse=args.fuse)
 

@@ -9,7 +9,8 @@ from dataclasses import dataclass
 from ..decomposition.interfaces import INTERFACE_ELEMENTS
 from ..errors import ModelError
 
-__all__ = ["BACKENDS", "KAPPA_RANGE", "SEARCH_MODULI", "STUDY_QOI_RTOL", "LatinOptions"]
+__all__ = ["ACCELERATIONS", "BACKENDS", "KAPPA_RANGE", "SEARCH_MODULI", "STUDY_QOI_RTOL",
+           "LatinOptions"]
 
 #: studies stop each case on its QoIs' estimated errors at this relative tolerance (or at
 #: η < tol before); chosen from ``benchmarks/qoi_stopping.py`` (docs/tolerance.md)
@@ -19,6 +20,8 @@ STUDY_QOI_RTOL = 1e-3
 #: digits the answer needs (and the macro problem turns singular in floating point)
 KAPPA_RANGE = (1e-3, 1e3)
 SEARCH_MODULI = ("mean", "neighbour", "own")
+#: accelerations of the fixed point (``LatinOptions.acceleration``)
+ACCELERATIONS = ("relaxation", "anderson", "rre")
 #: array backends of the iteration (``engine``): NumPy (with Numba) is the reference
 BACKENDS = ("numpy", "torch")
 
@@ -58,9 +61,12 @@ class LatinOptions:
         but converging tail (0.97–0.99 per iteration) gains a factor 0.2–0.4 per 100
         iterations and is left alone. The converged answer does not depend on ω. With
         Anderson mixing the check is off (its damping stays ω).
-    acceleration: ``"relaxation"`` alone, or ``"anderson"``: Anderson mixing of the last
+    acceleration: ``"relaxation"`` alone; ``"anderson"``: Anderson mixing of the last
         ``anderson_depth`` iterates of the fixed point s ↦ linear(local(s)), damped by ω
-        (combinations of admissible fields stay admissible).
+        (combinations of admissible fields stay admissible); ``"rre"``: relaxation, and
+        every ``rre_cycle`` iterations a reduced-rank extrapolation of the last ones
+        (``extrapolation``: restarted GMRES on the fixed point where it is affine, at
+        a fraction of Anderson's cost).
     extrapolate_sliding: a case whose fields move by the same increment window after window
         while an open stop or contact closes — a body sliding freely toward it, resisted by
         the search direction alone — jumps ahead to that closing (``sliding``); with
@@ -96,6 +102,7 @@ class LatinOptions:
     dirichlet_stiffening: float = 10.0
     acceleration: str = "relaxation"
     anderson_depth: int = 3
+    rre_cycle: int = 10
     extrapolate_sliding: bool = True
     tangential_ratio: float = 1.0
     search_modulus: str = "own"
@@ -125,9 +132,11 @@ class LatinOptions:
                 f"interface_elements: expected one of {INTERFACE_ELEMENTS}, "
                 f"got {self.interface_elements!r}"
             )
-        if self.acceleration not in ("relaxation", "anderson"):
-            raise ModelError(f"acceleration: expected 'relaxation' or 'anderson', "
+        if self.acceleration not in ACCELERATIONS:
+            raise ModelError(f"acceleration: expected one of {ACCELERATIONS}, "
                              f"got {self.acceleration!r}")
+        if self.rre_cycle < 2:
+            raise ModelError(f"rre_cycle: must be >= 2, got {self.rre_cycle!r}")
         if self.search_modulus not in SEARCH_MODULI:
             raise ModelError(f"search_modulus: expected one of {SEARCH_MODULI}, "
                              f"got {self.search_modulus!r}")

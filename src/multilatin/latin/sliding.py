@@ -80,12 +80,17 @@ class SlidingExtrapolation:
                 local.n_contact * (displacement[:, b] - displacement[:, a]), axis=-1)).ravel())
         return np.concatenate(parts)
 
+    def forget(self, case: int) -> None:
+        """Restart the case's record (its fields were moved by another rule)."""
+        self.marks.pop(case, None)
+
     def __call__(self, iteration: int, active: IntArray, eta: FloatArray,
-                 engine: FieldEngine) -> None:
+                 engine: FieldEngine) -> list[int]:
         """At every ``WINDOW``-th iteration: check the last jumps (η per active case),
-        record s, and shift the steady crawls."""
+        record s, and shift the steady crawls. Returns the cases (batch indices) moved."""
         if iteration % WINDOW or not active.size:
-            return
+            return []
+        moved: list[int] = []
         positions: list[int] = []
         shifts_w: list[FloatArray] = []
         shifts_f: list[FloatArray] = []
@@ -99,6 +104,7 @@ class SlidingExtrapolation:
                 shifts_f.append(-df)
                 self.taken_back[case] = True
                 self.marks.pop(case, None)
+                moved.append(case)
         if positions:
             engine.shift(np.array(positions), np.stack(shifts_w), np.stack(shifts_f))
             engine.local_stage()
@@ -131,11 +137,13 @@ class SlidingExtrapolation:
             shifts_f.append(ahead / WINDOW * df)
             self.pending[case] = (float(eta[i]), shifts_w[-1], shifts_f[-1])
             marks.clear()
+            moved.append(case)
             self.jumped_at[case] = iteration
             self.jumps[case] += 1
         if positions:
             engine.shift(np.array(positions), np.stack(shifts_w), np.stack(shifts_f))
             engine.local_stage()
+        return moved
 
     def _norm(self, dw: FloatArray, df: FloatArray) -> float:
         return float(norms(self.displacement_weight, self.force_weight, dw[None],

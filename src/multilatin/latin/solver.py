@@ -27,6 +27,7 @@ from ..errors import ModelError, NotConvergedError
 from ..fem.elasticity import FloatArray, IntArray
 from ..limits import check_scale
 from .engine import FieldEngine, NumpyFields
+from .extrapolation import ReducedRankExtrapolation
 from .local_stage import LocalStage
 from .operators import LatinOperators, interface_families, operators_per_case
 from .options import LatinOptions
@@ -358,9 +359,11 @@ def _iterate(ops: LatinOperators, local: LocalStage, options: LatinOptions,
     relaxation = np.full(n_cases, options.relaxation)  # per active case
     anderson = options.acceleration == "anderson"
     k = ops.search_direction
-    sliding = (SlidingExtrapolation(local, (pts.weights[:, None] * k).ravel(),
-                                    (pts.weights[:, None] / k).ravel(), n_cases)
+    weights = ((pts.weights[:, None] * k).ravel(), (pts.weights[:, None] / k).ravel())
+    sliding = (SlidingExtrapolation(local, *weights, n_cases)
                if options.extrapolate_sliding and not anderson else None)
+    rre = (ReducedRankExtrapolation(options.rre_cycle, *weights, n_cases)
+           if options.acceleration == "rre" else None)
     for iteration in range(1, options.max_iter + 1):
         engine.linear_stage(relaxation)
         if observer is not None:
@@ -412,8 +415,14 @@ def _iterate(ops: LatinOperators, local: LocalStage, options: LatinOptions,
             active = active[keep]
             relaxation = relaxation[keep]
             engine.keep(keep)
+        if rre is not None:
+            for case in rre(active, engine):
+                if sliding is not None:
+                    sliding.forget(case)
         if sliding is not None:
-            sliding(iteration, active, eta[~done], engine)
+            for case in sliding(iteration, active, eta[~done], engine):
+                if rre is not None:
+                    rre.forget(case)
     out.t_linear, out.t_macro, out.t_local = engine.t_linear, engine.t_macro, engine.t_local
     return out
 
