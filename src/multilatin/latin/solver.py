@@ -28,6 +28,7 @@ from ..fem.elasticity import FloatArray, IntArray
 from ..limits import check_scale
 from .engine import FieldEngine, NumpyFields
 from .extrapolation import ReducedRankExtrapolation
+from .guards import DRIFT_WINDOW, damp_stagnating, drifts
 from .local_stage import LocalStage
 from .operators import LatinOperators, interface_families, operators_per_case
 from .options import LatinOptions
@@ -244,23 +245,6 @@ def solve_latin_batch(
 #: the iterations of tracked QoIs an error estimate reads (``tracking.error_estimates``)
 RECENT = WINDOW + 5
 
-#: every so many iterations, a case whose ½(‖s‖ + ‖ŝ‖) grew by as much in the second half of
-#: the window as in the first (and by more than 0.1 %) is stopped as having no equilibrium
-DRIFT_WINDOW = 100
-
-
-def _drifts(sizes: list[float]) -> bool:
-    """The state's norm grows at a steady rate over the last ``DRIFT_WINDOW`` iterations: a
-    rigid sliding that never ends, not a convergence (whose growth decays geometrically:
-    B1's slowest tails, 0.985 per iteration, halve it over half a window)."""
-    if len(sizes) < DRIFT_WINDOW + 1:
-        return False
-    half = DRIFT_WINDOW // 2
-    first = sizes[-1 - half] - sizes[-1 - DRIFT_WINDOW]
-    second = sizes[-1] - sizes[-1 - half]
-    return bool(first > 0.0 and second >= 0.9 * first and second > 1e-3 * sizes[-1])
-
-
 def _qoi_settled(state: _IterationState, active: IntArray, iteration: int, rtol: float
                  ) -> npt.NDArray[np.bool_]:
     """Per active case: every QoI's estimated error (``tracking.error_estimates``) below
@@ -390,11 +374,11 @@ def _iterate(ops: LatinOperators, local: LocalStage, options: LatinOptions,
             log.debug("iteration %d: eta = %.3e (worst of %d cases)", iteration, eta.max(),
                       active.size)
         if iteration % options.stagnation_window == 0 and not anderson:
-            _damp_stagnating(out.histories, active, relaxation, options)
+            damp_stagnating(out.histories, active, relaxation, options)
         done = ((eta < options.tol) | ~np.isfinite(eta) if iteration < options.max_iter
                 else np.ones_like(eta, bool))
         if iteration % DRIFT_WINDOW == 0:
-            drifting = np.array([_drifts(out.sizes[c]) for c in active]) & ~done
+            drifting = np.array([drifts(out.sizes[c]) for c in active]) & ~done
             out.drifting[active[drifting]] = True
             done |= drifting
         if options.qoi_rtol is not None and functionals and iteration >= WINDOW + 5:
@@ -473,22 +457,6 @@ def _parameters_text(assembly: Assembly) -> str:
     """`` (mu1=0.3, mu2=0.2)``: the case's parameters, for log lines."""
     values = ", ".join(f"{name}={value:g}" for name, value in dict(assembly.mu).items())
     return f" ({values})" if values else ""
-
-
-def _damp_stagnating(histories: list[list[float]], active: IntArray, relaxation: FloatArray,
-                     options: LatinOptions) -> None:
-    """Lower ω (in place, by 0.1, down to 0.5) of the active cases whose η stagnated over
-    the last ``stagnation_window`` iterations (see ``LatinOptions``)."""
-    window = options.stagnation_window
-    for position, case in enumerate(active):
-        history = histories[case]
-        if len(history) < 2 * window or relaxation[position] <= 0.5 + 1e-12:
-            continue
-        latest, before = min(history[-window:]), min(history[-2 * window:-window])
-        if latest > options.stagnation_ratio * before:
-            relaxation[position] = max(relaxation[position] - 0.1, 0.5)
-            log.info("case %d of the batch: eta stagnates (%.2e after %.2e), relaxation "
-                     "lowered to %.1f", case, latest, before, relaxation[position])
 
 
 def _reactions(assembly: Assembly, pts: InterfacePoints, force_hat: FloatArray
