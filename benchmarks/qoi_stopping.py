@@ -44,7 +44,9 @@ def main() -> None:
     print("| stopping | mode | iterations | mean per case | study (s) | R_stop within 0.1 % "
           "| worst R_stop error | stopped on QoIs |")
     print("|---|---|---|---|---|---|---|---|")
-    for rtol in [None, *args.rtols]:
+    # RRE gives no QoI error estimates (LatinOptions.acceleration): η alone
+    rtols = [] if args.acceleration == "rre" else args.rtols
+    for rtol in [None, *rtols]:
         options = ml.LatinOptions(qoi_rtol=rtol, kappa=args.kappa, tol=args.tol,
                                   acceleration=args.acceleration)
         with tempfile.TemporaryDirectory() as folder:

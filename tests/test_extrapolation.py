@@ -111,3 +111,14 @@ def test_command_line(capsys: pytest.CaptureFixture[str]) -> None:
         main([*args, "--acceleration", "aitken"])
     assert refused.value.code == 2
     assert "invalid choice: 'aitken'" in capsys.readouterr().err
+
+
+def test_no_qoi_error_estimate_and_no_qoi_stopping_with_rre() -> None:
+    """The estimates read the contraction of the last iterations, which RRE's steps break
+    (with RRE, tests/test_qoi_error.py's bounds fail): none is given, none can be asked."""
+    result = ml.load_model("b1").solve({"mu1": 0.3, "mu2": 0.15},
+                                       options=LatinOptions(acceleration="rre"))
+    assert result.converged and result.qoi_error
+    assert all(value is None for value in result.qoi_error.values())
+    with pytest.raises(ml.ModelError, match="qoi_rtol: .* got 'rre'"):
+        LatinOptions(acceleration="rre", qoi_rtol=1e-3)
