@@ -190,8 +190,8 @@ def solve_latin_batch(
                 "they grow): a body slides without end, the load exceeding what friction, "
                 "contact and stops can hold (or the iteration is too slow to finish)")
         estimates = error_estimates(state.recent_qoi(c, history.size), history)
-        if options.acceleration == "rre":  # RRE's steps break the contraction it reads
-            estimates = np.full_like(estimates, np.nan)  # not estimated (None)
+        if options.acceleration != "relaxation":  # their steps break the contraction
+            estimates = np.full_like(estimates, np.nan)  # it reads: not estimated (None)
         motions = (tuple(free_motions(assembly, pts, state.w_hat[c], state.f_hat[c]))
                    if converged else ())
         results.append(SolveResult(
