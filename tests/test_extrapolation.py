@@ -107,6 +107,9 @@ def test_command_line(capsys: pytest.CaptureFixture[str]) -> None:
         assert main([*args, *extra]) == 0
         counts.append(json.loads(capsys.readouterr().out)["iterations"])
     assert counts[1] < counts[0]
+    assert main(args[:-1] + ["--acceleration", "rre"]) == 0  # the text output says so
+    assert "R_stop = " in (out := capsys.readouterr().out)
+    assert "(error not estimated: acceleration rre)" in out
     with pytest.raises(SystemExit) as refused:  # argparse: not one of the choices
         main([*args, "--acceleration", "aitken"])
     assert refused.value.code == 2

@@ -219,7 +219,11 @@ def _report(result: SolveResult, args: argparse.Namespace,
             # the estimated remaining error of the iteration (multilatin.latin.tracking)
             note = (f"  (estimated error {max(np.atleast_1d(error)):.2g}{unit}"
                     f"{' at most' if isinstance(error, list) else ''})"
-                    if error is not None else "")
+                    if error is not None else
+                    f"  (error not estimated: acceleration {res.options['acceleration']})"
+                    if res.method == "latin" and res.converged
+                    and res.options.get("acceleration", "relaxation") != "relaxation"
+                    else "")
             if isinstance(value, list):
                 shown = ", ".join(f"{v:.6g}" for v in value)
                 print(f"  {which}{name} = [{shown}]{unit}{note}")
