@@ -25,7 +25,7 @@ import numpy as np
 
 import multilatin as ml
 from multilatin.latin import LatinOperators, LatinOptions
-from multilatin.latin.engine import norms
+from multilatin.latin.engine import indicator_weights, norms
 from multilatin.latin.local_stage import BranchTape, LocalStage
 
 PAIRS = ((0.3, 0.0), (0.1, 0.3), (0.35, 0.25), (0.3, 0.15))
@@ -86,8 +86,7 @@ class FixedPoint:
         n_steps = assembly.n_steps
         prescribed = self.local.prescribed_force_field(pts.n_points)
         self.macro_data = (ops.project @ prescribed.reshape(n_steps, -1).T).T
-        self.dw = (pts.weights[:, None] * k).ravel()
-        self.fw = (pts.weights[:, None] / k).ravel()
+        self.dw, self.fw = indicator_weights(pts.weights, k)
         self.shape = (1, n_steps, pts.n_points, 2)
         self.n = int(np.prod(self.shape))
         self.weight = np.concatenate([np.tile(self.dw, n_steps), np.tile(self.fw, n_steps)])

@@ -216,14 +216,15 @@ def _report(result: SolveResult, args: argparse.Namespace,
             unit = units.get(name, "")
             unit = "" if unit in ("", "1", "-") else f" {unit}"
             error = res.qoi_error.get(name)
+            acceleration = res.options.get("acceleration", "relaxation")
             # the estimated remaining error of the iteration (multilatin.latin.tracking)
-            note = (f"  (estimated error {max(np.atleast_1d(error)):.2g}{unit}"
-                    f"{' at most' if isinstance(error, list) else ''})"
-                    if error is not None else
-                    f"  (error not estimated: acceleration {res.options['acceleration']})"
-                    if res.method == "latin" and res.converged
-                    and res.options.get("acceleration", "relaxation") != "relaxation"
-                    else "")
+            if error is not None:
+                note = (f"  (estimated error {max(np.atleast_1d(error)):.2g}{unit}"
+                        f"{' at most' if isinstance(error, list) else ''})")
+            elif res.converged and acceleration != "relaxation":  # LATIN, not estimated
+                note = f"  (error not estimated: acceleration {acceleration})"
+            else:
+                note = ""
             if isinstance(value, list):
                 shown = ", ".join(f"{v:.6g}" for v in value)
                 print(f"  {which}{name} = [{shown}]{unit}{note}")

@@ -26,7 +26,7 @@ from .operators import LatinOperators
 from .options import LatinOptions
 from .tracking import QoiFunctionals
 
-__all__ = ["FieldEngine", "NumpyFields", "norms"]
+__all__ = ["FieldEngine", "NumpyFields", "indicator_weights", "norms"]
 
 
 class FieldEngine(Protocol):
@@ -82,8 +82,7 @@ class NumpyFields:
                                np.sqrt(pts.weights[:, None] * k),
                                np.sqrt(pts.weights[:, None] / k))
                       if options.acceleration == "anderson" else None)
-        self.displacement_weight = (pts.weights[:, None] * k).ravel()
-        self.force_weight = (pts.weights[:, None] / k).ravel()
+        self.displacement_weight, self.force_weight = indicator_weights(pts.weights, k)
         self.t_linear = self.t_macro = self.t_local = 0.0
 
     def linear_stage(self, relaxation: FloatArray) -> None:
@@ -171,6 +170,12 @@ class NumpyFields:
         self.local = self.local.subset(cases)
         if self.mixer is not None:
             self.mixer.subset(cases)
+
+
+def indicator_weights(weights: FloatArray, k: FloatArray) -> tuple[FloatArray, FloatArray]:
+    """∫ k and ∫ k⁻¹ per flattened (point, component): the weights of ``norms`` from the
+    points' weights and the search direction k (n_points, 2)."""
+    return (weights[:, None] * k).ravel(), (weights[:, None] / k).ravel()
 
 
 def norms(displacement_weight: FloatArray, force_weight: FloatArray,

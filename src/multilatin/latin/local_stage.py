@@ -25,7 +25,8 @@ class BranchTape:
     """The branches the contact local stage takes (contact or open, stop closed, stick or
     slip with its direction and the sign of N), in the order it takes them. The local stage
     is piecewise affine in (W, F); replaying a tape gives the affine map of those branches
-    (statuses frozen), which a Krylov method can solve exactly (``krylov``)."""
+    (statuses frozen), which a Krylov method can solve exactly
+    (``benchmarks/frozen_krylov.py``)."""
 
     def __init__(self) -> None:
         self.entries: list[npt.NDArray[Any]] = []
@@ -206,6 +207,20 @@ class LocalStage:
         w, f, data = displacement[:, :, bd], force[:, :, bd], self.prescribed
         w_hat[:, :, bd] = np.where(self.is_displacement, data, w + (data - f) / k)
         f_hat[:, :, bd] = np.where(self.is_displacement, f + k * (data - w), data)
+
+    def openings(self, case: int, displacement: FloatArray) -> FloatArray:
+        """The normal openings (> 0: open) of every stop point and contact pair at every
+        step of case ``case``, flat, from its displacements ``(n_steps, n_points, 2)``: the
+        closings the contact local stage starts each step from."""
+        parts = [np.zeros(0)]
+        if self.stops.size:
+            parts.append((self.gap_stop[case] - np.sum(
+                self.n_stop * displacement[:, self.stops], axis=-1)).ravel())
+        a, b = self.contact_pairs
+        if a.size:
+            parts.append((self.gap_contact[case] + np.sum(
+                self.n_contact * (displacement[:, b] - displacement[:, a]), axis=-1)).ravel())
+        return np.concatenate(parts)
 
     @functools.cached_property
     def held_pairs(self) -> IntArray:

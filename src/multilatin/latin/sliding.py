@@ -66,20 +66,6 @@ class SlidingExtrapolation:
         #: per case with a jump under check: (η at the jump, its increments dw, df)
         self.pending: dict[int, tuple[float, FloatArray, FloatArray]] = {}
 
-    def openings(self, case: int, displacement: FloatArray) -> FloatArray:
-        """The normal openings of every stop point and contact pair at every step (> 0:
-        open), from the displacements ``(n_steps, n_points, 2)`` of one case."""
-        local = self.local
-        parts = [np.zeros(0)]
-        if local.stops.size:
-            parts.append((local.gap_stop[case] - np.sum(
-                local.n_stop * displacement[:, local.stops], axis=-1)).ravel())
-        a, b = local.contact_pairs
-        if a.size:
-            parts.append((local.gap_contact[case] + np.sum(
-                local.n_contact * (displacement[:, b] - displacement[:, a]), axis=-1)).ravel())
-        return np.concatenate(parts)
-
     def forget(self, case: int) -> None:
         """Restart the case's record (its fields were moved by another rule)."""
         self.marks.pop(case, None)
@@ -123,8 +109,8 @@ class SlidingExtrapolation:
             step = self._norm(dw, df)
             if not step > 0.0 or self._norm(dw - (w1 - w0), df - (f1 - f0)) > STEADY * step:
                 continue
-            opening = self.openings(case, w2)
-            rate = (opening - self.openings(case, w1)) / WINDOW
+            opening = self.local.openings(case, w2)
+            rate = (opening - self.local.openings(case, w1)) / WINDOW
             closing = (opening > MATERIAL * np.abs(w2).max()) & (rate < 0.0)
             if not closing.any():  # no event ahead: a slide without end is not extrapolated
                 continue

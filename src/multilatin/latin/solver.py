@@ -26,7 +26,7 @@ from ..decomposition.uniqueness import free_motions
 from ..errors import ModelError, NotConvergedError
 from ..fem.elasticity import FloatArray, IntArray
 from ..limits import check_scale
-from .engine import FieldEngine, NumpyFields
+from .engine import FieldEngine, NumpyFields, indicator_weights
 from .extrapolation import ReducedRankExtrapolation
 from .guards import DRIFT_WINDOW, damp_stagnating, drifts
 from .local_stage import LocalStage
@@ -345,7 +345,7 @@ def _iterate(ops: LatinOperators, local: LocalStage, options: LatinOptions,
     relaxation = np.full(n_cases, options.relaxation)  # per active case
     anderson = options.acceleration == "anderson"
     k = ops.search_direction
-    weights = ((pts.weights[:, None] * k).ravel(), (pts.weights[:, None] / k).ravel())
+    weights = indicator_weights(pts.weights, k)
     sliding = (SlidingExtrapolation(local, *weights, n_cases)
                if options.extrapolate_sliding and not anderson else None)
     rre = (ReducedRankExtrapolation(options.rre_cycle, *weights, n_cases)
