@@ -219,7 +219,7 @@ def test_dask_cluster_gives_the_serial_results(b1: ml.Model, tmp_path: Path) -> 
     pytest.importorskip("dask.distributed")
     grid = Grid({"mu1": [0.1, 0.3], "mu2": [0.0, 0.2, 0.4]})
     serial = run_study(b1, grid, chains=2, out=tmp_path / "serial", progress=False)
-    distributed = run_study(b1, grid, chains=2, workers=2, out=tmp_path / "dask",
-                            progress=False)
+    distributed = run_study(b1, grid, chains=2, workers=2, schedule="chains",
+                            out=tmp_path / "dask", progress=False)
     xr.testing.assert_identical(_comparable(serial.dataset), _comparable(distributed.dataset))
     assert len({r["chain"] for r in distributed.records}) == 2

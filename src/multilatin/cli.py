@@ -155,7 +155,12 @@ def build_parser() -> argparse.ArgumentParser:
                             "this process)")
     study.add_argument("--scheduler", help="run on the Dask cluster at this address")
     study.add_argument("--chains", type=int, default=None,
-                       help="independent multiresolution chains (default: workers, or 1)")
+                       help="independent multiresolution chains (default: 1; with "
+                            "--schedule chains, the number of workers)")
+    study.add_argument("--schedule", choices=["waves", "chains"], default="waves",
+                       help="with --workers/--scheduler: grid lines as tasks, each from the "
+                            "line before it (waves), or contiguous chains from zero "
+                            "(default: %(default)s)")
     study.add_argument("--start", choices=["neighbour", "zero"], default="neighbour",
                        help="multiresolution: start each case from its nearest converged "
                        "neighbour, or every case of a geometry from zero in batches of "
@@ -283,6 +288,7 @@ def _study(model: Model, args: argparse.Namespace, argv: list[str] | None) -> in
     result = run_study(model, grid, options=_latin_options(args), modes=modes, out=out,
                        chains=args.chains, batch=args.batch, start=args.start,
                        workers=args.workers, scheduler=args.scheduler,
+                       schedule=args.schedule,
                        progress=not args.no_progress and not args.json, command=command)
     written = write_study_outputs(result, out)
     if args.json:

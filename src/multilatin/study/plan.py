@@ -148,7 +148,11 @@ def plan_study(model: Model, grid: Grid, options: LatinOptions | None = None,
         for d, i in zip(geometric_dims, sub_index, strict=True):
             index[d] = i
         _assemble(model, grid, tuple(index))
-    order = geometric_dims + [d for d in range(len(names)) if d not in geometric_dims]
+    # single values change nothing in the traversal: outermost, so that the innermost
+    # dimension (the grid lines that multiresolution batches) is one with several values
+    rest = [d for d in range(len(names)) if d not in geometric_dims]
+    order = (geometric_dims + [d for d in rest if len(grid[names[d]]) == 1]
+             + [d for d in rest if len(grid[names[d]]) > 1])
     shape = tuple(len(grid[names[d]]) for d in order)
     ordered = []
     for traversal_index in boustrophedon(shape):
@@ -162,7 +166,8 @@ def plan_study(model: Model, grid: Grid, options: LatinOptions | None = None,
         tuple(Case(number, ordered[number], grid.mu(ordered[number], model.parameters), c)
               for number in range(bounds[c], bounds[c + 1]))
         for c in range(n_chains))
-    inner = order[-1] if order and order[-1] not in geometric_dims else None
+    inner = (order[-1] if order and order[-1] not in geometric_dims
+             and len(grid[names[order[-1]]]) > 1 else None)
     return StudyPlan(grid, chain_cases, tuple(geometric), inner)
 
 

@@ -296,6 +296,9 @@ def _difference_message(folder: Path, existing: dict[str, Any],
             return (f"--out {folder}: the folder holds this study with its --grid items in "
                     f"the order {order}; give them in that order (the order sets the "
                     "traversal and the dimensions of study.nc)")
+    if differing == ["chains"]:
+        return (f"--out {folder}: the folder holds this study run as {existing.get('chains')} "
+                f"chain(s); resume it with --schedule chains --chains {existing.get('chains')}")
     return (f"--out {folder}: the folder holds a different study (differs in "
             f"{', '.join(differing)}); use another folder or the same arguments")
 

@@ -1,0 +1,186 @@
+"""Multiresolution on many workers without cold chains: grid lines as a task graph (issue 16).
+
+Cutting the traversal into ``workers`` contiguous chains (``schedule="chains"``) starts
+every chain from zero and breaks the line-after-line batches: on B1's 13 × 13 grid the
+multiresolution iterations grow from 8 570 (one chain) to 11 065 (16 chains), on a B3 study
+of 845 cases from 66 150 to 74 692 (``benchmarks/dask_waves.py``). Here (``"waves"``) a
+study keeps one chain and its grid lines become the tasks of a graph. The first line is the
+one nearest the middle of the grid, solved case after case from its middle case outward
+(the study's only start from zero); every other line starts from a *parent* line one grid
+step nearer the first — in the same geometry where there is one — so that every case has
+a converged neighbour one step away, as in a serial study, and the graph is only as deep as
+the grid's half-widths. Lines at the same depth run side by side. Each line is cut into
+pieces of its inner parameter's range (batches of ``solve_latin_batch``), as many as keep
+the workers busy at its depth; a piece waits only for the pieces of its parent line that
+hold its neighbours, so that the lines run as a pipeline. Which neighbour a case starts
+from does not depend on the number of workers.
+
+Cold mode has no dependencies: each piece is a task of its own.
+"""
+
+from __future__ import annotations
+
+import math
+from collections import OrderedDict
+from dataclasses import dataclass
+from typing import Any
+
+from ..latin import LatinOptions
+from ..model import Model
+from ..parameters import Grid
+from .plan import Case, ChainState, StudyPlan, _retained_capacity, run_batch
+
+__all__ = ["SCHEDULES", "LineTask", "line_tasks", "run_line_task", "submit_line_tasks"]
+
+#: how a Dask run shares out multiresolution work (``run_study(schedule=...)``)
+SCHEDULES = ("waves", "chains")
+
+
+@dataclass(frozen=True)
+class LineTask:
+    """Cases of one grid line (or a piece of it) solved together, and the earlier tasks
+    whose converged cases they start from (``parents``: indices into the task list)."""
+
+    cases: tuple[Case, ...]
+    parents: tuple[int, ...]
+    depth: int
+
+
+def line_tasks(plan: StudyPlan, chain: tuple[Case, ...], workers: int, batch: int
+               ) -> list[LineTask]:
+    """The chain's grid lines as a task graph (module docstring), every task after its
+    parents; pieces of at most ``batch`` cases."""
+    lines = plan.batches(chain, len(chain), "line")
+    inner = plan.inner
+
+    def outer(case: Case) -> tuple[int, ...]:
+        return tuple(i for d, i in enumerate(case.index) if d != inner)
+
+    def along(case: Case) -> int:
+        return case.index[inner] if inner is not None else 0
+
+    keys = [outer(line[0]) for line in lines]
+    number_of = {key: n for n, key in enumerate(keys)}
+    low = [min(k[d] for k in keys) for d in range(len(keys[0]))] if keys else []
+    high = [max(k[d] for k in keys) for d in range(len(keys[0]))] if keys else []
+    middle = [(a + b) / 2 for a, b in zip(low, high, strict=True)]
+    root = min(range(len(lines)), key=lambda n: (
+        sum(abs(k - m) for k, m in zip(keys[n], middle, strict=True)), n)) if lines else 0
+    # breadth first from the first line: depth = grid steps from it
+    def neighbours(n: int) -> list[int]:  # the innermost outer parameter's first
+        out = []
+        for d in reversed(range(len(keys[n]))):
+            for step in (-1, 1):
+                m = number_of.get(keys[n][:d] + (keys[n][d] + step,) + keys[n][d + 1:])
+                if m is not None:
+                    out.append(m)
+        return out
+
+    depth_of = {root: 0}
+    order, frontier = [root], [root]
+    while frontier:
+        following = []
+        for n in frontier:
+            for m in neighbours(n):
+                if m not in depth_of:
+                    depth_of[m] = depth_of[n] + 1
+                    following.append(m)
+        order += following
+        frontier = following
+    # a parent one step nearer the first line, along the innermost outer parameter where
+    # there is one: a line of the same geometry rather than a neighbouring geometry's
+    parent_line: dict[int, int | None] = {root: None}
+    for n in order[1:]:
+        parent_line[n] = next(m for m in neighbours(n) if depth_of[m] == depth_of[n] - 1)
+    order += [n for n in range(len(lines)) if n not in depth_of]  # not connected: roots
+    load: dict[int, int] = {}
+    for n in range(len(lines)):
+        load[depth_of.get(n, 0)] = load.get(depth_of.get(n, 0), 0) + len(lines[n])
+    tasks: list[LineTask] = []
+    tasks_of_line: dict[int, dict[int, int]] = {}
+    held: dict[int, list[set[int]]] = {}  # per line, the inner values of each piece
+    for n in order:
+        line, parent, depth = lines[n], parent_line.get(n), depth_of.get(n, 0)
+        values = sorted({along(case) for case in line})
+        n_pieces = min(len(values), max(math.ceil(len(values) / batch),
+                                        math.ceil(max(workers, 1) * len(values)
+                                                  / max(load[depth], 1))))
+        bounds = [round(i * len(values) / n_pieces) for i in range(n_pieces + 1)]
+        ranges = [set(values[bounds[r]:bounds[r + 1]]) for r in range(n_pieces)]
+        pieces = [[case for case in line if along(case) in ranges[r]] for r in range(n_pieces)]
+        tasks_of_line[n] = {}
+        held[n] = ranges
+        sequence: list[tuple[int, tuple[int, ...]]]
+        if parent is not None:  # the parent line's pieces that hold the same inner values
+            sequence = [(r, tuple(tasks_of_line[parent][q] for q, other in
+                                  enumerate(held[parent]) if other & ranges[r]))
+                        for r in range(n_pieces)]
+        else:  # the middle piece from zero, then outward: each piece from the one before
+            centre = values[len(values) // 2]
+            mid = next(r for r in range(n_pieces) if centre in ranges[r])
+            first: tuple[int, ...] = ()
+            sequence = [(mid, first)]
+            sequence += [(r, (r - 1,)) for r in range(mid + 1, n_pieces)]
+            sequence += [(r, (r + 1,)) for r in range(mid - 1, -1, -1)]
+        for r, after in sequence:
+            if parent is not None:  # solved together: any order
+                piece = pieces[r]
+            elif r == mid:  # from its middle case outward, each case next to one solved
+                piece = sorted(pieces[r], key=lambda c: (abs(along(c) - centre), along(c)))
+            else:  # each case next to the one before, the first next to the piece before
+                piece = sorted(pieces[r], key=along, reverse=r < mid)
+            parents = after if parent is not None else tuple(tasks_of_line[n][a] for a in after)
+            tasks_of_line[n][r] = len(tasks)
+            tasks.append(LineTask(tuple(piece), parents, depth))
+    return tasks
+
+
+def run_line_task(model: Model, grid: Grid, cases: tuple[Case, ...], mode: str,
+                  options: LatinOptions,
+                  parents: list[tuple[list[dict[str, Any]], ChainState | None]],
+                  resumed: ChainState | None, start: str = "neighbour"
+                  ) -> tuple[list[dict[str, Any]], ChainState | None]:
+    """A task of the graph: its cases solved together (``run_batch``), started from the
+    converged cases its parent tasks retained (and a resumed study's saved state)."""
+    if mode == "cold":
+        return run_batch(model, grid, cases, mode, options, None, start)
+    retained: OrderedDict[tuple[int, ...], Any] = OrderedDict()
+    for state in [resumed] + [output[1] for output in parents]:
+        if state is not None:
+            retained.update(state.retained)
+    # only what the cases may start from travels on: the converged cases up to NEAR grid
+    # steps away (one step: the parent line; two: a fallback next to a failed neighbour)
+    near = OrderedDict((index, fields) for index, fields in retained.items()
+                       if any(sum(abs(a - b) for a, b in zip(index, case.index, strict=True))
+                              <= NEAR for case in cases))
+    capacity = max(_retained_capacity(grid), len(near) + len(cases))
+    return run_batch(model, grid, cases, mode, options, ChainState(capacity, near), start)
+
+
+#: grid steps from a task's cases within which its parents' converged cases are kept
+NEAR = 2
+
+
+def submit_line_tasks(client: Any, model_future: Any, grid: Grid, plan: StudyPlan, mode: str,
+                      options: LatinOptions, store: Any, batch: int, workers: int,
+                      start: str) -> list[Any]:
+    """Submit every chain's pending tasks to the Dask ``client``, each with its parents'
+    futures (Dask passes their outputs); finished cases are left out. A task whose parents
+    all finished in an earlier run starts from the chain's saved state."""
+    futures = []
+    for chain_number, chain in enumerate(plan.chains):
+        resumed = store.chain_state(mode, chain_number) if mode != "cold" else None
+        resumed_future = client.scatter(resumed) if resumed is not None else None
+        submitted: dict[int, Any] = {}
+        for number, task in enumerate(line_tasks(plan, chain, workers, batch)):
+            pending = tuple(c for c in task.cases if not store.finished(mode, c.number))
+            if not pending:
+                continue
+            parents = ([submitted[p] for p in task.parents if p in submitted]
+                       if mode != "cold" else [])  # cold cases start from zero: no waiting
+            submitted[number] = client.submit(
+                run_line_task, model_future, grid, pending, mode, options, parents,
+                resumed_future, start, pure=False,
+                key=f"{mode}-line-{pending[0].number}-{id(store)}")
+            futures.append(submitted[number])
+    return futures

@@ -1,0 +1,145 @@
+"""The wave schedule of a study on Dask workers (``multilatin.study.waves``): grid lines as
+tasks that start from their parent line, instead of chains that start from zero."""
+
+from __future__ import annotations
+
+import json
+from pathlib import Path
+
+import pytest
+
+import multilatin as ml
+from multilatin.errors import ModelError
+from multilatin.parameters import Grid
+from multilatin.study.plan import plan_study
+from multilatin.study.runner import run_study
+from multilatin.study.waves import line_tasks
+
+
+def _distance(a: tuple[int, ...], b: tuple[int, ...]) -> int:
+    return sum(abs(x - y) for x, y in zip(a, b, strict=True))
+
+
+@pytest.mark.parametrize("workers", [0, 2, 16])
+def test_every_piece_starts_from_neighbours_one_step_away(workers: int) -> None:
+    """Every case once; parents before children; every case of a later line has a case
+    one grid step away in its parent pieces; the first line is the middle one, its pieces
+    two chains from its middle piece, each piece's first case next to the piece before;
+    the graph is as deep as the grid's half-widths (positions and μ1 lines side by side)."""
+    model = ml.load_model("b3")
+    grid = Grid.parse(["xc=23:27:5", "mu1=0:0.6:7", "mu2=0:0.6:5", "rc=3"])
+    plan = plan_study(model, grid, None, 1)
+    tasks = line_tasks(plan, plan.chains[0], workers, 16)
+    numbers = sorted(c.number for task in tasks for c in task.cases)
+    assert numbers == list(range(grid.size))
+    roots = 0
+    for t, task in enumerate(tasks):
+        assert all(p < t for p in task.parents)
+        assert 1 <= len(task.cases) <= 16
+        held = [c.index for p in task.parents for c in tasks[p].cases]
+        if task.depth == 0:
+            assert all(c.index[:2] == (2, 3) for c in task.cases)  # the middle line
+            if not task.parents:
+                roots += 1
+                continue
+            assert min(_distance(task.cases[0].index, h) for h in held) == 1
+        else:
+            assert {tasks[p].depth for p in task.parents} == {task.depth - 1}
+            assert all(min(_distance(c.index, h) for h in held) == 1 for c in task.cases)
+    assert roots == 1
+    assert max(task.depth for task in tasks) == 2 + 3
+    if workers == 16:
+        assert max(len(task.cases) for task in tasks) < 5  # lines cut for the workers
+
+
+def test_waves_on_dask_give_the_serial_answers_with_one_cold_start(
+        tmp_path: Path) -> None:
+    pytest.importorskip("dask.distributed")
+    b1 = ml.load_model("b1")
+    grid = Grid({"mu1": [0.1, 0.2, 0.3], "mu2": [0.0, 0.2, 0.4]})
+    serial = run_study(b1, grid, out=tmp_path / "serial", progress=False)
+    waves = run_study(b1, grid, workers=2, out=tmp_path / "waves", progress=False)
+    chains = run_study(b1, grid, workers=2, schedule="chains", out=tmp_path / "chains",
+                       progress=False)
+    by_number = {r["number"]: r for r in serial.records}
+    assert {r["chain"] for r in waves.records} == {0}
+    assert len({r["chain"] for r in chains.records}) == 2
+    (cold,) = [r for r in waves.records if r["start"] == "zero"]
+    assert cold["index"][0] == 1  # in the middle line
+    for record in waves.records:  # from another neighbour than in the serial study
+        same = by_number[record["number"]]
+        assert record["converged"] and record["unique"] == same["unique"]
+        assert record["qoi"]["R_stop"] == pytest.approx(same["qoi"]["R_stop"], rel=1e-3,
+                                                        abs=0.05)
+    # the same warm starts on one worker (the line not cut): no answer depends on the
+    # number of workers beyond the batches' rounding
+    one = run_study(b1, grid, workers=1, out=tmp_path / "one", progress=False)
+    alone = {r["number"]: r for r in one.records}
+    for record in waves.records:
+        assert record["start"] == alone[record["number"]]["start"]
+        assert record["qoi"]["R_stop"] == pytest.approx(alone[record["number"]]["qoi"]["R_stop"],
+                                                        rel=1e-6)
+    # one cold start as in the serial study; each of two chains starts from zero
+    iterations = {name: sum(r["iterations"] for r in study.records)
+                  for name, study in (("serial", serial), ("waves", waves),
+                                      ("chains", chains))}
+    assert iterations["waves"] < iterations["chains"], iterations
+
+
+def test_a_waves_study_resumes_after_losing_cases(tmp_path: Path) -> None:
+    pytest.importorskip("dask.distributed")
+    b1 = ml.load_model("b1")
+    grid = Grid({"mu1": [0.1, 0.2, 0.3], "mu2": [0.0, 0.2, 0.4]})
+    first = run_study(b1, grid, workers=2, out=tmp_path, progress=False)
+    journal = tmp_path / "cases.jsonl"
+    lines = journal.read_text().splitlines()
+    kept = sorted(lines, key=lambda line: json.loads(line)["number"])[:4]
+    journal.write_text("\n".join(kept) + "\n")
+    (tmp_path / "chains" / "multiresolution-0.npz").unlink()
+    computed: list[dict[str, object]] = []
+    again = run_study(b1, grid, workers=2, out=tmp_path, progress=False,
+                      on_case=computed.append)
+    assert sorted(r["number"] for r in computed) == list(range(4, 9))
+    before = {r["number"]: r["qoi"]["R_stop"] for r in first.records}
+    for record in again.records:
+        assert record["converged"]
+        assert record["qoi"]["R_stop"] == pytest.approx(before[record["number"]], rel=1e-3)
+
+
+def test_a_bad_schedule_is_named() -> None:
+    with pytest.raises(ModelError, match="--schedule: expected one of"):
+        run_study(ml.load_model("b1"), Grid({"mu1": [0.1]}), schedule="rings",
+                  progress=False)
+
+
+def test_a_single_valued_parameter_last_does_not_cut_the_grid_lines() -> None:
+    """``--grid rc=3`` given last: the lines that multiresolution batches run along μ2
+    (before, along rc: lines of one case, nothing batched); the traversal is unchanged."""
+    model = ml.load_model("b3")
+    plan = plan_study(model, Grid.parse(["xc=23:27:3", "mu1=0:0.6:4", "mu2=0:0.6:5",
+                                         "rc=3"]), None, 1)
+    assert plan.inner == 2
+    lines = plan.batches(plan.chains[0], 16)
+    assert [len(line) for line in lines] == [5] * 12
+    assert [c.index[:3] for c in lines[1]] == [(0, 1, j) for j in (4, 3, 2, 1, 0)]
+
+
+@pytest.mark.parametrize("schedule, chains", [("waves", {0}), ("chains", {0, 1})])
+def test_the_command_line_takes_the_schedule(tmp_path: Path, capsys, schedule, chains) -> None:
+    pytest.importorskip("dask.distributed")
+    from multilatin.cli import main
+
+    out = tmp_path / schedule
+    assert main(["study", "b1", "--grid", "mu1=0.2,0.3", "--grid", "mu2=0,0.3", "--workers",
+                 "2", "--schedule", schedule, "--json", "--out", str(out)]) == 0
+    assert json.loads(capsys.readouterr().out)["converged"]
+    records = [json.loads(line) for line in (out / "cases.jsonl").read_text().splitlines()]
+    assert {r["chain"] for r in records} == chains
+
+
+def test_a_study_run_as_chains_says_how_to_resume_it(tmp_path: Path) -> None:
+    b1 = ml.load_model("b1")
+    grid = Grid({"mu1": [0.3], "mu2": [0.0, 0.3]})
+    run_study(b1, grid, chains=2, out=tmp_path, progress=False)
+    with pytest.raises(ModelError, match="resume it with --schedule chains --chains 2"):
+        run_study(b1, grid, out=tmp_path, progress=False)
