@@ -143,3 +143,15 @@ def test_a_study_run_as_chains_says_how_to_resume_it(tmp_path: Path) -> None:
     run_study(b1, grid, chains=2, out=tmp_path, progress=False)
     with pytest.raises(ModelError, match="resume it with --schedule chains --chains 2"):
         run_study(b1, grid, out=tmp_path, progress=False)
+
+
+def test_a_dask_study_leaves_the_callers_environment_as_it_was(tmp_path: Path) -> None:
+    """Dask's nanny writes its workers' settings (OMP_NUM_THREADS=1, its logging level)
+    into the calling process's environment; a study restores it."""
+    import os
+
+    pytest.importorskip("dask.distributed")
+    before = dict(os.environ)
+    run_study(ml.load_model("b1"), Grid({"mu1": [0.3], "mu2": [0.0, 0.3]}), workers=1,
+              out=tmp_path, progress=False)
+    assert dict(os.environ) == before

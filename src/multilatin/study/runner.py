@@ -4,6 +4,7 @@ from __future__ import annotations
 
 import json
 import logging
+import os
 import sys
 import tempfile
 import time
@@ -390,6 +391,9 @@ def _run_dask(model: Model, grid: Grid, plan: StudyPlan, mode: str, options: Lat
         raise ModelError("--workers/--scheduler need Dask: pip install 'multilatin[dask]'"
                          ) from None
     cluster = None
+    # Dask's nanny writes its workers' environment (OMP_NUM_THREADS=1, …) into this
+    # process's too: the caller's environment is restored when the study ends
+    environment = dict(os.environ)
     if scheduler:
         try:
             client = Client(scheduler, timeout=SCHEDULER_TIMEOUT_S)
@@ -441,3 +445,5 @@ def _run_dask(model: Model, grid: Grid, plan: StudyPlan, mode: str, options: Lat
         client.close()
         if cluster is not None:
             cluster.close()
+        os.environ.clear()
+        os.environ.update(environment)

@@ -6,7 +6,8 @@ multiresolution iterations grow from 8 570 (one chain) to 11 065 (16 chains), on
 of 845 cases from 66 150 to 74 692 (``benchmarks/dask_waves.py``). Here (``"waves"``) a
 study keeps one chain and its grid lines become the tasks of a graph. The first line is the
 one nearest the middle of the grid, solved case after case from its middle case outward
-(the study's only start from zero); every other line starts from a *parent* line one grid
+(the study's only start from zero; on several workers its two halves side by side); every
+other line starts from a *parent* line one grid
 step nearer the first — in the same geometry where there is one — so that every case has
 a converged neighbour one step away, as in a serial study, and the graph is only as deep as
 the grid's half-widths. Lines at the same depth run side by side. Each line is cut into
@@ -105,7 +106,15 @@ def line_tasks(plan: StudyPlan, chain: tuple[Case, ...], workers: int, batch: in
         n_pieces = min(len(values), max(math.ceil(len(values) / batch),
                                         math.ceil(max(workers, 1) * len(values)
                                                   / max(load[depth], 1))))
-        bounds = [round(i * len(values) / n_pieces) for i in range(n_pieces + 1)]
+        if parent is None and workers > 1 and len(values) > 2:
+            # the middle case alone, then both halves side by side, each a chain of pieces
+            c, k = len(values) // 2, max(1, (n_pieces - 1) // 2)
+            cuts = ([round(i * c / k) for i in range(k)] + [c, c + 1]
+                    + [c + 1 + round(i * (len(values) - c - 1) / k) for i in range(1, k + 1)])
+            bounds = sorted(set(cuts))
+        else:
+            bounds = [round(i * len(values) / n_pieces) for i in range(n_pieces + 1)]
+        n_pieces = len(bounds) - 1
         ranges = [set(values[bounds[r]:bounds[r + 1]]) for r in range(n_pieces)]
         pieces = [[case for case in line if along(case) in ranges[r]] for r in range(n_pieces)]
         tasks_of_line[n] = {}
