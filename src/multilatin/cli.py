@@ -157,6 +157,7 @@ def build_parser() -> argparse.ArgumentParser:
     study.add_argument("--chains", type=int, default=None,
                        help="independent multiresolution chains (default: 1; with "
                             "--schedule chains, the number of workers)")
+    # as --start's: study.plan.SCHEDULES, spelt out (the command line loads no solver early)
     study.add_argument("--schedule", choices=["waves", "chains"], default="waves",
                        help="with --workers/--scheduler: grid lines as tasks, each from the "
                             "line before it (waves), or contiguous chains from zero "

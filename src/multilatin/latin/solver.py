@@ -189,9 +189,10 @@ def solve_latin_batch(
                 f"{DRIFT_WINDOW} iterations (eta = {history[-1]:.2e}, falling only because "
                 "they grow): a body slides without end, the load exceeding what friction, "
                 "contact and stops can hold (or the iteration is too slow to finish)")
-        estimates = error_estimates(state.recent_qoi(c, history.size), history)
-        if options.acceleration != "relaxation":  # their steps break the contraction
-            estimates = np.full_like(estimates, np.nan)  # it reads: not estimated (None)
+        # Anderson's and RRE's steps break the contraction the estimate reads: NaN (None)
+        estimates = (error_estimates(state.recent_qoi(c, history.size), history)
+                     if options.acceleration == "relaxation"
+                     else np.full(state.qoi_recent.shape[2:], np.nan))
         motions = (tuple(free_motions(assembly, pts, state.w_hat[c], state.f_hat[c]))
                    if converged else ())
         results.append(SolveResult(

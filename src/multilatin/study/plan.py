@@ -38,6 +38,9 @@ MODES = ("multiresolution", "cold")
 #: sharing the operators (NumPy), or consecutive cases of several geometries (torch) — for
 #: a GPU, where a wide batch costs little more than a narrow one
 START_FROM = ("neighbour", "zero")
+#: how a Dask run shares out multiresolution work (``run_study(schedule=...)``,
+#: ``study.waves``)
+SCHEDULES = ("waves", "chains")
 
 
 @dataclass(frozen=True)

@@ -24,9 +24,9 @@ from ..latin.options import STUDY_QOI_RTOL
 from ..limits import check_study
 from ..model import Model
 from ..parameters import Grid
-from .plan import MODES, START_FROM, Case, ChainState, StudyPlan, plan_study, run_chain_step
+from .plan import MODES, SCHEDULES, START_FROM, Case, ChainState, StudyPlan, plan_study, run_chain_step
 from .store import StudyStore
-from .waves import SCHEDULES, submit_line_tasks
+from .waves import submit_line_tasks
 
 log = logging.getLogger(__name__)
 
@@ -423,15 +423,17 @@ def _run_dask(model: Model, grid: Grid, plan: StudyPlan, mode: str, options: Lat
             n_workers = workers or len(client.scheduler_info()["workers"])
             futures = submit_line_tasks(client, model_future, grid, plan, mode, options,
                                         store, batch, n_workers, start)
-        for chain_number, chain in enumerate(plan.chains if schedule == "chains" else ()):
-            previous: Any = store.chain_state(mode, chain_number) if mode != "cold" else None
-            for cases in _pending_batches(plan, chain, mode, store, batch, start,
-                                          options.backend):
-                previous = client.submit(run_chain_step, model_future, grid, cases, mode,
-                                         options, previous, start, pure=False,
-                                         key=f"{mode}-batch-{cases[0].number}-{id(store)}")
-                futures.append(previous)
-        previous = None
+        else:
+            for chain_number, chain in enumerate(plan.chains):
+                previous: Any = (store.chain_state(mode, chain_number) if mode != "cold"
+                                 else None)
+                for cases in _pending_batches(plan, chain, mode, store, batch, start,
+                                              options.backend):
+                    previous = client.submit(run_chain_step, model_future, grid, cases,
+                                             mode, options, previous, start, pure=False,
+                                             key=f"{mode}-batch-{cases[0].number}-{id(store)}")
+                    futures.append(previous)
+            previous = None
         # as_completed holds each future until it is done; the client then drops it, so a
         # finished batch's chain state (tens of MB for b3) leaves the workers as soon as the
         # chain's next batch has started from it — a 21 125-case study keeps two, not 1 600

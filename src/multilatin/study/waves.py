@@ -30,11 +30,9 @@ from ..latin import LatinOptions
 from ..model import Model
 from ..parameters import Grid
 from .plan import Case, ChainState, StudyPlan, _retained_capacity, run_batch
+from .store import StudyStore
 
-__all__ = ["SCHEDULES", "LineTask", "line_tasks", "run_line_task", "submit_line_tasks"]
-
-#: how a Dask run shares out multiresolution work (``run_study(schedule=...)``)
-SCHEDULES = ("waves", "chains")
+__all__ = ["LineTask", "line_tasks", "run_line_task", "submit_line_tasks"]
 
 
 @dataclass(frozen=True)
@@ -62,12 +60,11 @@ def line_tasks(plan: StudyPlan, chain: tuple[Case, ...], workers: int, batch: in
 
     keys = [outer(line[0]) for line in lines]
     number_of = {key: n for n, key in enumerate(keys)}
-    low = [min(k[d] for k in keys) for d in range(len(keys[0]))] if keys else []
-    high = [max(k[d] for k in keys) for d in range(len(keys[0]))] if keys else []
-    middle = [(a + b) / 2 for a, b in zip(low, high, strict=True)]
+    middle = [(min(column) + max(column)) / 2 for column in zip(*keys, strict=True)]
     root = min(range(len(lines)), key=lambda n: (
-        sum(abs(k - m) for k, m in zip(keys[n], middle, strict=True)), n)) if lines else 0
-    # breadth first from the first line: depth = grid steps from it
+        sum(abs(k - m) for k, m in zip(keys[n], middle, strict=True)), n))
+    # breadth first from the first line: depth = grid steps from it (a chain's lines are
+    # consecutive in the traversal, each one step from the one before: all are reached)
     def neighbours(n: int) -> list[int]:  # the innermost outer parameter's first
         out = []
         for d in reversed(range(len(keys[n]))):
@@ -93,15 +90,14 @@ def line_tasks(plan: StudyPlan, chain: tuple[Case, ...], workers: int, batch: in
     parent_line: dict[int, int | None] = {root: None}
     for n in order[1:]:
         parent_line[n] = next(m for m in neighbours(n) if depth_of[m] == depth_of[n] - 1)
-    order += [n for n in range(len(lines)) if n not in depth_of]  # not connected: roots
-    load: dict[int, int] = {}
-    for n in range(len(lines)):
-        load[depth_of.get(n, 0)] = load.get(depth_of.get(n, 0), 0) + len(lines[n])
+    load: dict[int, int] = {}  # cases per depth
+    for n, depth in depth_of.items():
+        load[depth] = load.get(depth, 0) + len(lines[n])
     tasks: list[LineTask] = []
     tasks_of_line: dict[int, dict[int, int]] = {}
     held: dict[int, list[set[int]]] = {}  # per line, the inner values of each piece
     for n in order:
-        line, parent, depth = lines[n], parent_line.get(n), depth_of.get(n, 0)
+        line, parent, depth = lines[n], parent_line[n], depth_of[n]
         values = sorted({along(case) for case in line})
         n_pieces = min(len(values), max(math.ceil(len(values) / batch),
                                         math.ceil(max(workers, 1) * len(values)
@@ -171,7 +167,7 @@ NEAR = 2
 
 
 def submit_line_tasks(client: Any, model_future: Any, grid: Grid, plan: StudyPlan, mode: str,
-                      options: LatinOptions, store: Any, batch: int, workers: int,
+                      options: LatinOptions, store: StudyStore, batch: int, workers: int,
                       start: str) -> list[Any]:
     """Submit every chain's pending tasks to the Dask ``client``, each with its parents'
     futures (Dask passes their outputs); finished cases are left out. A task whose parents
