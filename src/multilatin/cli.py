@@ -90,6 +90,10 @@ def _add_latin_arguments(parser: argparse.ArgumentParser, qoi_rtol: float | None
                         help="relaxation alone, Anderson mixing, or relaxation with a "
                         "reduced-rank extrapolation every 10 iterations (fewer iterations, "
                         "docs/convergence.md) (default: %(default)s)")
+    parser.add_argument("--corner-stiffening", type=float, default=d.corner_stiffening,
+                        metavar="FACTOR", help="k times FACTOR at the nodes where two "
+                        "interfaces of a substructure meet, 1 beyond a fifth of the body's "
+                        "size; 1: off (docs/convergence.md) (default: %(default)s)")
     parser.add_argument("--no-sliding-jumps", action="store_true",
                         help="do not extrapolate a block's steady sliding to the stop or "
                         "contact it closes (LatinOptions.extrapolate_sliding)")
@@ -265,6 +269,7 @@ def _latin_options(args: argparse.Namespace) -> LatinOptions:
                         qoi_rtol=args.qoi_rtol,
                         relaxation=args.relaxation, macro=not args.no_macro,
                         extrapolate_sliding=not args.no_sliding_jumps,
+                        corner_stiffening=args.corner_stiffening,
                         acceleration=args.acceleration,
                         interface_elements=args.interface_elements,
                         backend=args.backend, device=args.device, fuse=args.fuse)

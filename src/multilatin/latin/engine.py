@@ -68,7 +68,7 @@ class NumpyFields:
                  w_hat: FloatArray, f_hat: FloatArray, macro_data: FloatArray | None,
                  functionals: list[QoiFunctionals] | None) -> None:
         pts = ops.points
-        k = ops.search_direction
+        k = ops.indicator_k  # the norm's k (the search direction without corner stiffening)
         self.ops, self.local, self.options = ops, local, options
         self.w_hat, self.f_hat = w_hat, f_hat
         self.w: FloatArray | None = None

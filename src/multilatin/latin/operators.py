@@ -37,7 +37,7 @@ def operator_signature(assembly: Assembly, options: LatinOptions) -> str:
                    itf.contact is not None) for itf in assembly.interfaces]
     choices = (options.kappa, options.macro, options.interface_elements,
                options.dirichlet_stiffening, options.tangential_ratio, options.search_modulus,
-               options.held_nodes)
+               options.held_nodes, options.corner_stiffening, options.corner_reach)
     text = repr(([s.signature() for s in assembly.substructures], interfaces, choices))
     return hashlib.sha1(text.encode()).hexdigest()
 
@@ -101,7 +101,11 @@ class LatinOperators:
         self.points: InterfacePoints = build_points(assembly, options.interface_elements,
                                                     held_nodes=options.held_nodes)
         pts = self.points
-        self.search_direction = self._search_direction()
+        #: k of the indicator's norm (paper §4.3) and of the accelerations' inner products:
+        #: the search direction without the corner stiffening, so that η — and the default
+        #: tolerance chosen on it — mean what they meant before it (docs/convergence.md)
+        self.indicator_k = self._search_direction()
+        self.search_direction = self.indicator_k * self._corner_factors()[:, None]
         k_flat = self.search_direction.reshape(-1)
         self.m0 = np.repeat(pts.weights, 2)  # diagonal of M0 on flat (2P) vectors
         basis = macro_basis(assembly, pts) if options.macro else None
@@ -171,18 +175,14 @@ class LatinOperators:
         pts = self.points
         k = np.zeros((pts.n_points, 2))
 
-        def smaller_side(body: str) -> float:
-            x0, x1, y0, y1 = self.assembly.body_box(body)
-            return min(x1 - x0, y1 - y0)
-
         for i, itf in enumerate(self.assembly.interfaces):
             subs = [self.assembly.substructures[r.substructure] for r in itf.sides]
             if opts.search_modulus == "mean" or len(subs) == 1:
                 young = float(np.mean([s.material.young for s in subs]))
-                values = [opts.kappa * young / smaller_side(subs[0].body)] * len(subs)
+                values = [opts.kappa * young / self._smaller_side(subs[0].body)] * len(subs)
             else:  # each side from the substructure on the other side, or its own
                 source = reversed(subs) if opts.search_modulus == "neighbour" else subs
-                values = [opts.kappa * sub.material.young / smaller_side(sub.body)
+                values = [opts.kappa * sub.material.young / self._smaller_side(sub.body)
                           for sub in source]
             for side_index, value in enumerate(values):
                 k[pts.side_points[(i, side_index)]] = value
@@ -199,6 +199,23 @@ class LatinOperators:
                     if kind == DISPLACEMENT:
                         k[pts.side_points[(i, 0)], comp] *= opts.dirichlet_stiffening
         return k
+
+    def _smaller_side(self, body: str) -> float:
+        """L of k = κ E / L: the smaller side of the body's bounding box."""
+        x0, x1, y0, y1 = self.assembly.body_box(body)
+        return min(x1 - x0, y1 - y0)
+
+    def _corner_factors(self) -> FloatArray:
+        """``LatinOptions.corner_stiffening`` per interface point (1 where it does not act)."""
+        opts, pts = self.options, self.points
+        if opts.corner_stiffening == 1.0:
+            return np.ones(pts.n_points)
+        reach = np.array([opts.corner_reach * self._smaller_side(
+            self.assembly.substructures[s].body) for s in pts.substructure])
+        factors = corner_factors(pts, opts.corner_stiffening, reach)
+        # a macro-only interface's local stage (eq. [20]) takes one k per side
+        factors[np.isin(pts.interface, list(pts.macro_only))] = 1.0
+        return factors
 
     @staticmethod
     def _factorise_macro(homogenised: FloatArray) -> tuple[FloatArray, bool]:
@@ -267,6 +284,22 @@ class LatinOperators:
             u = self.factors[s].solve(np.ascontiguousarray(self.points.traces[s].T @ g[lo:hi]))
             out[sub.name] = u.T.reshape(n_steps, -1, 2)
         return out
+
+
+def corner_factors(points: InterfacePoints, factor: float, reach: FloatArray) -> FloatArray:
+    """Per interface point: ``factor`` at a corner node — a substructure node that carries
+    points of two or more interfaces (an interface ending on another one, on a stop or on a
+    loaded, clamped or held face) — falling linearly with the distance to the nearest
+    corner to 1 at ``reach`` (per point)."""
+    keys = np.column_stack([points.substructure, np.round(points.coords, 9)])
+    _, node, count = np.unique(keys, axis=0, return_inverse=True, return_counts=True)
+    corners = np.unique(np.round(points.coords[count[node.ravel()] >= 2], 9), axis=0)
+    if not corners.size:
+        return np.ones(points.n_points)
+    distance = np.full(points.n_points, np.inf)
+    for xy in corners:  # a few corners per model: one pass over the points each
+        distance = np.minimum(distance, np.hypot(*(points.coords - xy).T))
+    return np.asarray(1.0 + (factor - 1.0) * np.clip(1.0 - distance / reach, 0.0, 1.0))
 
 
 def operators_per_case(assemblies: Sequence[Assembly], options: LatinOptions,

@@ -78,10 +78,19 @@ class LatinOptions:
         relaxation only (Anderson keeps its own history). The fixed point is unchanged.
     tangential_ratio: k_T / k_N on contact interfaces and stops (separate normal and
         tangential search directions).
+    corner_stiffening: k times this factor at *corner nodes* — a substructure's node where
+        two of its interfaces meet (an interface ending on a stop, a loaded or clamped face,
+        another interface) — falling linearly to 1 at ``corner_reach`` × L from it (L: the
+        body's smaller side, as in k = κ E / L), on every interface point
+        (``operators.corner_factors``; not on macro-only interfaces, whose local stage takes
+        one k per side). The tail's slow modes sit there (forces at single
+        nodes, docs/convergence.md). 1: k alike everywhere. The fixed point does not depend
+        on k.
     macro: solve the macro problem (eq. [14]–[15]); False gives the one-scale LATIN.
     interface_elements: see ``multilatin.interfaces``.
     qoi_rtol: also stop a case, before η < tol, once the estimated error of every quantity
-        of interest at every step (``multilatin.latin.tracking``) is below ``qoi_rtol``
+        of interest at every step it reports (a QoI with ``step``: that step alone;
+        ``multilatin.latin.tracking``) is below ``qoi_rtol``
         times its value, or times 1 % of the largest magnitude it took during the iteration
         for a QoI near zero; looked at after ``tracking.WINDOW`` + 5 iterations. None: η
         alone. Such a case is converged on its QoIs (``SolveResult.stopped_on_qoi``).
@@ -110,6 +119,8 @@ class LatinOptions:
     rre_cycle: int = 10
     extrapolate_sliding: bool = True
     tangential_ratio: float = 1.0
+    corner_stiffening: float = 1.5
+    corner_reach: float = 0.2
     search_modulus: str = "own"
     held_nodes: bool = True
     stagnation_window: int = 100
@@ -151,6 +162,11 @@ class LatinOptions:
         if self.search_modulus not in SEARCH_MODULI:
             raise ModelError(f"search_modulus: expected one of {SEARCH_MODULI}, "
                              f"got {self.search_modulus!r}")
+        if not 1.0 <= self.corner_stiffening <= 1e3:
+            raise ModelError(f"corner_stiffening: must lie in [1, 1000], got "
+                             f"{self.corner_stiffening!r}")
+        if not 0.0 < self.corner_reach <= 10.0:
+            raise ModelError(f"corner_reach: must lie in (0, 10], got {self.corner_reach!r}")
         if not self.tangential_ratio > 0:
             raise ModelError(f"tangential_ratio: must be > 0, got {self.tangential_ratio!r}")
         if self.stagnation_window < 2:

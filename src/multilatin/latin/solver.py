@@ -251,14 +251,17 @@ RECENT = WINDOW + 5
 def _qoi_settled(state: _IterationState, active: IntArray, iteration: int, rtol: float
                  ) -> npt.NDArray[np.bool_]:
     """Per active case: every QoI's estimated error (``tracking.error_estimates``) below
-    ``rtol`` × max(|value|, 1 % of the largest magnitude it took). The active cases of a
-    batch have all made ``iteration`` iterations (they start together)."""
+    ``rtol`` × max(|value|, 1 % of the largest magnitude it took), at the steps it reports.
+    The active cases of a batch have all made ``iteration`` iterations (they start
+    together)."""
     latest, before = (iteration - 1) % RECENT, (iteration - 3) % RECENT
     values = state.qoi_recent[active, latest]
     bound = rtol * np.maximum(np.abs(values), 1e-2 * state.qoi_scale[active][:, :, None])
+    ignored = ~state.qoi_reported[active]
     # the estimate is at least the latest two-iteration change: where that alone exceeds
     # the bound, the case goes on without the full estimate
-    settled = np.all(np.abs(values - state.qoi_recent[active, before]) <= bound, axis=(1, 2))
+    settled = np.all((np.abs(values - state.qoi_recent[active, before]) <= bound) | ignored,
+                     axis=(1, 2))
     candidates = np.flatnonzero(settled)
     if candidates.size:
         order = np.roll(np.arange(RECENT), -(iteration % RECENT))  # oldest first
@@ -266,7 +269,8 @@ def _qoi_settled(state: _IterationState, active: IntArray, iteration: int, rtol:
         recent = state.qoi_recent[chosen][:, order].transpose(1, 0, 2, 3)
         eta = state.eta_recent[chosen][:, order].T
         estimates = error_estimates(recent, eta[:, :, None, None])  # (n, n_qoi, n_steps)
-        settled[candidates] = np.all(estimates <= bound[candidates], axis=(1, 2))
+        settled[candidates] = np.all((estimates <= bound[candidates]) | ignored[candidates],
+                                     axis=(1, 2))
     return np.asarray(settled, dtype=bool)
 
 
@@ -300,7 +304,9 @@ class _IterationState:
     #: n_steps) and their η, written round the buffer (iteration i at (i − 1) % RECENT)
     qoi_recent: FloatArray
     eta_recent: FloatArray
-    qoi_scale: FloatArray  # per case and QoI, the largest magnitude seen
+    qoi_scale: FloatArray  # per case and QoI, the largest magnitude seen at its steps
+    #: per case, QoI and step: whether the QoI reports that step (``QoiFunctionals.reported``)
+    qoi_reported: npt.NDArray[np.bool_]
     stopped_on_qoi: FloatArray  # per case: stopped by ``qoi_rtol`` before η < tol
     sizes: list[list[float]]  # per case, ½(‖s‖ + ‖ŝ‖) after each iteration
     drifting: FloatArray  # per case: stopped because s grows without bound (no equilibrium)
@@ -333,6 +339,8 @@ def _iterate(ops: LatinOperators, local: LocalStage, options: LatinOptions,
                           np.zeros_like(w_hat), [[] for _ in range(n_cases)],
                           np.zeros((n_cases, RECENT, n_qoi, n_steps)),
                           np.zeros((n_cases, RECENT)), np.zeros((n_cases, n_qoi)),
+                          (np.stack([fn.reported(n_steps) for fn in functionals])
+                           if functionals else np.ones((n_cases, n_qoi, n_steps), dtype=bool)),
                           np.zeros(n_cases, dtype=bool), [[] for _ in range(n_cases)],
                           np.zeros(n_cases, dtype=bool))
     active = np.arange(n_cases)
@@ -345,8 +353,7 @@ def _iterate(ops: LatinOperators, local: LocalStage, options: LatinOptions,
                      geometries or ([ops], np.zeros(n_cases, dtype=np.int64)))
     relaxation = np.full(n_cases, options.relaxation)  # per active case
     anderson = options.acceleration == "anderson"
-    k = ops.search_direction
-    weights = indicator_weights(pts.weights, k)
+    weights = indicator_weights(pts.weights, ops.indicator_k)
     sliding = (SlidingExtrapolation(local, *weights, n_cases)
                if options.extrapolate_sliding and not anderson else None)
     rre = (ReducedRankExtrapolation(options.rre_cycle, *weights, n_cases)
@@ -360,8 +367,8 @@ def _iterate(ops: LatinOperators, local: LocalStage, options: LatinOptions,
         if functionals is not None:  # the QoIs, for their error estimate (tracking.py)
             values = engine.qoi_values()
             out.qoi_recent[active, (iteration - 1) % RECENT] = values
-            out.qoi_scale[active] = np.maximum(out.qoi_scale[active],
-                                               np.abs(values).max(axis=2, initial=0.0))
+            out.qoi_scale[active] = np.maximum(out.qoi_scale[active], np.where(
+                out.qoi_reported[active], np.abs(values), 0.0).max(axis=2, initial=0.0))
         # η = ‖s − ŝ‖ / ½(‖s‖ + ‖ŝ‖), ‖s‖² = Σ_t Σ_points ∫ (k⁻¹ F·F + k W·W) dΓ (§4.3)
         gap, size = engine.indicator()
         # a NaN or overflowed norm leaves η NaN; η = 0 only for a zero solution (no load)

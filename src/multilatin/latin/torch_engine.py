@@ -116,7 +116,7 @@ class TorchFields:
                     coefficients[i, np.searchsorted(used, own)] = values
                 self.qoi_parts.append((self._index(used),
                                        self._tensor(coefficients)[functional_of]))
-        k = operators[0].search_direction
+        k = operators[0].indicator_k  # the norm's k (without corner stiffening)
         weights = operators[0].points.weights[:, None]
         self.displacement_weight = self._tensor((weights * k).ravel())
         self.force_weight = self._tensor((weights / k).ravel())

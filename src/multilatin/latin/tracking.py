@@ -25,6 +25,7 @@ from __future__ import annotations
 from dataclasses import dataclass, field
 
 import numpy as np
+import numpy.typing as npt
 
 from ..decomposition.assembly import Assembly
 from ..decomposition.interfaces import InterfacePoints
@@ -48,6 +49,8 @@ class QoiFunctionals:
     on_w: FloatArray  # (n_qoi, n_points, 2)
     on_f: FloatArray  # (n_qoi, n_points, 2)
     on_f_hat: FloatArray  # (n_qoi, n_points, 2)
+    #: the load step (from 1) each QoI reports, None for every step (``QuantityOfInterest``)
+    steps: tuple[int | None, ...] = ()
     #: per field (W, F, F̂): the flat (point, component) columns read and their coefficients
     parts: tuple[tuple[IntArray, FloatArray], ...] = field(init=False, repr=False)
 
@@ -59,6 +62,16 @@ class QoiFunctionals:
             used = np.flatnonzero(np.any(flat != 0.0, axis=0))
             parts.append((used, np.ascontiguousarray(flat[:, used].T)))
         object.__setattr__(self, "parts", tuple(parts))
+
+    def reported(self, n_steps: int) -> npt.NDArray[np.bool_]:
+        """(n_qoi, n_steps): the steps each QoI reports — the values its error and its
+        stopping (``LatinOptions.qoi_rtol``) are about. The functionals give every step; a
+        QoI of one step (R_stop at step 15) is not waited for at the others."""
+        mask = np.ones((len(self.names), n_steps), dtype=bool)
+        for i, step in enumerate(self.steps):
+            if step is not None:
+                mask[i] = np.arange(1, n_steps + 1) == step
+        return mask
 
     def values(self, w: FloatArray, f: FloatArray, f_hat: FloatArray) -> FloatArray:
         """(n_cases, n_qoi, n_steps) from fields shaped (n_cases, n_steps, n_points, 2)."""
@@ -107,7 +120,8 @@ def qoi_functionals(ops: LatinOperators, assembly: Assembly,
             weights = q.scale * ops.m0[2 * lo:2 * hi].reshape(hi - lo, 2) * trace
             on_f[i, lo:hi] += weights
             on_w[i, lo:hi] += weights * k[lo:hi]
-    return QoiFunctionals(tuple(q.name for q in assembly.qois), on_w, on_f, on_f_hat)
+    return QoiFunctionals(tuple(q.name for q in assembly.qois), on_w, on_f, on_f_hat,
+                          tuple(q.step for q in assembly.qois))
 
 
 def error_estimates(series: FloatArray, eta: FloatArray, window: int = WINDOW) -> FloatArray:
