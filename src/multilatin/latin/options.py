@@ -92,8 +92,10 @@ class LatinOptions:
         of interest at every step it reports (a QoI with ``step``: that step alone;
         ``multilatin.latin.tracking``) is below ``qoi_rtol``
         times its value, or times 1 % of the largest magnitude it took during the iteration
-        for a QoI near zero; looked at after ``tracking.WINDOW`` + 5 iterations. None: η
-        alone. Such a case is converged on its QoIs (``SolveResult.stopped_on_qoi``).
+        for a QoI near zero; looked at after ``tracking.WINDOW`` + 5 iterations. From then
+        on η < tol alone no longer stops a case whose estimates have not settled, only η <
+        tol / 10 does (``solver.ETA_STOP_UNDER``). None: η alone. Such a case is converged
+        on its QoIs (``SolveResult.stopped_on_qoi``).
     dirichlet_stiffening: factor on k for prescribed-displacement components.
     backend: the array library of the iteration's field work (``multilatin.latin.engine``):
         ``"numpy"`` (default, with the Numba kernels when installed: the reference) or
