@@ -24,6 +24,7 @@ import multilatin as ml
 from multilatin.decomposition.assembly import Assembly
 from multilatin.latin import LatinOperators, engine, solve_latin
 from multilatin.latin.options import STUDY_QOI_RTOL
+from multilatin.latin.solver import IterationObserver
 from multilatin.latin.tracking import qoi_functionals
 
 COLD = ((0.3, 0.0), (0.1, 0.3), (0.35, 0.25), (0.3, 0.15), (0.05, 0.0), (0.1, 0.25))
@@ -56,42 +57,44 @@ def first_within(trace: np.ndarray, tight: np.ndarray, rtol: float,
 
 
 def solve(assembly: Assembly, ops: LatinOperators, options: ml.LatinOptions,
-          initial: tuple[np.ndarray, np.ndarray] | None = None
-          ) -> tuple[ml.SolveResult, np.ndarray]:
+          initial: tuple[np.ndarray, np.ndarray] | None = None,
+          observer: IterationObserver | None = None) -> tuple[ml.SolveResult, np.ndarray]:
     TRACE.clear()
-    result = solve_latin(assembly, options, operators=ops, initial=initial, check=False)
+    result = solve_latin(assembly, options, operators=ops, initial=initial, check=False,
+                         observer=observer)
     return result, np.array(TRACE)
 
 
 def row(assembly: Assembly, ops: LatinOperators, rtol: float,
-        initial: tuple[np.ndarray, np.ndarray] | None) -> tuple[list[int], ml.SolveResult]:
-    tight = solve(assembly, ops, ml.LatinOptions(tol=1e-11, max_iter=20000, **CHOICES),
-                  initial)[1][-1]
-    _, trace = solve(assembly, ops, ml.LatinOptions(tol=1e-13, max_iter=300, **CHOICES),
-                     initial)
-    by_eta = solve(assembly, ops, ml.LatinOptions(**CHOICES), initial)[0]
-    by_qoi = solve(assembly, ops, ml.LatinOptions(qoi_rtol=rtol, **CHOICES), initial)[0]
-    reported = qoi_functionals(ops, assembly, ops.points).reported(assembly.n_steps)
-    return [first_within(trace, tight, rtol, reported), by_eta.iterations,
-            by_qoi.iterations], by_qoi
-
-
-def where(assembly: Assembly, ops: LatinOperators, iteration: int) -> str:
-    """The interface points carrying most of s − s_tight after ``iteration`` iterations (in
-    the indicator's norm, ∫ k W·W + k⁻¹ F·F), and the load steps."""
+        initial: tuple[np.ndarray, np.ndarray] | None, look_at: int | None = None
+        ) -> tuple[list[int], ml.SolveResult, str]:
+    """The table's numbers, the QoI-stopped result (the next warm case's start) and, with
+    ``look_at``, where the error sits after that many iterations (``where``)."""
     states: list[tuple[np.ndarray, np.ndarray]] = []
 
     def keep(n: int, active: np.ndarray, w: np.ndarray, f: np.ndarray) -> None:
-        if n == iteration:
+        if n == look_at:
             states.append((w[0].copy(), f[0].copy()))
 
-    solve_latin(assembly, ml.LatinOptions(tol=1e-13, max_iter=iteration, **CHOICES),
-                operators=ops, check=False, observer=keep)
-    tight = solve_latin(assembly, ml.LatinOptions(tol=1e-11, max_iter=20000, **CHOICES),
-                        operators=ops)
+    tight, tight_trace = solve(assembly, ops,
+                               ml.LatinOptions(tol=1e-11, max_iter=20000, **CHOICES), initial)
+    _, trace = solve(assembly, ops, ml.LatinOptions(tol=1e-13, max_iter=300, **CHOICES),
+                     initial, keep if look_at else None)
+    by_eta = solve(assembly, ops, ml.LatinOptions(**CHOICES), initial)[0]
+    by_qoi = solve(assembly, ops, ml.LatinOptions(qoi_rtol=rtol, **CHOICES), initial)[0]
+    reported = qoi_functionals(ops, assembly, ops.points).reported(assembly.n_steps)
+    numbers = [first_within(trace, tight_trace[-1], rtol, reported), by_eta.iterations,
+               by_qoi.iterations]
+    return numbers, by_qoi, where(assembly, ops, states[0], tight) if states else ""
+
+
+def where(assembly: Assembly, ops: LatinOperators, state: tuple[np.ndarray, np.ndarray],
+          tight: ml.SolveResult) -> str:
+    """The interface points carrying most of s − s_tight in ``state`` = (W, F) (in the
+    indicator's norm, ∫ k W·W + k⁻¹ F·F), and the load steps."""
     assert tight.interface is not None
     pts, k = ops.points, ops.indicator_k
-    (w, f), exact = states[0], tight.interface
+    (w, f), exact = state, tight.interface
     error = (pts.weights[:, None] * (k * (w - exact.displacement) ** 2
                                      + (f - exact.force) ** 2 / k)).sum(axis=2)
     share = error / error.sum()
@@ -122,24 +125,24 @@ def main() -> None:
     for name in args.models:
         model = ml.load_model(name)
         ops = None
+        results = {}
         for mu1, mu2 in COLD:
             assembly = model.assemble({"mu1": mu1, "mu2": mu2})
             ops = ops or LatinOperators(assembly, ml.LatinOptions(**CHOICES))
-            numbers, _ = row(assembly, ops, args.rtol, None)
+            numbers, results[(mu1, mu2)], place = row(assembly, ops, args.rtol, None,
+                                                      args.where)
             print(f"| {name} | ({mu1:g}, {mu2:g}) | cold | " + " | ".join(map(str, numbers))
-                  + " |" + (f" {where(assembly, ops, args.where)} |" if args.where else ""),
-                  flush=True)
+                  + " |" + (f" {place} |" if place else ""), flush=True)
         if args.no_line or name != "b1":
             continue
-        previous = None
-        for mu2 in np.round(np.linspace(0.0, 0.6, 13), 2):
+        result = results[(0.3, 0.0)]  # the line's first case: the cold (0.3, 0) above
+        for mu2 in np.round(np.linspace(0.05, 0.6, 12), 2):
+            assert result.interface is not None and ops is not None
+            start = (result.interface.displacement_hat, result.interface.force_hat)
             assembly = model.assemble({"mu1": 0.3, "mu2": float(mu2)})
-            numbers, result = row(assembly, ops, args.rtol, previous)
-            assert result.interface is not None
-            if previous is not None:  # the line's first case is the cold (0.3, 0) above
-                print(f"| {name} | (0.3, {mu2:g}) | warm | " + " | ".join(map(str, numbers))
-                      + " |", flush=True)
-            previous = (result.interface.displacement_hat, result.interface.force_hat)
+            numbers, result, _ = row(assembly, ops, args.rtol, start)
+            print(f"| {name} | (0.3, {mu2:g}) | warm | " + " | ".join(map(str, numbers))
+                  + " |", flush=True)
 
 
 if __name__ == "__main__":

@@ -210,9 +210,9 @@ class LatinOperators:
         opts, pts = self.options, self.points
         if opts.corner_stiffening == 1.0:
             return np.ones(pts.n_points)
-        reach = np.array([opts.corner_reach * self._smaller_side(
-            self.assembly.substructures[s].body) for s in pts.substructure])
-        factors = corner_factors(pts, opts.corner_stiffening, reach)
+        sides = np.array([self._smaller_side(sub.body) for sub in self.assembly.substructures])
+        factors = corner_factors(pts, opts.corner_stiffening,
+                                 opts.corner_reach * sides[pts.substructure])
         # a macro-only interface's local stage (eq. [20]) takes one k per side
         factors[np.isin(pts.interface, list(pts.macro_only))] = 1.0
         return factors
@@ -290,7 +290,8 @@ def corner_factors(points: InterfacePoints, factor: float, reach: FloatArray) ->
     """Per interface point: ``factor`` at a corner node — a substructure node that carries
     points of two or more interfaces (an interface ending on another one, on a stop or on a
     loaded, clamped or held face) — falling linearly with the distance to the nearest
-    corner to 1 at ``reach`` (per point)."""
+    corner to 1 at ``reach`` (per point). A node is a substructure and coordinates rounded
+    to 1e-9, as ``held_nodes.node_key`` (here for all points at once)."""
     keys = np.column_stack([points.substructure, np.round(points.coords, 9)])
     _, node, count = np.unique(keys, axis=0, return_inverse=True, return_counts=True)
     corners = np.unique(np.round(points.coords[count[node.ravel()] >= 2], 9), axis=0)
