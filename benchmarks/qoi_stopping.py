@@ -5,6 +5,7 @@
     python benchmarks/qoi_stopping.py --model b1 --rtols 3e-3 1e-3
     python benchmarks/qoi_stopping.py --model b1 --kappa 1 --tol 1e-5
     python benchmarks/qoi_stopping.py --corner-stiffening 1     # k alike (before session 14)
+    python benchmarks/qoi_stopping.py --micro-stiffening 1      # diagonal k (before session 15)
     python benchmarks/qoi_stopping.py --model b3 --grid xc=23:27:5 yc=73:77:5 rc=3 --rtols 1e-3
 """
 
@@ -34,6 +35,9 @@ def main() -> None:
     parser.add_argument("--corner-stiffening", type=float,
                         default=ml.LatinOptions().corner_stiffening,
                         help="LatinOptions.corner_stiffening of the studies")
+    parser.add_argument("--micro-stiffening", type=float,
+                        default=ml.LatinOptions().micro_stiffening,
+                        help="LatinOptions.micro_stiffening of the studies")
     args = parser.parse_args()
     model = ml.load_model(args.model)
     grid = ml.Grid.parse(args.grid)
@@ -44,7 +48,8 @@ def main() -> None:
         mu = {n: grid[n][i] for n, i in zip(names, index, strict=True)}
         tight[index] = float(model.solve(mu, options=tight_options).qoi["R_stop"])  # type: ignore[arg-type]
     print(f"{args.model}, grid {' '.join(args.grid)}, κ = {args.kappa:g}, "
-          f"{args.acceleration}, corners × {args.corner_stiffening:g}, R_stop against "
+          f"{args.acceleration}, corners × {args.corner_stiffening:g}, micro × "
+          f"{args.micro_stiffening:g}, R_stop against "
           "η < 1e-10")
     print("| stopping | mode | iterations | mean per case | study (s) | R_stop within 0.1 % "
           "| worst R_stop error | stopped on QoIs |")
@@ -54,7 +59,8 @@ def main() -> None:
     for rtol in [None, *rtols]:
         options = ml.LatinOptions(qoi_rtol=rtol, kappa=args.kappa, tol=args.tol,
                                   acceleration=args.acceleration,
-                                  corner_stiffening=args.corner_stiffening)
+                                  corner_stiffening=args.corner_stiffening,
+                                  micro_stiffening=args.micro_stiffening)
         with tempfile.TemporaryDirectory() as folder:
             study = ml.run_study(model, grid, options=options, modes=("multiresolution", "cold"),
                                  out=folder, progress=False)

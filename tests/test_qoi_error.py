@@ -91,11 +91,12 @@ def test_b0_estimate_bounds_the_error_and_is_not_far_off(split) -> None:
 
 
 def test_b1_estimate_bounds_the_error_on_a_grid() -> None:
-    """25 cases at the default tolerance: R_stop bounded in every case; every QoI entry (a
+    """49 cases at the default tolerance: R_stop bounded in every case; every QoI entry (a
     QoI at a step) above the floor bounded in at least 98 %; the median estimate within 10x
-    of the true error (measured on 49 cases: 421 of 423, median 1.9)."""
+    of the true error (measured with the two-scale direction at η < 1e-6: see
+    docs/tolerance.md; at η < 3e-6, 25 cases: 315 of 315, median 3.9)."""
     model = ml.load_model("b1")
-    values = np.linspace(0.0, 0.6, 5)
+    values = np.linspace(0.0, 0.6, 7)
     pairs = [(model.solve({"mu1": a, "mu2": b}), model.solve({"mu1": a, "mu2": b}, options=TIGHT))
              for a, b in itertools.product(values, values)]
     scale = {n: max(float(np.max(np.abs(t.qoi[n]))) for _, t in pairs) for n in pairs[0][0].qoi}
@@ -196,9 +197,11 @@ def test_a_study_does_not_stop_on_eta_before_its_qois_settle() -> None:
     initial = (start.interface.displacement_hat, start.interface.force_hat)
     target = model.assemble({"mu1": 0.1, "mu2": 0.5})
     tight = solve_latin(target, TIGHT, operators=operators)
-    on_eta = solve_latin(target, ml.LatinOptions(), operators=operators, initial=initial)
-    on_qoi = solve_latin(target, ml.LatinOptions(qoi_rtol=1e-3), operators=operators,
+    # at η < 3e-6, the default before session 15 (the default 1e-6 is within 0.1 % here)
+    on_eta = solve_latin(target, ml.LatinOptions(tol=3e-6), operators=operators,
                          initial=initial)
+    on_qoi = solve_latin(target, ml.LatinOptions(tol=3e-6, qoi_rtol=1e-3),
+                         operators=operators, initial=initial)
     exact = float(tight.qoi["R_stop"])  # type: ignore[arg-type]
     assert abs(float(on_eta.qoi["R_stop"]) - exact) > 1e-3 * exact  # type: ignore[arg-type]
     assert on_eta.qoi_error["R_stop"] > 1e-3 * exact  # type: ignore[operator]

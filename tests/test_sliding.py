@@ -159,12 +159,15 @@ def test_the_answer_does_not_depend_on_the_extrapolation() -> None:
 
     def tight(kappa: float, sliding: bool) -> ml.SolveResult:
         return solve_latin(assembly, LatinOptions(kappa=kappa, tol=1e-10, max_iter=20000,
-                                                  extrapolate_sliding=sliding))
+                                                  extrapolate_sliding=sliding), check=False)
 
     plain = tight(0.5, False)
     for kappa in (0.5, 1.0):
         jumped = tight(kappa, True)
-        assert jumped.iterations < plain.iterations
+        without = plain if kappa == 0.5 else tight(kappa, False)
+        # at κ = 1 the crawl without jumps drifts (not converged, stopped on its drift)
+        assert jumped.converged
+        assert not without.converged or jumped.iterations < without.iterations
         for name in ("R_stop", "p_B"):
             assert np.allclose(jumped.qoi[name], plain.qoi[name], rtol=1e-7, atol=1e-7)
 

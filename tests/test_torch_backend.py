@@ -159,7 +159,9 @@ def test_the_fused_local_stage_gives_the_numpy_answers(tmp_path: Path) -> None:
     model = ml.load_model(tmp_path / "slide2.toml")
     assemblies = [model.assemble({"mu": mu}) for mu in (0.1, 0.3, 0.6)]
     assert assemblies[0].n_steps == 2
-    options = LatinOptions(tol=1e-8)
+    # the diagonal direction: with the two-scale one (the default) the three frictions
+    # converge together (84 iterations), and cases leaving the batch is what this checks
+    options = LatinOptions(tol=1e-8, micro_stiffening=1.0)
     reference = solve_latin_batch(assemblies, options)
     got = solve_latin_batch(assemblies, replace(options, backend="torch", fuse=True))
     assert len({r.iterations for r in reference}) == 3
@@ -191,7 +193,10 @@ def test_a_batch_larger_than_the_memory_is_solved_in_chunks(
     for one, other in zip(whole, chunked, strict=True):
         assert one.iterations == other.iterations
         assert other.timings["batch_size"] == 1
-        assert _relative(one.qoi["R_stop"], other.qoi["R_stop"]) < 1e-12
+        # rounding: products over 3 cases or 1, which the coupled local stage's inner
+        # iteration carries along (2e-10 and 3e-9 measured in two runs; η < 3e-6 leaves
+        # R_stop ~1e-6 off the fixed point)
+        assert _relative(one.qoi["R_stop"], other.qoi["R_stop"]) < 1e-7
     monkeypatch.setenv("MULTILATIN_MAX_MEMORY_GB", str(0.5 * per_case / MEMORY_SHARE / 1e9))
     with pytest.raises(ModelError, match="device: one case needs about"):
         solve_latin_batch(assemblies, replace(options, max_iter=5))
@@ -204,7 +209,7 @@ def test_multiresolution_on_torch_runs_a_wavefront_across_geometries(tmp_path: P
 
     model = ml.load_model("b3")
     grid = ml.Grid({"xc": [23.0, 26.0], "mu1": [0.1, 0.3], "mu2": [0.0, 0.2]})
-    options = LatinOptions()  # η < 3e-6: R_stop within 0.1 % (docs/tolerance.md)
+    options = LatinOptions()  # the default η: R_stop within 0.1 % (docs/tolerance.md)
     reference, got = _on_both_backends(model, grid, options)
     assert {r["batch"] for r in got.records} == {4}  # 2 geometries × a line of 2
     for record in got.records:  # the second batch from the first, one grid step away

@@ -94,6 +94,11 @@ def _add_latin_arguments(parser: argparse.ArgumentParser, qoi_rtol: float | None
                         metavar="FACTOR", help="k times FACTOR at the nodes where two "
                         "interfaces of a substructure meet, 1 beyond a fifth of the body's "
                         "size; 1: off (docs/convergence.md) (default: %(default)s)")
+    parser.add_argument("--micro-stiffening", type=float, default=d.micro_stiffening,
+                        metavar="FACTOR", help="two-scale search direction: k times FACTOR "
+                        "on interfaces between substructures and on stops, but on the macro "
+                        "part (resultant, moment) of contact sides and stops; 1: off "
+                        "(docs/convergence.md) (default: %(default)s)")
     parser.add_argument("--no-sliding-jumps", action="store_true",
                         help="do not extrapolate a block's steady sliding to the stop or "
                         "contact it closes (LatinOptions.extrapolate_sliding)")
@@ -270,6 +275,7 @@ def _latin_options(args: argparse.Namespace) -> LatinOptions:
                         relaxation=args.relaxation, macro=not args.no_macro,
                         extrapolate_sliding=not args.no_sliding_jumps,
                         corner_stiffening=args.corner_stiffening,
+                        micro_stiffening=args.micro_stiffening,
                         acceleration=args.acceleration,
                         interface_elements=args.interface_elements,
                         backend=args.backend, device=args.device, fuse=args.fuse)

@@ -25,6 +25,7 @@ from .local_stage import LocalStage
 from .operators import LatinOperators
 from .options import LatinOptions
 from .tracking import QoiFunctionals
+from .two_scale import coupled_local_stage
 
 __all__ = ["FieldEngine", "NumpyFields", "indicator_weights", "norms"]
 
@@ -84,6 +85,9 @@ class NumpyFields:
                       if options.acceleration == "anderson" else None)
         self.displacement_weight, self.force_weight = indicator_weights(pts.weights, k)
         self.t_linear = self.t_macro = self.t_local = 0.0
+        #: Eᵀ M0 Ŵ per case and step, where the coupled local stage starts (``two_scale``)
+        self.side_macro = (ops.two_scale.project(w_hat.reshape(-1, 2 * pts.n_points))
+                           .reshape(*w_hat.shape[:2], -1) if ops.two_scale is not None else None)
 
     def linear_stage(self, relaxation: FloatArray) -> None:
         ta = time.perf_counter()
@@ -121,7 +125,12 @@ class NumpyFields:
     def local_stage(self) -> None:
         assert self.w is not None and self.f is not None
         tb = time.perf_counter()
-        self.w_hat, self.f_hat = self.local(self.w, self.f)
+        if self.ops.two_scale is not None and self.side_macro is not None:
+            self.w_hat, self.f_hat, self.side_macro = coupled_local_stage(
+                self.local, self.local.contact_stage, self.ops.two_scale, self.w, self.f,
+                self.side_macro)
+        else:
+            self.w_hat, self.f_hat = self.local(self.w, self.f)
         self.t_local += time.perf_counter() - tb
 
     def qoi_values(self) -> FloatArray:
@@ -168,6 +177,8 @@ class NumpyFields:
         if self.macro_data is not None:
             self.macro_data = self.macro_data[cases]
         self.local = self.local.subset(cases)
+        if self.side_macro is not None:
+            self.side_macro = self.side_macro[cases]
         if self.mixer is not None:
             self.mixer.subset(cases)
 

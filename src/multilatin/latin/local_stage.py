@@ -161,8 +161,16 @@ class LocalStage:
             w_m = x + np.asarray(self.macro_map @ flat.T).T.reshape(x.shape)
             w_hat[:, :, m] = w_m
             f_hat[:, :, m] = force[:, :, m] + k * (w_m - displacement[:, :, m])
+        self.contact_stage(displacement, force, w_hat, f_hat)
+        return w_hat, f_hat
+
+    def contact_stage(self, displacement: FloatArray, force: FloatArray, w_hat: FloatArray,
+                      f_hat: FloatArray) -> None:
+        """The contact interfaces' and stops' part of the local stage, in place (after the
+        rest: held nodes read the boundary's Ŵ, F̂); the two-scale direction's inner
+        iteration repeats it alone (``two_scale.coupled_local_stage``)."""
         if not (self.contact_pairs[0].size or self.stops.size):
-            return w_hat, f_hat
+            return
         if self.compiled and self.tape is None:
             assert kernels.contact_and_stops is not None
             kernels.contact_and_stops(
@@ -174,7 +182,6 @@ class LocalStage:
                 self.held_side, self.held_boundary, self.held_stop, self.prescribed)
         else:
             self._contact_and_stops(displacement, force, w_hat, f_hat)
-        return w_hat, f_hat
 
     def _perfect_and_boundary(self, displacement: FloatArray, force: FloatArray,
                               w_hat: FloatArray, f_hat: FloatArray) -> None:

@@ -24,6 +24,7 @@ from ..errors import ModelError
 from ..fem.elasticity import FloatArray, IntArray
 from ..fem.mesh import SIDES, normal_axis
 from .local_stage import macro_only_map
+from .two_scale import TwoScaleDirection, stiffened_points, two_scale_direction
 
 if TYPE_CHECKING:
     from .options import LatinOptions
@@ -37,7 +38,8 @@ def operator_signature(assembly: Assembly, options: LatinOptions) -> str:
                    itf.contact is not None) for itf in assembly.interfaces]
     choices = (options.kappa, options.macro, options.interface_elements,
                options.dirichlet_stiffening, options.tangential_ratio, options.search_modulus,
-               options.held_nodes, options.corner_stiffening, options.corner_reach)
+               options.held_nodes, options.corner_stiffening, options.corner_reach,
+               options.micro_stiffening)
     text = repr(([s.signature() for s in assembly.substructures], interfaces, choices))
     return hashlib.sha1(text.encode()).hexdigest()
 
@@ -47,7 +49,8 @@ class SubstructureOperators:
     """What one substructure contributes to the linear stage: the factorised
     S_E = K_E + T_Eᵀ M0 k T_E (eq. [13]), the condensed C_E = T_E S_E⁻¹ T_Eᵀ M0, and its
     share of the macro problem: the response Q_E = C_E k Ẽ_E to unit macro unknowns and the
-    homogenised operator L_E = Ẽ_Eᵀ M0 k Ẽ_E − (M0 k Ẽ_E)ᵀ Q_E (eq. [14])."""
+    homogenised operator L_E = Ẽ_Eᵀ M0 k Ẽ_E − (M0 k Ẽ_E)ᵀ Q_E (eq. [14]); k stands for
+    the search direction H, diagonal or two-scale (``two_scale``)."""
 
     key: str
     factor: spla.SuperLU
@@ -105,7 +108,17 @@ class LatinOperators:
         #: the search direction without the corner stiffening, so that η — and the default
         #: tolerance chosen on it — mean what they meant before it (docs/convergence.md)
         self.indicator_k = self._search_direction()
-        self.search_direction = self.indicator_k * self._corner_factors()[:, None]
+        macro_k = self.indicator_k * self._corner_factors()[:, None]
+        #: D, the diagonal of the search direction H (the local stage's point-wise k)
+        self.search_direction = macro_k
+        #: H − D on contact sides and stops (``LatinOptions.micro_stiffening``), or None
+        self.two_scale: TwoScaleDirection | None = None
+        if options.micro_stiffening != 1.0:
+            stiffened = stiffened_points(assembly, pts)
+            self.search_direction = macro_k * np.where(stiffened, options.micro_stiffening,
+                                                       1.0)[:, None]
+            self.two_scale = two_scale_direction(assembly, pts, macro_k,
+                                                 self.search_direction)
         k_flat = self.search_direction.reshape(-1)
         self.m0 = np.repeat(pts.weights, 2)  # diagonal of M0 on flat (2P) vectors
         basis = macro_basis(assembly, pts) if options.macro else None
@@ -119,11 +132,13 @@ class LatinOperators:
         for s, sub in enumerate(assembly.substructures):
             lo, hi = 2 * pts.offsets[s], 2 * pts.offsets[s + 1]
             rows = basis[lo:hi] if basis is not None else None
-            key = _digest(sub.signature(), pts.traces[s], k_flat[lo:hi], self.m0[lo:hi], rows)
+            coupling = self.two_scale.block(lo, hi) if self.two_scale is not None else None
+            key = _digest(sub.signature(), pts.traces[s], k_flat[lo:hi], self.m0[lo:hi], rows,
+                          coupling)
             block = available.get(key) or self.blocks.get(key)
             if block is None:
                 block = self._substructure(sub.stiffness(), pts.traces[s], self.m0[lo:hi],
-                                           k_flat[lo:hi], rows, key)
+                                           k_flat[lo:hi], rows, key, coupling)
                 rebuilt.append(sub.name)
             self.blocks[key] = block
             self.substructure_operators.append(block)
@@ -149,9 +164,14 @@ class LatinOperators:
 
     @staticmethod
     def _substructure(stiffness: sp.csr_matrix, trace: sp.csr_matrix, m0: FloatArray,
-                      k: FloatArray, basis_rows: sp.csr_matrix | None,
-                      key: str) -> SubstructureOperators:
-        operator = (stiffness + trace.T @ sp.diags(m0 * k) @ trace).tocsc()
+                      k: FloatArray, basis_rows: sp.csr_matrix | None, key: str,
+                      coupling: FloatArray | None = None) -> SubstructureOperators:
+        """coupling: M0 (H − D) on the substructure's points (``TwoScaleDirection.block``),
+        H's part beyond its diagonal D = k."""
+        if coupling is not None and not np.any(coupling):
+            coupling = None
+        m0_h = sp.diags(m0 * k) + (sp.csr_matrix(coupling) if coupling is not None else 0)
+        operator = (stiffness + trace.T @ m0_h @ trace).tocsc()
         factor = spla.splu(operator)
         rhs = (trace.T @ sp.diags(m0)).toarray()
         condensed = trace @ factor.solve(rhs)  # C_E = T S⁻¹ Tᵀ M0, dense
@@ -161,9 +181,10 @@ class LatinOperators:
                                          np.zeros((condensed.shape[0], 0)), empty)
         columns = np.unique(basis_rows.indices).astype(np.int64)  # E's own macro unknowns
         own_basis = basis_rows[:, columns]
-        k_basis = (sp.diags(k) @ own_basis).toarray()
-        response = condensed @ k_basis  # Q_E = C_E k Ẽ_E
-        mk_basis = m0[:, None] * k_basis
+        mk_basis = (sp.diags(m0 * k) @ own_basis).toarray()  # M0 H Ẽ_E
+        if coupling is not None:
+            mk_basis += coupling @ own_basis
+        response = condensed @ (mk_basis / m0[:, None])  # Q_E = C_E H Ẽ_E
         homogenised = (own_basis.T @ mk_basis) - mk_basis.T @ response
         return SubstructureOperators(key, factor, condensed, columns, response,
                                      np.asarray(homogenised))
@@ -246,15 +267,22 @@ class LatinOperators:
         correction: W = C (F̂ + k Ŵ) and F = F̂ + k (Ŵ − W) (eq. [13]). Dense products per
         substructure, rows being columns of the right-hand side, so nothing is transposed."""
         shape = displacement_hat.shape
-        k = self.search_direction
-        rhs = (force_hat + k * displacement_hat).reshape(shape[0], -1)
+        rhs = (force_hat + self.apply_direction(displacement_hat)).reshape(shape[0], -1)
         flat_displacement = np.empty_like(rhs)
         for (lo, hi), block in zip(self.flat_ranges, self.substructure_operators, strict=True):
             np.matmul(rhs[:, lo:hi], block.condensed_transposed,
                       out=flat_displacement[:, lo:hi])
         displacement: FloatArray = flat_displacement.reshape(shape)
-        force = force_hat + k * (displacement_hat - displacement)
+        force = force_hat + self.apply_direction(displacement_hat - displacement)
         return displacement, force
+
+    def apply_direction(self, field: FloatArray) -> FloatArray:
+        """H x: k x, plus the two-scale part where there is one; fields (n, n_points, 2)."""
+        out: FloatArray = self.search_direction * field
+        if self.two_scale is not None:
+            self.two_scale.add_correction(out.reshape(field.shape[0], -1),
+                                          field.reshape(field.shape[0], -1))
+        return out
 
     def macro_correction(self, displacement: FloatArray, force: FloatArray,
                          macro_force_data: FloatArray) -> None:
@@ -271,13 +299,12 @@ class LatinOperators:
         extension = np.asarray((self.basis_transposed.T @ macro.T).T).reshape(shape)
         correction_field = correction.reshape(shape)
         displacement += correction_field
-        force += self.search_direction * (extension - correction_field)
+        force += self.apply_direction(extension - correction_field)
 
     def recover(self, displacement: FloatArray, force: FloatArray) -> dict[str, FloatArray]:
         """Interior displacements u_E = S_E⁻¹ T_Eᵀ M0 (F + k W) of every substructure."""
         n_steps = displacement.shape[0]
-        k = self.search_direction
-        g = (force + k * displacement).reshape(n_steps, -1).T * self.m0[:, None]
+        g = (force + self.apply_direction(displacement)).reshape(n_steps, -1).T * self.m0[:, None]
         out = {}
         for s, sub in enumerate(self.assembly.substructures):
             lo, hi = 2 * self.points.offsets[s], 2 * self.points.offsets[s + 1]

@@ -24,6 +24,7 @@ from .options import LatinOptions
 from .torch_local import Tensor, TorchLocalStage
 from .torch_operators import DeviceOperators, Rows
 from .tracking import QoiFunctionals
+from .two_scale import coupled_local_stage
 
 __all__ = ["DeviceOperators", "TorchFields", "cases_per_chunk", "load_torch"]
 
@@ -125,6 +126,10 @@ class TorchFields:
                                self._tensor(np.sqrt(weights / k)), self._array_ops())
                       if options.acceleration == "anderson" else None)
         self.t_linear = self.t_macro = self.t_local = 0.0
+        two_scale = self.operators.two_scale
+        #: Eᵀ M0 Ŵ per case and step, where the coupled local stage starts (``two_scale``)
+        self.side_macro = (two_scale.project(self.w_hat.reshape(-1, 2 * w_hat.shape[2]))
+                           .reshape(*w_hat.shape[:2], -1) if two_scale is not None else None)
 
     def _tensor(self, array: Any) -> Tensor:
         return self.torch.as_tensor(np.ascontiguousarray(array, dtype=np.float64),
@@ -183,7 +188,13 @@ class TorchFields:
 
     def local_stage(self) -> None:
         tb = self._clock()
-        self.w_hat, self.f_hat = self.local_call(self.local, self.w, self.f)
+        two_scale = self.operators.two_scale
+        if two_scale is not None and self.side_macro is not None:
+            self.w_hat, self.f_hat, self.side_macro = coupled_local_stage(
+                lambda w, f: self.local_call(self.local, w, f), None, two_scale, self.w,
+                self.f, self.side_macro)
+        else:
+            self.w_hat, self.f_hat = self.local_call(self.local, self.w, self.f)
         self.t_local += self._clock() - tb
 
     def qoi_values(self) -> FloatArray:
@@ -237,6 +248,8 @@ class TorchFields:
         if self.macro_data is not None:
             self.macro_data = self.macro_data[chosen]
         self.qoi_parts = [(used, coefficients[chosen]) for used, coefficients in self.qoi_parts]
+        if self.side_macro is not None:
+            self.side_macro = self.side_macro[chosen]
         self.local.subset(cases)
         self.rows = self._rows()
         if self.mixer is not None:

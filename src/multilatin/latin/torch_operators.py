@@ -42,6 +42,9 @@ class DeviceOperators:
 
         self.n_points = first.points.n_points
         self.k = tensor(first.search_direction)
+        #: H − D on the device (``two_scale``; the same for every geometry of a batch)
+        self.two_scale = (first.two_scale.on(torch, device) if first.two_scale is not None
+                          else None)
         basis = first.macro_basis.tocsr() if first.macro_basis is not None else None
         self.n_macro = basis.shape[1] if basis is not None else 0
         n_subs = len(first.flat_ranges)
@@ -97,10 +100,10 @@ class DeviceOperators:
                                                         for ops in operators]))
 
     def micro_stage(self, w_hat: Tensor, f_hat: Tensor, rows: Rows) -> tuple[Tensor, Tensor]:
-        """W = C (F̂ + k Ŵ), F = F̂ + k (Ŵ − W) (eq. [13]) on fields (n, n_points, 2)."""
+        """W = C (F̂ + H Ŵ), F = F̂ + H (Ŵ − W) (eq. [13]) on fields (n, n_points, 2)."""
         torch = self.torch
         shape = w_hat.shape
-        rhs = (f_hat + self.k * w_hat).reshape(shape[0], -1)
+        rhs = (f_hat + self.apply_direction(w_hat)).reshape(shape[0], -1)
         flat = torch.empty_like(rhs)
         for group in self.groups:
             indices = group["indices"]
@@ -112,7 +115,15 @@ class DeviceOperators:
             for g, columns in rows:
                 flat[columns, own] = rhs[columns, own] @ entry["condensed_t"][g]
         displacement = flat.reshape(shape)
-        return displacement, f_hat + self.k * (w_hat - displacement)
+        return displacement, f_hat + self.apply_direction(w_hat - displacement)
+
+    def apply_direction(self, field: Tensor) -> Tensor:
+        """H x: k x, plus the two-scale part where there is one; fields (n, n_points, 2)."""
+        out = self.k * field
+        if self.two_scale is not None:
+            self.two_scale.add_correction(out.reshape(field.shape[0], -1),
+                                          field.reshape(field.shape[0], -1))
+        return out
 
     def macro_correction(self, displacement: Tensor, force: Tensor, data: Tensor, rows: Rows
                          ) -> tuple[Tensor, Tensor]:
@@ -150,4 +161,4 @@ class DeviceOperators:
                 correction[columns, own_range] = own[columns] @ entry["response_t"][g]
         correction_field = correction.reshape(shape)
         return (displacement + correction_field,
-                force + self.k * (extension.reshape(shape) - correction_field))
+                force + self.apply_direction(extension.reshape(shape) - correction_field))
