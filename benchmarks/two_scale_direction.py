@@ -33,6 +33,7 @@ import scipy.sparse as sp
 import scipy.sparse.linalg as spla
 
 import multilatin as ml
+from multilatin.decomposition.interfaces import interface_functions
 from multilatin.latin import LatinOperators, solver
 from multilatin.latin.local_stage import LocalStage
 from multilatin.latin.operators import SubstructureOperators
@@ -51,15 +52,11 @@ def side_projector(ops: LatinOperators) -> sp.csr_matrix:
             continue
         for side in range(len(itf.sides)):
             p = pts.side_points[(i, side)]
-            xy, w = pts.coords[p], pts.weights[p]
-            tangent = (xy[-1] - xy[0]) / np.linalg.norm(xy[-1] - xy[0])
-            s = (xy - xy[0]) @ tangent
-            const = np.full(p.size, 1.0 / np.sqrt(w.sum()))
-            centred = s - (w @ s) / w.sum()
-            linear = centred / np.sqrt(w @ centred**2)
+            w = pts.weights[p]
+            functions = interface_functions(pts, i, len(itf.sides), reference=side)[side]
             for comp in range(2):
                 flat = 2 * p + comp
-                for e in (const, linear):
+                for e in functions.T:
                     # P += e eᵀ M0 on this side's component
                     rows.append(np.repeat(flat, p.size))
                     cols.append(np.tile(flat, p.size))

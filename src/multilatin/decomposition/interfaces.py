@@ -337,13 +337,14 @@ def with_contact_data(points: InterfacePoints, assembly: Assembly) -> InterfaceP
                                stop_friction=data["stop_friction"], stop_gap=data["stop_gap"])
 
 
-def interface_functions(points: InterfacePoints, interface: int, n_sides: int
-                        ) -> list[FloatArray]:
+def interface_functions(points: InterfacePoints, interface: int, n_sides: int,
+                        reference: int = 0) -> list[FloatArray]:
     """The macro functions of one straight interface, per side: columns (constant, linear in
-    s), s along the interface from its first point. They are orthonormal in side 0's
-    discrete M0 inner product and take the same (affine) values at the points of side 1, so
-    that on a non-matching interface both sides carry the same continuous functions."""
-    pts = points.side_points[(interface, 0)]
+    s), s along the interface from the ``reference`` side's first point. They are
+    orthonormal in that side's discrete M0 inner product and take the same (affine) values
+    at the points of the other side, so that on a non-matching interface both sides carry
+    the same continuous functions."""
+    pts = points.side_points[(interface, reference)]
     xy = points.coords[pts]
     w = points.weights[pts]
     tangent = xy[-1] - xy[0]

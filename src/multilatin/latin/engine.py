@@ -125,7 +125,8 @@ class NumpyFields:
     def local_stage(self) -> None:
         assert self.w is not None and self.f is not None
         tb = time.perf_counter()
-        if self.ops.two_scale is not None and self.side_macro is not None:
+        if self.side_macro is not None:  # set exactly when there is a two-scale H
+            assert self.ops.two_scale is not None
             self.w_hat, self.f_hat, self.side_macro = coupled_local_stage(
                 self.local, self.local.contact_stage, self.ops.two_scale, self.w, self.f,
                 self.side_macro)

@@ -168,8 +168,6 @@ class LatinOperators:
                       coupling: FloatArray | None = None) -> SubstructureOperators:
         """coupling: M0 (H − D) on the substructure's points (``TwoScaleDirection.block``),
         H's part beyond its diagonal D = k."""
-        if coupling is not None and not np.any(coupling):
-            coupling = None
         m0_h = sp.diags(m0 * k) + (sp.csr_matrix(coupling) if coupling is not None else 0)
         operator = (stiffness + trace.T @ m0_h @ trace).tocsc()
         factor = spla.splu(operator)

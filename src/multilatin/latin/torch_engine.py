@@ -188,11 +188,11 @@ class TorchFields:
 
     def local_stage(self) -> None:
         tb = self._clock()
-        two_scale = self.operators.two_scale
-        if two_scale is not None and self.side_macro is not None:
+        if self.side_macro is not None:  # set exactly when there is a two-scale H
+            assert self.operators.two_scale is not None
             self.w_hat, self.f_hat, self.side_macro = coupled_local_stage(
-                lambda w, f: self.local_call(self.local, w, f), None, two_scale, self.w,
-                self.f, self.side_macro)
+                lambda w, f: self.local_call(self.local, w, f), None,
+                self.operators.two_scale, self.w, self.f, self.side_macro)
         else:
             self.w_hat, self.f_hat = self.local_call(self.local, self.w, self.f)
         self.t_local += self._clock() - tb

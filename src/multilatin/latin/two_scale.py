@@ -23,10 +23,10 @@ The local stage must take the same direction as the linear stage (with another o
 iteration diverges: measured, ``benchmarks/two_scale_direction.py``), so the points of a
 contact side are coupled through the rank-4 term. It is solved by an inner fixed point on
 the side's macro coordinates a = Eᵀ M0 (Ŵ − W): the point-wise local stage with D and the
-force shifted by E G a, a relaxed toward Eᵀ M0 (Ŵ(a) − W) (``coupled_local_stage``). Its
-rate on every branch (stick, slip, open) lies in [0, 1 − k / D]; the relaxation
-2 / (1 + k / D) makes it ≤ (D − k) / (D + k) per inner iteration, started from the macro
-part of the previous iteration's Ŵ.
+force shifted by E G a, a moved toward Eᵀ M0 (Ŵ(a) − W) (``coupled_local_stage``). That
+map's slope on every branch (stick, slip, open) lies in [0, 1 − k / D], so Chebyshev's
+semi-iteration over that interval takes three passes where plain relaxation took five,
+started from the macro part of the previous iteration's Ŵ.
 """
 
 from __future__ import annotations
@@ -36,14 +36,15 @@ from dataclasses import dataclass, field
 from typing import Any
 
 import numpy as np
+import numpy.typing as npt
 import scipy.sparse as sp
 
 from ..decomposition.assembly import Assembly
-from ..decomposition.interfaces import InterfacePoints
+from ..decomposition.interfaces import InterfacePoints, interface_functions
 from ..fem.elasticity import FloatArray
 
-#: inner iterations of the coupled local stage per LATIN iteration (measured on b1:
-#: 3 → 70–92 outer iterations, 5 → 59–82, 10 unrelaxed → 59–80)
+#: inner passes of the coupled local stage per LATIN iteration (measured on b1, η < 3e-6:
+#: 3 Chebyshev passes → 61–85 outer iterations, 2 → 82–103; 5 relaxed passes 59–82)
 INNER_ITERATIONS = 3
 
 
@@ -58,7 +59,7 @@ class TwoScaleDirection:
     basis: Any  # E on the support, (n_s, r)
     weighted: Any  # M0 E on the support, (n_s, r)
     coupling: Any  # G, (r, r), symmetric
-    relaxation: float  # of the inner iteration: 2 / (1 + min k / D)
+    ratio: float  # min k / D on the support: the inner map's slope lies in [0, 1 − ratio]
     #: NumPy: E and (M0 E)ᵀ as SciPy sparse matrices (None for tensors)
     sparse: tuple[Any, Any] | None = field(init=False, repr=False, default=None)
     #: NumPy: the support as runs of consecutive flat indices, (start, stop, offset in the
@@ -122,11 +123,13 @@ class TwoScaleDirection:
             @ self.weighted.T
         return out
 
-    def block(self, lo: int, hi: int) -> FloatArray:
+    def block(self, lo: int, hi: int) -> FloatArray | None:
         """M0 (H − D) on the flat range [lo, hi) of one substructure (its sides' functions
-        are supported there only): dense, symmetric."""
-        out = np.zeros((hi - lo, hi - lo))
+        are supported there only): dense, symmetric; None where it has no contact side."""
         inside = (self.support >= lo) & (self.support < hi)
+        if not inside.any():
+            return None
+        out = np.zeros((hi - lo, hi - lo))
         local = self.support[inside] - lo
         weighted = self.weighted[inside]
         out[np.ix_(local, local)] = weighted @ self.coupling @ weighted.T
@@ -139,10 +142,10 @@ class TwoScaleDirection:
 
         return TwoScaleDirection(torch.as_tensor(self.support, device=device),
                                  tensor(self.basis), tensor(self.weighted),
-                                 tensor(self.coupling), self.relaxation)
+                                 tensor(self.coupling), self.ratio)
 
 
-def stiffened_points(assembly: Assembly, points: InterfacePoints) -> FloatArray:
+def stiffened_points(assembly: Assembly, points: InterfacePoints) -> npt.NDArray[np.bool_]:
     """Per point: True on interfaces between substructures and on stops (where
     ``micro_stiffening`` acts), False on the outer boundary's prescribed data."""
     out = np.zeros(points.n_points, dtype=bool)
@@ -158,16 +161,14 @@ def two_scale_direction(assembly: Assembly, points: InterfacePoints, k: FloatArr
     the direction of the macro part, ``stiff`` = D (n_points, 2). None without any."""
     columns: list[FloatArray] = []
     n_flat = 2 * points.n_points
-    for (i, _side), p in points.side_points.items():
-        if assembly.interfaces[i].contact is None or p.size < 2:
+    for (i, side), p in points.side_points.items():
+        itf = assembly.interfaces[i]
+        if itf.contact is None or p.size < 2:
             continue
-        xy, w = points.coords[p], points.weights[p]
-        tangent = (xy[-1] - xy[0]) / np.linalg.norm(xy[-1] - xy[0])
-        s = (xy - xy[0]) @ tangent
-        centred = s - (w @ s) / w.sum()
-        functions = [np.full(p.size, 1.0 / np.sqrt(w.sum())), centred / np.sqrt(w @ centred**2)]
+        # the paper's macro functions (§2.2), orthonormal on this side's own points
+        functions = interface_functions(points, i, len(itf.sides), reference=side)[side]
         for component in range(2):
-            for values in functions:
+            for values in functions.T:
                 column = np.zeros(n_flat)
                 column[2 * p + component] = values
                 columns.append(column)
@@ -180,8 +181,7 @@ def two_scale_direction(assembly: Assembly, points: InterfacePoints, k: FloatArr
     difference = (k - stiff).reshape(-1)[support]
     coupling = weighted.T @ (difference[:, None] * basis)
     ratio = float(np.min(k.reshape(-1)[support] / stiff.reshape(-1)[support]))
-    return TwoScaleDirection(support, basis, weighted, 0.5 * (coupling + coupling.T),
-                             2.0 / (1.0 + ratio))
+    return TwoScaleDirection(support, basis, weighted, 0.5 * (coupling + coupling.T), ratio)
 
 
 def coupled_local_stage(local: Callable[[Any, Any], tuple[Any, Any]],
@@ -206,8 +206,8 @@ def coupled_local_stage(local: Callable[[Any, Any], tuple[Any, Any]],
     if isinstance(shifted, np.ndarray):
         shifted = np.ascontiguousarray(shifted)
     base = direction.gather(shifted)
-    low = 2.0 / direction.relaxation - 1.0  # k / D: I − T' has its spectrum in [low, 1]
-    centre, half = 0.5 * (1.0 + low), 0.5 * (1.0 - low)
+    # I − T' has its spectrum in [k / D, 1]
+    centre, half = 0.5 * (1.0 + direction.ratio), 0.5 * (1.0 - direction.ratio)
     step = None
     alpha = 0.0
     for inner in range(INNER_ITERATIONS):
