@@ -70,6 +70,21 @@ def test_a_new_hole_rebuilds_only_its_substructure():
                                    LatinOptions(), reuse=grown)
     assert friction_only.rebuilt == ()
     scratch = LatinOperators(moved, LatinOptions())
+    # the interfaces are taken over as they were (only the hole moved), the contact data
+    # from the new case: the same arrays as operators built from scratch
+    assert reused.interface_keys == scratch.interface_keys
+    for name in ("coords", "weights", "normals", "contact_pairs", "stops", "boundary",
+                 "held_side", "corner_stops", "contact_friction", "contact_gap", "stop_gap"):
+        np.testing.assert_array_equal(getattr(reused.points, name),
+                                      getattr(scratch.points, name), err_msg=name)
+    np.testing.assert_array_equal(reused.search_direction, scratch.search_direction)
+    assert (reused.macro_basis != scratch.macro_basis).nnz == 0
+    np.testing.assert_array_equal(
+        friction_only.points.contact_friction,
+        LatinOperators(model.assemble({"rc": 4.0, "xc": 24.0, "mu1": 0.1}),
+                       LatinOptions()).points.contact_friction)
+    assert not np.array_equal(friction_only.points.contact_friction,
+                              grown.points.contact_friction)
     a = solve_latin(moved, operators=reused)
     b = solve_latin(moved, operators=scratch)
     assert a.iterations == b.iterations

@@ -9,8 +9,9 @@ import numpy as np
 import pytest
 
 import multilatin as ml
+from multilatin.decomposition.interfaces import with_contact_data
 from multilatin.errors import ModelError
-from multilatin.latin import LatinOperators, two_scale
+from multilatin.latin import LatinOperators, LatinOptions, kernels, two_scale
 from multilatin.latin.local_stage import LocalStage
 
 
@@ -82,6 +83,41 @@ def test_the_coupled_local_stage_takes_the_same_direction(monkeypatch) -> None:
     assert 0 < held.sum() <= 2  # b1: the node (50, 100)
     assert np.abs(residual[:, :, ~held]).max() <= 1e-8 * np.abs(f_hat - f).max()
     assert np.abs(f_hat - f).max() > 0.0
+
+
+@pytest.mark.skipif(kernels.coupled_contact is None, reason="Numba not installed")
+@pytest.mark.parametrize("name", ["b1", "b3"])
+def test_the_compiled_inner_passes_equal_the_numpy_ones(name: str) -> None:
+    """``compiled_local_stage`` (one compiled loop of the inner passes) gives
+    ``coupled_local_stage``'s answer on fields that open, close, stick and slip, and
+    ``kernels.two_scale_correction`` the NumPy product (H − D) x."""
+    assembly = ml.load_model(name).assemble({"mu1": 0.2, "mu2": 0.1})
+    ops = LatinOperators(assembly, LatinOptions())
+    assert ops.two_scale is not None
+    assemblies = [assembly, ml.load_model(name).assemble({"mu1": 0.4, "mu2": 0.0})]
+    points = [ops.points, with_contact_data(ops.points, assemblies[1])]
+    local = LocalStage(assemblies, points, ops.search_direction, macro_only=ops.macro_only)
+    rng = np.random.default_rng(1)
+    shape = (2, assembly.n_steps, ops.points.n_points, 2)
+    scale_w = np.abs(ops.points.coords).max() * 1e-4
+    w = scale_w * rng.normal(size=shape)
+    f = 20.0 * rng.normal(size=shape)
+    start = ops.two_scale.project((w + scale_w * rng.normal(size=shape)).reshape(
+        -1, 2 * ops.points.n_points)).reshape(*shape[:2], -1)
+    expected = two_scale.coupled_local_stage(local, local.contact_stage, ops.two_scale, w, f,
+                                             start)
+    got = two_scale.compiled_local_stage(local, ops.two_scale, w, f, start)
+    for e, g in zip(expected, got, strict=True):
+        np.testing.assert_allclose(g, e, rtol=1e-11, atol=1e-11 * np.abs(e).max())
+    assert np.abs(got[1][:, :, local.contact_pairs[0]]).max() > 0
+    rows = w.reshape(-1, 2 * ops.points.n_points)
+    compiled = np.zeros_like(rows)
+    ops.two_scale.add_correction(compiled, rows)
+    numpy_product = np.zeros_like(rows)
+    ops.two_scale.scatter(numpy_product, ops.two_scale.expand(ops.two_scale.project(rows)),
+                          add=True)
+    np.testing.assert_allclose(compiled, numpy_product, rtol=1e-12,
+                               atol=1e-12 * np.abs(numpy_product).max())
 
 
 @pytest.mark.parametrize("name, mu", [("b1", (0.1, 0.3)), ("b1", (0.3, 0.15)),

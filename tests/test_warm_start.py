@@ -2,11 +2,16 @@
 
 from __future__ import annotations
 
+import copy
+
 import pytest
 
 import multilatin as ml
 from multilatin.errors import ModelError
+from multilatin.io.modelfile import ModelSpec
 from multilatin.latin import LatinOperators, LatinOptions, solve_latin
+from multilatin.latin.operators import operator_signature
+from multilatin.parameters import Grid
 
 TIGHT = LatinOptions(tol=1e-9, max_iter=5000)
 
@@ -24,6 +29,33 @@ def test_operators_reused_across_friction_take_the_new_friction(b1: ml.Model) ->
     fresh = solve_latin(target, TIGHT)
     assert reused.qoi["R_stop"] == pytest.approx(fresh.qoi["R_stop"], rel=1e-9)
     assert reused.qoi["R_stop"] == pytest.approx(530.9, abs=0.5)
+
+
+def test_a_stop_with_and_without_friction_has_other_operators(b1: ml.Model) -> None:
+    """A stop's tangential macro component is free when it has no friction, held when it
+    has (``free_macro_components``), so its friction coefficient, a parameter here, changes
+    the macro basis: operators built at 0 must not serve 0.3 (they did, and the solve did
+    not converge in 1 000 iterations), and a study across it gives the reference's answer."""
+    data = copy.deepcopy(dict(b1.spec.data))
+    for table in data["boundary"]:
+        if table["name"] == "stop":
+            table["friction"] = "mu3"
+    data["parameters"]["mu3"] = {"default": 0.0, "min": 0.0, "unit": "1"}
+    model = ml.Model(ModelSpec.from_dict(data, name="b1-stop-friction"))
+    frictionless = model.assemble({"mu1": 0.3, "mu2": 0.2, "mu3": 0.0})
+    rough = model.assemble({"mu1": 0.3, "mu2": 0.2, "mu3": 0.3})
+    assert operator_signature(frictionless, LatinOptions()) != operator_signature(
+        rough, LatinOptions())
+    with pytest.raises(ModelError, match="operators"):
+        solve_latin(rough, operators=LatinOperators(frictionless, LatinOptions()))
+    study = ml.run_study(model, Grid.parse(["mu3=0:0.3:2", "mu1=0.3", "mu2=0.2"]),
+                         progress=False)
+    assert not study.failed
+    found = {r["params"]["mu3"]: r["qoi"]["R_stop"] for r in study.records}
+    for mu3, value in found.items():
+        reference = ml.solve_monolithic(model.assemble({"mu1": 0.3, "mu2": 0.2, "mu3": mu3}))
+        assert value == pytest.approx(reference.qoi["R_stop"], rel=1e-3)
+    assert found[0.3] != pytest.approx(found[0.0], rel=1e-2)  # the friction matters
 
 
 def test_operators_of_another_geometry_are_refused(b1: ml.Model) -> None:

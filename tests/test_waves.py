@@ -10,6 +10,7 @@ import pytest
 
 import multilatin as ml
 from multilatin.errors import ModelError
+from multilatin.latin import LatinOptions
 from multilatin.parameters import Grid
 from multilatin.study.plan import plan_study
 from multilatin.study.runner import run_study
@@ -122,6 +123,30 @@ def test_a_single_valued_parameter_last_does_not_cut_the_grid_lines() -> None:
     lines = plan.batches(plan.chains[0], 16)
     assert [len(line) for line in lines] == [5] * 12
     assert [c.index[:3] for c in lines[1]] == [(0, 1, j) for j in (4, 3, 2, 1, 0)]
+
+
+def test_hole_positions_are_batched_as_lines_on_numpy_only(tmp_path: Path) -> None:
+    """Only hole positions vary: on NumPy the lines along the innermost one are batched
+    (several geometries sharing their interfaces, ``solve_latin_batch``), each case of a
+    later line from its neighbour one step away in the line before, and the answers are the
+    cold ones; the torch backend's wavefront keeps lines of one geometry (none here)."""
+    model = ml.load_model("b3")
+    grid = Grid.parse(["xc=24:26:2", "yc=74:76:3", "rc=3"])
+    assert plan_study(model, grid, LatinOptions(backend="torch"), 1).inner is None
+    plan = plan_study(model, grid, None, 1)
+    assert plan.inner == 1
+    assert [len(line) for line in plan.batches(plan.chains[0], 16)] == [3, 3]
+    options = LatinOptions(tol=1e-7)
+    result = run_study(model, grid, options=options, modes=("multiresolution", "cold"),
+                       out=tmp_path, progress=False)
+    warm, cold = result.mode_records("multiresolution"), result.mode_records("cold")
+    assert [r["batch"] for r in warm] == [1, 1, 1, 3, 3, 3]
+    for record in warm[3:]:
+        start = [float(part.split("=")[1]) for part in record["start"].split(", ")]
+        assert start[0] == 24.0 and start[1] == record["params"]["yc"]
+    for w in warm:
+        c = next(r for r in cold if r["params"] == w["params"])
+        assert w["qoi"]["R_stop"] == pytest.approx(c["qoi"]["R_stop"], rel=1e-4)
 
 
 @pytest.mark.parametrize("schedule, chains", [("waves", {0}), ("chains", {0, 1})])

@@ -75,7 +75,9 @@ def discretise_side(node_coords: FloatArray, nodes: IntArray, kind: str,
         mid = 0.5 * (along[1:] + along[:-1])
         extents = np.sort(np.column_stack([np.r_[along[0], mid], np.r_[mid, along[-1]]]),
                           axis=1)
-        return SideDiscretisation(nodes, sp.identity(n_edges + 1, format="csr"),
+        identity = sp.csr_matrix((np.ones(n_edges + 1), np.arange(n_edges + 1),
+                                  np.arange(n_edges + 2)), shape=(n_edges + 1, n_edges + 1))
+        return SideDiscretisation(nodes, identity,
                                   np.asarray(dual * thickness, dtype=np.float64), xy.copy(),
                                   extents)
     if kind == "edges":
@@ -187,6 +189,19 @@ class InterfacePoints:
 
 
 
+def _dof_trace(rows: list[IntArray], nodes: list[IntArray], values: list[FloatArray],
+               n_points: int, n_nodes: int) -> sp.csr_matrix:
+    """T_E on degrees of freedom, (2 n_points, 2 n_nodes), from the node trace's entries
+    (point row, node, value): the same entry for x and for y."""
+    if not rows:
+        return sp.csr_matrix((2 * n_points, 2 * n_nodes))
+    row, node, value = np.concatenate(rows), np.concatenate(nodes), np.concatenate(values)
+    return sp.csr_matrix((np.concatenate([value, value]),
+                          (np.concatenate([2 * row, 2 * row + 1]),
+                           np.concatenate([2 * node, 2 * node + 1]))),
+                         shape=(2 * n_points, 2 * n_nodes))
+
+
 def build_points(assembly: Assembly, kind: str = "nodal", *,
                  held_nodes: bool = True) -> InterfacePoints:
     """Discretise every interface side of ``assembly`` with interface elements ``kind``.
@@ -209,7 +224,8 @@ def build_points(assembly: Assembly, kind: str = "nodal", *,
     count = 0
     for s, sides in enumerate(per_sub):
         n_nodes = assembly.substructures[s].mesh.n_nodes
-        blocks = []
+        first = count
+        trace_rows, trace_nodes, trace_values = [], [], []
         for i, side_index, disc in sides:
             n = disc.weights.size
             side_points[(i, side_index)] = np.arange(count, count + n)
@@ -223,13 +239,13 @@ def build_points(assembly: Assembly, kind: str = "nodal", *,
             side = assembly.interfaces[i].sides[side_index].side
             normals.append(point_normals(assembly.substructures[s].mesh, side, disc.nodes,
                                          disc.trace))
-            scatter = sp.csr_matrix(
-                (np.ones(disc.nodes.size), (np.arange(disc.nodes.size), disc.nodes)),
-                shape=(disc.nodes.size, n_nodes),
-            )
-            blocks.append(disc.trace @ scatter)
-        node_trace = sp.vstack(blocks, format="csr") if blocks else sp.csr_matrix((0, n_nodes))
-        traces.append(sp.kron(node_trace, sp.identity(2), format="csr"))
+            trace = disc.trace
+            trace_rows.append(np.repeat(np.arange(count - n - first, count - first),
+                                        np.diff(trace.indptr)))
+            trace_nodes.append(disc.nodes[trace.indices])
+            trace_values.append(trace.data)
+        traces.append(_dof_trace(trace_rows, trace_nodes, trace_values, count - first,
+                                 n_nodes))
         offsets.append(count)
 
     all_coords = np.concatenate(coords) if coords else np.zeros((0, 2))

@@ -13,10 +13,12 @@ leave the batch.
 
 from __future__ import annotations
 
+import functools
 import time
-from typing import Protocol
+from typing import Any, Protocol
 
 import numpy as np
+from threadpoolctl import ThreadpoolController
 
 from ..fem.elasticity import FloatArray, IntArray
 from . import kernels
@@ -25,9 +27,23 @@ from .local_stage import LocalStage
 from .operators import LatinOperators
 from .options import LatinOptions
 from .tracking import QoiFunctionals
-from .two_scale import coupled_local_stage
+from .two_scale import compiled_local_stage, coupled_local_stage
 
-__all__ = ["FieldEngine", "NumpyFields", "indicator_weights", "norms"]
+__all__ = ["FieldEngine", "NumpyFields", "indicator_weights", "norms", "one_blas_thread"]
+
+
+@functools.cache
+def _blas_controller() -> ThreadpoolController:
+    """One inspection of the loaded BLAS libraries per process (``threadpool_limits``
+    repeated it on every solve: 1.4 % of a B1 study)."""
+    return ThreadpoolController()
+
+
+def one_blas_thread() -> Any:
+    """A context in which BLAS runs on one thread: the iteration is many small dense
+    products, where BLAS threads cost more than they give (measured 3 × slower per
+    iteration with 2 OpenBLAS threads on b1-9)."""
+    return _blas_controller().limit(limits=1, user_api="blas")
 
 
 class FieldEngine(Protocol):
@@ -67,8 +83,16 @@ class NumpyFields:
 
     def __init__(self, ops: LatinOperators, local: LocalStage, options: LatinOptions,
                  w_hat: FloatArray, f_hat: FloatArray, macro_data: FloatArray | None,
-                 functionals: list[QoiFunctionals] | None) -> None:
+                 functionals: list[QoiFunctionals] | None,
+                 geometries: tuple[list[LatinOperators], IntArray] | None = None) -> None:
+        """geometries: the operators of the batch's geometries (sharing ``ops``'s
+        interfaces, ``batching.same_interfaces``) and each case's index into them; None:
+        ``ops`` for every case."""
         pts = ops.points
+        #: per case, its geometry's operators (None: one geometry)
+        self.geometry_of: list[LatinOperators] | None = (
+            [geometries[0][g] for g in geometries[1]]
+            if geometries is not None and len(geometries[0]) > 1 else None)
         k = ops.indicator_k  # the norm's k (the search direction without corner stiffening)
         self.ops, self.local, self.options = ops, local, options
         self.w_hat, self.f_hat = w_hat, f_hat
@@ -94,11 +118,14 @@ class NumpyFields:
         ops, options = self.ops, self.options
         flat = (-1, ops.points.n_points, 2)
         shape = self.w_hat.shape
-        w_new, f_new = ops.micro_stage(self.w_hat.reshape(flat), self.f_hat.reshape(flat))
+        geometries = self._geometries()
+        w_new, f_new = ops.micro_stage(self.w_hat.reshape(flat), self.f_hat.reshape(flat),
+                                       geometries)
         tm = time.perf_counter()
         if self.macro_data is not None:
             ops.macro_correction(w_new, f_new,
-                                 self.macro_data.reshape(-1, self.macro_data.shape[2]))
+                                 self.macro_data.reshape(-1, self.macro_data.shape[2]),
+                                 geometries)
         self.t_macro += time.perf_counter() - tm
         w_new, f_new = w_new.reshape(shape), f_new.reshape(shape)
         # held until the next linear stage replaces them, as the loop did before the
@@ -122,14 +149,40 @@ class NumpyFields:
         self.w, self.f = w, f
         self.t_linear += time.perf_counter() - ta
 
+    def _geometries(self) -> list[tuple[LatinOperators, slice | IntArray]] | None:
+        """Per geometry of the active cases, its operators and the columns (case × step)
+        of its cases; None when they share one."""
+        if self.geometry_of is None:
+            return None
+        n_steps = self.w_hat.shape[1]
+        by: dict[int, tuple[LatinOperators, list[int]]] = {}
+        for position, case in enumerate(self.active):
+            ops = self.geometry_of[case]
+            by.setdefault(id(ops), (ops, []))[1].append(position)
+        if len(by) == 1:
+            return None if next(iter(by.values()))[0] is self.ops else [
+                (ops, slice(None)) for ops, _ in by.values()]
+        out: list[tuple[LatinOperators, slice | IntArray]] = []
+        for ops, positions in by.values():
+            cases = np.array(positions)
+            if cases[-1] - cases[0] + 1 == cases.size:  # contiguous: a view
+                out.append((ops, slice(int(cases[0]) * n_steps, (int(cases[-1]) + 1) * n_steps)))
+            else:
+                out.append((ops, (cases[:, None] * n_steps + np.arange(n_steps)).ravel()))
+        return out
+
     def local_stage(self) -> None:
         assert self.w is not None and self.f is not None
         tb = time.perf_counter()
         if self.side_macro is not None:  # set exactly when there is a two-scale H
             assert self.ops.two_scale is not None
-            self.w_hat, self.f_hat, self.side_macro = coupled_local_stage(
-                self.local, self.local.contact_stage, self.ops.two_scale, self.w, self.f,
-                self.side_macro)
+            if self.local.fused:
+                self.w_hat, self.f_hat, self.side_macro = compiled_local_stage(
+                    self.local, self.ops.two_scale, self.w, self.f, self.side_macro)
+            else:
+                self.w_hat, self.f_hat, self.side_macro = coupled_local_stage(
+                    self.local, self.local.contact_stage, self.ops.two_scale, self.w, self.f,
+                    self.side_macro)
         else:
             self.w_hat, self.f_hat = self.local(self.w, self.f)
         self.t_local += time.perf_counter() - tb

@@ -8,6 +8,10 @@ agree to rounding (tests).
 - ``contact_and_stops``: contact with gap and Coulomb friction, and rigid stops (paper §3,
   eq. [16]–[17]), for every case step after step (Coulomb's law acts on increments), the
   stops first, then the contact pairs with the held-corner rule;
+- ``coupled_contact``: the contact part of the two-scale direction's coupled local stage
+  (``two_scale.coupled_local_stage``: its inner Chebyshev passes, the projections on the
+  sides' macro functions with them), case by case;
+- ``two_scale_correction``: out += (H − D) x row by row (``two_scale.TwoScaleDirection``);
 - ``relax``: s ← ω s_new + (1 − ω) s in place;
 - ``indicator_squares``: ‖s − ŝ‖², ‖s‖², ‖ŝ‖² per case (paper §4.3).
 """
@@ -204,6 +208,93 @@ def _perfect_and_boundary(displacement: FloatArray, force: FloatArray, w_hat: Fl
                         w_hat[c, t, p, d], f_hat[c, t, p, d] = w + (data - f) / k, data
 
 
+def _project_rows(rows: FloatArray, starts: IntArray, flat: IntArray, values: FloatArray,
+                  out: FloatArray) -> None:  # pragma: no cover - compiled
+    """out[t, j] += Σ values[e] rows[t, flat[e]] over function j's entries e."""
+    for j in range(starts.size - 1):
+        for e in range(starts[j], starts[j + 1]):
+            index, value = flat[e], values[e]
+            for t in range(rows.shape[0]):
+                out[t, j] += value * rows[t, index]
+
+
+def _coupled_contact(displacement: FloatArray, force: FloatArray, w_hat: FloatArray,
+                     f_hat: FloatArray, start: FloatArray, macro: FloatArray,
+                     starts: IntArray, flat: IntArray, basis: FloatArray,
+                     weighted: FloatArray, coupling: FloatArray, ratio: float, passes: int,
+                     a: IntArray, b: IntArray, k_contact: FloatArray,
+                     k_contact_b: FloatArray, n_contact: FloatArray, mu_contact: FloatArray,
+                     gap_contact: FloatArray, stops: IntArray, k_stop: FloatArray,
+                     n_stop: FloatArray, mu_stop: FloatArray, gap_stop: FloatArray,
+                     corner_of_pair: IntArray, corner_stops: IntArray, held_side: IntArray,
+                     held_boundary: IntArray, held_stop: IntArray, prescribed: FloatArray
+                     ) -> None:  # pragma: no cover - compiled
+    n_cases, n_steps, n_points = displacement.shape[0], displacement.shape[1], \
+        displacement.shape[2]
+    r = coupling.shape[0]
+    centre, half = 0.5 * (1.0 + ratio), 0.5 * (1.0 - ratio)
+    shifted = np.empty((1, n_steps, n_points, 2))
+    shifted_rows = shifted.reshape(n_steps, 2 * n_points)
+    for c in range(n_cases):
+        shifted[0] = force[c]
+        force_rows = force[c].reshape(n_steps, 2 * n_points)
+        projected = np.zeros((n_steps, r))  # Eᵀ M0 W
+        _project_rows(displacement[c].reshape(n_steps, 2 * n_points), starts, flat, weighted,
+                      projected)
+        x = start[c] - projected  # Eᵀ M0 (Ŵ − W)
+        step = np.zeros((n_steps, r))
+        alpha = 0.0
+        for inner in range(passes):
+            shift = np.zeros((n_steps, r))  # G x
+            for t in range(n_steps):
+                for i in range(r):
+                    for j in range(r):
+                        shift[t, j] += x[t, i] * coupling[i, j]
+            for e in range(flat.size):  # F + E G x on the support
+                for t in range(n_steps):
+                    shifted_rows[t, flat[e]] = force_rows[t, flat[e]]
+            for j in range(r):
+                for e in range(starts[j], starts[j + 1]):
+                    for t in range(n_steps):
+                        shifted_rows[t, flat[e]] += basis[e] * shift[t, j]
+            _contact_and_stops(displacement[c:c + 1], shifted, w_hat[c:c + 1], f_hat[c:c + 1],
+                               a, b, k_contact, k_contact_b, n_contact, mu_contact[c:c + 1],
+                               gap_contact[c:c + 1], stops, k_stop, n_stop, mu_stop[c:c + 1],
+                               gap_stop[c:c + 1], corner_of_pair, corner_stops, held_side,
+                               held_boundary, held_stop, prescribed[c:c + 1])
+            residual = -projected - x
+            _project_rows(w_hat[c].reshape(n_steps, 2 * n_points), starts, flat, weighted,
+                          residual)
+            if inner == 0:  # Chebyshev on [k / D, 1], as ``two_scale.coupled_local_stage``
+                alpha = 1.0 / centre
+                step[:] = residual
+            else:
+                beta = 0.5 * (half * alpha) ** 2 if inner == 1 else (0.5 * half * alpha) ** 2
+                alpha = 1.0 / (centre - beta / alpha)
+                step[:] = residual + beta * step
+            x += alpha * step
+        macro[c] = x + projected
+
+
+def _two_scale_correction(out: FloatArray, field: FloatArray, starts: IntArray,
+                          flat: IntArray, basis: FloatArray, weighted: FloatArray,
+                          coupling: FloatArray) -> None:  # pragma: no cover - compiled
+    r = coupling.shape[0]
+    projected = np.empty(r)
+    for t in range(field.shape[0]):
+        for j in range(r):  # Eᵀ M0 x
+            total = 0.0
+            for e in range(starts[j], starts[j + 1]):
+                total += weighted[e] * field[t, flat[e]]
+            projected[j] = total
+        for j in range(r):  # += E G (Eᵀ M0 x)
+            shift = 0.0
+            for i in range(r):
+                shift += projected[i] * coupling[i, j]
+            for e in range(starts[j], starts[j + 1]):
+                out[t, flat[e]] += basis[e] * shift
+
+
 def _relax(current: FloatArray, new: FloatArray, omega: float
            ) -> None:  # pragma: no cover - compiled
     flat, flat_new = current.reshape(-1), new.reshape(-1)
@@ -237,11 +328,14 @@ contact_and_stops: Callable[..., Any] | None
 relax: Callable[..., Any] | None
 indicator_squares: Callable[..., Any] | None
 perfect_and_boundary: Callable[..., Any] | None
-_KERNELS = ("contact_and_stops", "relax", "indicator_squares", "perfect_and_boundary")
+coupled_contact: Callable[..., Any] | None
+two_scale_correction: Callable[..., Any] | None
+_KERNELS = ("contact_and_stops", "relax", "indicator_squares", "perfect_and_boundary",
+            "coupled_contact", "two_scale_correction")
 
 
 def _compile() -> None:
-    global _in_cone, _series_trial
+    global _in_cone, _series_trial, _contact_and_stops, _project_rows
     compiled: dict[str, Callable[..., Any] | None] = dict.fromkeys(_KERNELS)
     try:  # pragma: no cover - depends on the installed extras
         numba = importlib.import_module("numba")
@@ -251,9 +345,13 @@ def _compile() -> None:
         jit_inline = numba.njit(cache=True, inline="always")
         _in_cone, _series_trial = jit_inline(_in_cone), jit_inline(_series_trial)
         jit = numba.njit(cache=True)
-        compiled = {"contact_and_stops": jit(_contact_and_stops),
+        # called from ``_coupled_contact``: compiled before it
+        _contact_and_stops, _project_rows = jit(_contact_and_stops), jit(_project_rows)
+        compiled = {"contact_and_stops": _contact_and_stops,
                     "perfect_and_boundary": jit(_perfect_and_boundary),
-                    "relax": jit(_relax), "indicator_squares": jit(_indicator_squares)}
+                    "relax": jit(_relax), "indicator_squares": jit(_indicator_squares),
+                    "coupled_contact": jit(_coupled_contact),
+                    "two_scale_correction": jit(_two_scale_correction)}
     globals().update(compiled)
 
 

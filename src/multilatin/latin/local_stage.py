@@ -139,11 +139,19 @@ class LocalStage:
 
     def __call__(self, displacement: FloatArray, force: FloatArray) -> tuple[FloatArray,
                                                                                FloatArray]:
+        w_hat, f_hat = self.without_contact(displacement, force)
+        self.contact_stage(displacement, force, w_hat, f_hat)
+        return w_hat, f_hat
+
+    def without_contact(self, displacement: FloatArray, force: FloatArray
+                        ) -> tuple[FloatArray, FloatArray]:
+        """ŝ on perfect, prescribed and macro-only interfaces (the rest of the arrays
+        uninitialised: ``contact_stage`` fills them)."""
         w_hat = np.empty_like(displacement)
         f_hat = np.empty_like(force)
         if self.tape is not None:
             self.tape.position = 0
-        if self.compiled and self.tape is None:
+        if self.fused:
             displacement = np.ascontiguousarray(displacement)
             force = np.ascontiguousarray(force)
             assert kernels.perfect_and_boundary is not None
@@ -161,8 +169,20 @@ class LocalStage:
             w_m = x + np.asarray(self.macro_map @ flat.T).T.reshape(x.shape)
             w_hat[:, :, m] = w_m
             f_hat[:, :, m] = force[:, :, m] + k * (w_m - displacement[:, :, m])
-        self.contact_stage(displacement, force, w_hat, f_hat)
         return w_hat, f_hat
+
+    @property
+    def fused(self) -> bool:
+        """The compiled kernels run (``compiled``, no branch tape)."""
+        return self.compiled and self.tape is None
+
+    def contact_data(self) -> tuple[Any, ...]:
+        """The contact and stop arguments of the compiled kernels, after the fields."""
+        return (self.contact_pairs[0], self.contact_pairs[1], self.k_contact, self.k_contact_b,
+                self.n_contact, self.mu_contact, self.gap_contact, self.stops, self.k_stop,
+                self.n_stop, self.mu_stop, self.gap_stop, self.corner_of_pair,
+                self.corner_stops, self.held_side, self.held_boundary, self.held_stop,
+                self.prescribed)
 
     def contact_stage(self, displacement: FloatArray, force: FloatArray, w_hat: FloatArray,
                       f_hat: FloatArray) -> None:
@@ -171,15 +191,11 @@ class LocalStage:
         iteration repeats it alone (``two_scale.coupled_local_stage``)."""
         if not (self.contact_pairs[0].size or self.stops.size):
             return
-        if self.compiled and self.tape is None:
+        if self.fused:
             assert kernels.contact_and_stops is not None
             kernels.contact_and_stops(
                 np.ascontiguousarray(displacement), np.ascontiguousarray(force), w_hat, f_hat,
-                self.contact_pairs[0], self.contact_pairs[1], self.k_contact, self.k_contact_b,
-                self.n_contact,
-                self.mu_contact, self.gap_contact, self.stops, self.k_stop, self.n_stop,
-                self.mu_stop, self.gap_stop, self.corner_of_pair, self.corner_stops,
-                self.held_side, self.held_boundary, self.held_stop, self.prescribed)
+                *self.contact_data())
         else:
             self._contact_and_stops(displacement, force, w_hat, f_hat)
 

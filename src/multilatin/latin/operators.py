@@ -19,7 +19,13 @@ import scipy.sparse as sp
 import scipy.sparse.linalg as spla
 
 from ..decomposition.assembly import DISPLACEMENT, Assembly
-from ..decomposition.interfaces import InterfacePoints, build_points, macro_basis
+from ..decomposition.interfaces import (
+    InterfacePoints,
+    build_points,
+    free_macro_components,
+    macro_basis,
+    with_contact_data,
+)
 from ..errors import ModelError
 from ..fem.elasticity import FloatArray, IntArray
 from ..fem.mesh import SIDES, normal_axis
@@ -30,18 +36,39 @@ if TYPE_CHECKING:
     from .options import LatinOptions
 
 
-def operator_signature(assembly: Assembly, options: LatinOptions) -> str:
-    """A digest of everything the linear-stage operators depend on: the substructures'
-    meshes and materials, the interface topology and kinds, and the search direction.
-    Friction coefficients, gaps and loads are not in it: they change no operator."""
+def interface_signature(assembly: Assembly, options: LatinOptions) -> str:
+    """A digest of everything the interface points, the search direction and the macro
+    basis depend on: the substructures' meshes, bodies and materials, the interface topology
+    and kinds (with the components that carry free macro unknowns: a stop's depend on
+    whether it has friction), and the discretisation choices. Holes (inside the
+    substructures), friction coefficients, gaps and loads are not in it."""
     interfaces = [(itf.kind, itf.sides, itf.condition.kinds if itf.condition else None,
-                   itf.contact is not None) for itf in assembly.interfaces]
+                   itf.contact is not None, free_macro_components(itf))
+                  for itf in assembly.interfaces]
     choices = (options.kappa, options.macro, options.interface_elements,
                options.dirichlet_stiffening, options.tangential_ratio, options.search_modulus,
                options.held_nodes, options.corner_stiffening, options.corner_reach,
                options.micro_stiffening)
-    text = repr(([s.signature() for s in assembly.substructures], interfaces, choices))
+    substructures = [(s.name, s.body, s.mesh, s.material) for s in assembly.substructures]
+    return hashlib.sha1(repr((substructures, interfaces, choices)).encode()).hexdigest()
+
+
+def operator_signature(assembly: Assembly, options: LatinOptions) -> str:
+    """A digest of everything the linear-stage operators depend on: the interfaces'
+    (``interface_signature``) and the substructures' stiffnesses (holes included).
+    Friction coefficients (but whether a stop has one), gaps and loads are not in it: they
+    change no operator."""
+    text = repr((interface_signature(assembly, options),
+                 [s.signature() for s in assembly.substructures]))
     return hashlib.sha1(text.encode()).hexdigest()
+
+
+#: the largest S⁻¹ Tᵀ M0 kept per substructure for the recovery (entries: 16 MiB)
+RECOVERY_ENTRIES = 2**21
+
+#: a batch of several geometries: per geometry, its operators and the columns (case ×
+#: step) of its cases
+Geometries = Sequence[tuple["LatinOperators", "slice | IntArray"]]
 
 
 @dataclass(frozen=True)
@@ -58,6 +85,9 @@ class SubstructureOperators:
     macro_columns: npt.NDArray[np.int64]  # the macro unknowns of E's interfaces
     macro_response: FloatArray  # Q_E on those columns (2 P_E × n_E)
     homogenised: FloatArray  # L_E on those columns (n_E × n_E)
+    #: S_E⁻¹ T_Eᵀ M0, dense (n_dofs × 2 P_E), where it holds at most ``RECOVERY_ENTRIES``
+    #: (a by-product of C_E): the interior displacements of many columns as one product
+    recovery: FloatArray | None = None
 
     @functools.cached_property
     def condensed_transposed(self) -> FloatArray:
@@ -93,50 +123,49 @@ class LatinOperators:
     reuse: operators of another assembly; every substructure whose geometry, interface
         discretisation, search direction and macro basis are unchanged takes its operators
         from there (paper §6: when a hole changes, only its substructure is rebuilt).
-        ``rebuilt`` names the substructures built here.
+        ``rebuilt`` names the substructures built here; where only holes differ (the same
+        ``interface_signature``) the interface points, search direction and macro basis
+        are taken over too (the contact data from ``assembly``).
     """
+
+    points: InterfacePoints
+    indicator_k: FloatArray
+    search_direction: FloatArray
+    two_scale: TwoScaleDirection | None
+    m0: FloatArray
+    macro_basis: sp.csr_matrix | None
+    interface_keys: tuple[str, ...]
 
     def __init__(self, assembly: Assembly, options: LatinOptions,
                  reuse: LatinOperators | None = None) -> None:
         self.assembly = assembly
         self.options = options
+        self.interface_signature = interface_signature(assembly, options)
         self.signature = operator_signature(assembly, options)
-        self.points: InterfacePoints = build_points(assembly, options.interface_elements,
-                                                    held_nodes=options.held_nodes)
+        if reuse is not None and reuse.interface_signature == self.interface_signature:
+            # the same interfaces (paper §6: a hole moved inside a substructure): their
+            # points, search direction and macro basis are the same, the contact data apart
+            self.points = with_contact_data(reuse.points, assembly)
+            self.indicator_k, self.search_direction = reuse.indicator_k, reuse.search_direction
+            self.two_scale = reuse.two_scale
+            self.m0, basis = reuse.m0, reuse.macro_basis
+            self.interface_keys = reuse.interface_keys
+        else:
+            basis = self._build_interfaces(assembly, options)
         pts = self.points
-        #: k of the indicator's norm (paper §4.3) and of the accelerations' inner products:
-        #: the search direction without the corner stiffening, so that η — and the default
-        #: tolerance chosen on it — mean what they meant before it (docs/convergence.md)
-        self.indicator_k = self._search_direction()
-        macro_k = self.indicator_k * self._corner_factors()[:, None]
-        #: D, the diagonal of the search direction H (the local stage's point-wise k)
-        self.search_direction = macro_k
-        #: H − D on contact sides and stops (``LatinOptions.micro_stiffening``), or None
-        self.two_scale: TwoScaleDirection | None = None
-        if options.micro_stiffening != 1.0:
-            stiffened = stiffened_points(assembly, pts)
-            self.search_direction = macro_k * np.where(stiffened, options.micro_stiffening,
-                                                       1.0)[:, None]
-            self.two_scale = two_scale_direction(assembly, pts, macro_k,
-                                                 self.search_direction)
         k_flat = self.search_direction.reshape(-1)
-        self.m0 = np.repeat(pts.weights, 2)  # diagonal of M0 on flat (2P) vectors
-        basis = macro_basis(assembly, pts) if options.macro else None
-        if basis is not None and not basis.shape[1]:
-            basis = None
         available = reuse.blocks if reuse is not None else {}
 
         self.blocks: dict[str, SubstructureOperators] = {}
         self.substructure_operators: list[SubstructureOperators] = []
         rebuilt = []
         for s, sub in enumerate(assembly.substructures):
-            lo, hi = 2 * pts.offsets[s], 2 * pts.offsets[s + 1]
-            rows = basis[lo:hi] if basis is not None else None
-            coupling = self.two_scale.block(lo, hi) if self.two_scale is not None else None
-            key = _digest(sub.signature(), pts.traces[s], k_flat[lo:hi], self.m0[lo:hi], rows,
-                          coupling)
+            key = _digest(sub.signature(), self.interface_keys[s])
             block = available.get(key) or self.blocks.get(key)
             if block is None:
+                lo, hi = 2 * pts.offsets[s], 2 * pts.offsets[s + 1]
+                rows = basis[lo:hi] if basis is not None else None
+                coupling = self.two_scale.block(lo, hi) if self.two_scale is not None else None
                 block = self._substructure(sub.stiffness(), pts.traces[s], self.m0[lo:hi],
                                            k_flat[lo:hi], rows, key, coupling)
                 rebuilt.append(sub.name)
@@ -162,6 +191,45 @@ class LatinOperators:
             self.project = (basis.T @ sp.diags(self.m0)).tocsr()  # Π = Ẽᵀ M0
             self.basis_transposed = sp.csr_matrix(basis.T)
 
+    def _build_interfaces(self, assembly: Assembly, options: LatinOptions
+                          ) -> sp.csr_matrix | None:
+        """The interface points, the search direction H (D and the two-scale part), M0 and
+        per substructure a digest of its interface data (``interface_keys``); returns the
+        macro basis (None without a macro problem)."""
+        self.points = build_points(assembly, options.interface_elements,
+                                   held_nodes=options.held_nodes)
+        pts = self.points
+        #: k of the indicator's norm (paper §4.3) and of the accelerations' inner products:
+        #: the search direction without the corner stiffening, so that η — and the default
+        #: tolerance chosen on it — mean what they meant before it (docs/convergence.md)
+        self.indicator_k = self._search_direction()
+        macro_k = self.indicator_k * self._corner_factors()[:, None]
+        #: D, the diagonal of the search direction H (the local stage's point-wise k)
+        self.search_direction = macro_k
+        #: H − D on contact sides and stops (``LatinOptions.micro_stiffening``), or None
+        self.two_scale = None
+        if options.micro_stiffening != 1.0:
+            stiffened = stiffened_points(assembly, pts)
+            self.search_direction = macro_k * np.where(stiffened, options.micro_stiffening,
+                                                       1.0)[:, None]
+            self.two_scale = two_scale_direction(assembly, pts, macro_k,
+                                                 self.search_direction)
+        k_flat = self.search_direction.reshape(-1)
+        self.m0 = np.repeat(pts.weights, 2)  # diagonal of M0 on flat (2P) vectors
+        basis = macro_basis(assembly, pts) if options.macro else None
+        if basis is not None and not basis.shape[1]:
+            basis = None
+        keys = []
+        for s in range(len(assembly.substructures)):
+            lo, hi = 2 * pts.offsets[s], 2 * pts.offsets[s + 1]
+            keys.append(_digest(pts.traces[s], k_flat[lo:hi], self.m0[lo:hi],
+                                basis[lo:hi] if basis is not None else None,
+                                self.two_scale.block(lo, hi) if self.two_scale else None))
+        #: per substructure, a digest of what its operators take from the interfaces:
+        #: substructures with equal stiffness and equal keys share their operators
+        self.interface_keys = tuple(keys)
+        return basis
+
     @staticmethod
     def _substructure(stiffness: sp.csr_matrix, trace: sp.csr_matrix, m0: FloatArray,
                       k: FloatArray, basis_rows: sp.csr_matrix | None, key: str,
@@ -172,11 +240,13 @@ class LatinOperators:
         operator = (stiffness + trace.T @ m0_h @ trace).tocsc()
         factor = spla.splu(operator)
         rhs = (trace.T @ sp.diags(m0)).toarray()
-        condensed = trace @ factor.solve(rhs)  # C_E = T S⁻¹ Tᵀ M0, dense
+        interior = factor.solve(rhs)  # S⁻¹ Tᵀ M0
+        condensed = trace @ interior  # C_E = T S⁻¹ Tᵀ M0, dense
+        recovery = interior if interior.size <= RECOVERY_ENTRIES else None
         if basis_rows is None:
             empty = np.zeros((0, 0))
             return SubstructureOperators(key, factor, condensed, np.zeros(0, dtype=np.int64),
-                                         np.zeros((condensed.shape[0], 0)), empty)
+                                         np.zeros((condensed.shape[0], 0)), empty, recovery)
         columns = np.unique(basis_rows.indices).astype(np.int64)  # E's own macro unknowns
         own_basis = basis_rows[:, columns]
         mk_basis = (sp.diags(m0 * k) @ own_basis).toarray()  # M0 H Ẽ_E
@@ -185,7 +255,7 @@ class LatinOperators:
         response = condensed @ (mk_basis / m0[:, None])  # Q_E = C_E H Ẽ_E
         homogenised = (own_basis.T @ mk_basis) - mk_basis.T @ response
         return SubstructureOperators(key, factor, condensed, columns, response,
-                                     np.asarray(homogenised))
+                                     np.asarray(homogenised), recovery)
 
     def _search_direction(self) -> FloatArray:
         """k per interface point and component: κ E / L, with E and L per side as
@@ -257,19 +327,39 @@ class LatinOperators:
         it depends on the interface discretisation and k only, so it is built once here."""
         return macro_only_map(self.points, self.search_direction)
 
-    def micro_stage(self, displacement_hat: FloatArray, force_hat: FloatArray
-                    ) -> tuple[FloatArray, FloatArray]:
+    def _blocks(self, s: int, geometries: Geometries | None
+                ) -> Sequence[tuple[SubstructureOperators, slice | IntArray | None]]:
+        """Substructure ``s``'s operators and the columns they act on: all (None) when every
+        geometry of the batch shares them, else each geometry's on its own columns."""
+        own = self.substructure_operators[s]
+        if geometries is None or all(ops.substructure_operators[s] is own
+                                     for ops, _ in geometries):
+            return ((own, None),)
+        return [(ops.substructure_operators[s], columns) for ops, columns in geometries]
+
+    def micro_stage(self, displacement_hat: FloatArray, force_hat: FloatArray,
+                    geometries: Geometries | None = None) -> tuple[FloatArray, FloatArray]:
         """The linear stage (eq. [12]–[15]) is ``micro_stage`` then, with a macro basis,
         ``macro_correction``, for all columns (steps, and cases of a batch) at once; fields
         ``(n_columns, n_points, 2)``. Here, the substructure problems with zero macro
         correction: W = C (F̂ + k Ŵ) and F = F̂ + k (Ŵ − W) (eq. [13]). Dense products per
-        substructure, rows being columns of the right-hand side, so nothing is transposed."""
+        substructure, rows being columns of the right-hand side, so nothing is transposed.
+
+        geometries: a batch of several geometries sharing these interfaces
+        (``same_interfaces``: a hole moved inside a substructure), each one's operators and
+        the columns of its cases; the substructures they share act on every column at
+        once, the others geometry by geometry. None: these operators on every column."""
         shape = displacement_hat.shape
         rhs = (force_hat + self.apply_direction(displacement_hat)).reshape(shape[0], -1)
         flat_displacement = np.empty_like(rhs)
-        for (lo, hi), block in zip(self.flat_ranges, self.substructure_operators, strict=True):
-            np.matmul(rhs[:, lo:hi], block.condensed_transposed,
-                      out=flat_displacement[:, lo:hi])
+        for s, (lo, hi) in enumerate(self.flat_ranges):
+            for block, columns in self._blocks(s, geometries):
+                if columns is None:
+                    np.matmul(rhs[:, lo:hi], block.condensed_transposed,
+                              out=flat_displacement[:, lo:hi])
+                else:
+                    flat_displacement[columns, lo:hi] = (rhs[columns, lo:hi]
+                                                         @ block.condensed_transposed)
         displacement: FloatArray = flat_displacement.reshape(shape)
         force = force_hat + self.apply_direction(displacement_hat - displacement)
         return displacement, force
@@ -283,31 +373,49 @@ class LatinOperators:
         return out
 
     def macro_correction(self, displacement: FloatArray, force: FloatArray,
-                         macro_force_data: FloatArray) -> None:
+                         macro_force_data: FloatArray, geometries: Geometries | None = None
+                         ) -> None:
         """The macro problem, in place: W̃ᴹ = L⁻¹ (F_dᴹ − Π F) (eq. [14]–[15]), then
         W += Q W̃ᴹ substructure by substructure (Q_E acts on E's own macro unknowns) and
-        F += k (Ẽ W̃ᴹ − Q W̃ᴹ)."""
+        F += k (Ẽ W̃ᴹ − Q W̃ᴹ). geometries: as in ``micro_stage`` (L⁻¹ per geometry)."""
         shape = displacement.shape
         residual = macro_force_data - (self.project @ force.reshape(shape[0], -1).T).T
-        macro = residual @ self.homogenised_inverse
+        if geometries is None:
+            macro = residual @ self.homogenised_inverse
+        else:
+            macro = np.empty_like(residual)
+            for ops, rows in geometries:
+                macro[rows] = residual[rows] @ ops.homogenised_inverse
         correction = np.empty((shape[0], shape[1] * 2))
-        for (lo, hi), block in zip(self.flat_ranges, self.substructure_operators, strict=True):
-            np.matmul(macro[:, block.macro_columns], block.macro_response_transposed,
-                      out=correction[:, lo:hi])
+        for s, (lo, hi) in enumerate(self.flat_ranges):
+            for block, columns in self._blocks(s, geometries):
+                if columns is None:
+                    np.matmul(macro[:, block.macro_columns], block.macro_response_transposed,
+                              out=correction[:, lo:hi])
+                else:
+                    correction[columns, lo:hi] = (macro[columns][:, block.macro_columns]
+                                                  @ block.macro_response_transposed)
         extension = np.asarray((self.basis_transposed.T @ macro.T).T).reshape(shape)
         correction_field = correction.reshape(shape)
         displacement += correction_field
         force += self.apply_direction(extension - correction_field)
 
     def recover(self, displacement: FloatArray, force: FloatArray) -> dict[str, FloatArray]:
-        """Interior displacements u_E = S_E⁻¹ T_Eᵀ M0 (F + k W) of every substructure."""
-        n_steps = displacement.shape[0]
-        g = (force + self.apply_direction(displacement)).reshape(n_steps, -1).T * self.m0[:, None]
+        """Interior displacements u_E = S_E⁻¹ T_Eᵀ M0 (F + k W) of every substructure, for
+        fields (n_columns, n_points, 2): one dense product where ``recovery`` is kept, else
+        a solve with the factorisation."""
+        n_columns = displacement.shape[0]
+        x = (force + self.apply_direction(displacement)).reshape(n_columns, -1)
         out = {}
         for s, sub in enumerate(self.assembly.substructures):
-            lo, hi = 2 * self.points.offsets[s], 2 * self.points.offsets[s + 1]
-            u = self.factors[s].solve(np.ascontiguousarray(self.points.traces[s].T @ g[lo:hi]))
-            out[sub.name] = u.T.reshape(n_steps, -1, 2)
+            lo, hi = self.flat_ranges[s]
+            block = self.substructure_operators[s]
+            if block.recovery is not None:
+                u_t = x[:, lo:hi] @ block.recovery.T
+            else:
+                g = self.points.traces[s].T @ (x[:, lo:hi].T * self.m0[lo:hi, None])
+                u_t = self.factors[s].solve(np.ascontiguousarray(g)).T
+            out[sub.name] = u_t.reshape(n_columns, -1, 2)
         return out
 
 
@@ -326,69 +434,3 @@ def corner_factors(points: InterfacePoints, factor: float, reach: FloatArray) ->
     for xy in corners:  # a few corners per model: one pass over the points each
         distance = np.minimum(distance, np.hypot(*(points.coords - xy).T))
     return np.asarray(1.0 + (factor - 1.0) * np.clip(1.0 - distance / reach, 0.0, 1.0))
-
-
-def operators_per_case(assemblies: Sequence[Assembly], options: LatinOptions,
-                       operators: LatinOperators | Sequence[LatinOperators] | None = None
-                       ) -> tuple[list[LatinOperators], IntArray]:
-    """The distinct operators of a batch's cases and each case's index into them.
-
-    operators: None (built here, one per distinct geometry, each reusing the unchanged
-        substructures of the one before), one ``LatinOperators`` for every case, or one per
-        case. Each is checked against its case's signature. Which geometries may share a
-        batch: ``interface_families``."""
-    if operators is None or isinstance(operators, LatinOperators):
-        given: list[LatinOperators | None] = [operators] * len(assemblies)
-    else:
-        given = list(operators)
-        if len(given) != len(assemblies):
-            raise ModelError(f"operators: expected one per case ({len(assemblies)}), got "
-                             f"{len(given)}")
-    distinct: dict[str, int] = {}
-    built: list[LatinOperators] = []
-    geometry = np.zeros(len(assemblies), dtype=np.int64)
-    for c, (assembly, ops) in enumerate(zip(assemblies, given, strict=True)):
-        signature = operator_signature(assembly, options)
-        if ops is not None and ops.signature != signature:
-            raise ModelError("operators: they were built for another geometry or search "
-                             f"direction than this assembly's ({assembly.name}, case {c})")
-        if signature not in distinct:
-            distinct[signature] = len(built)
-            built.append(ops if ops is not None else
-                         LatinOperators(assembly, options, reuse=built[-1] if built else None))
-        geometry[c] = distinct[signature]
-    return built, geometry
-
-
-def interface_families(operators: Sequence[LatinOperators]) -> IntArray:
-    """Per operators, the index of its family: operators of one family act on the same
-    interface points with the same search direction and macro basis (``same_interfaces``;
-    their geometries differ inside the substructures only, e.g. a hole's position), so that
-    their cases can share a batch."""
-    heads: list[LatinOperators] = []
-    family = np.zeros(len(operators), dtype=np.int64)
-    for i, ops in enumerate(operators):
-        found = next((j for j, head in enumerate(heads) if same_interfaces(head, ops)), None)
-        if found is None:
-            found = len(heads)
-            heads.append(ops)
-        family[i] = found
-    return family
-
-
-def same_interfaces(first: LatinOperators, other: LatinOperators) -> bool:
-    """Both operators act on the same interface points, with the same search direction and
-    macro basis: their fields can share a batch."""
-    a, b = first.points, other.points
-    if a.n_points != b.n_points or not all(
-            np.array_equal(x, y) for x, y in ((a.coords, b.coords), (a.interface, b.interface),
-                                              (a.substructure, b.substructure),
-                                              (first.search_direction, other.search_direction),
-                                              (first.m0, other.m0))):
-        return False
-    if (first.macro_basis is None) != (other.macro_basis is None):
-        return False
-    if first.macro_basis is None or other.macro_basis is None:
-        return True
-    return bool(first.macro_basis.shape == other.macro_basis.shape
-                and (first.macro_basis != other.macro_basis).nnz == 0)

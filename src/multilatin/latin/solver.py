@@ -16,7 +16,6 @@ from dataclasses import asdict, dataclass
 
 import numpy as np
 import numpy.typing as npt
-from threadpoolctl import threadpool_limits
 
 from ..decomposition.assembly import Assembly
 from ..decomposition.interfaces import InterfacePoints, with_contact_data
@@ -26,11 +25,12 @@ from ..decomposition.uniqueness import free_motions
 from ..errors import ModelError, NotConvergedError
 from ..fem.elasticity import FloatArray, IntArray
 from ..limits import check_scale
-from .engine import FieldEngine, NumpyFields, indicator_weights
+from .batching import interface_families, operators_per_case
+from .engine import FieldEngine, NumpyFields, indicator_weights, one_blas_thread
 from .extrapolation import ReducedRankExtrapolation
 from .guards import DRIFT_WINDOW, damp_stagnating, drifts
 from .local_stage import LocalStage
-from .operators import LatinOperators, interface_families, operators_per_case
+from .operators import LatinOperators
 from .options import LatinOptions
 from .sliding import SlidingExtrapolation
 from .tracking import WINDOW, QoiFunctionals, error_estimates, qoi_functionals
@@ -82,11 +82,12 @@ def solve_latin_batch(
     by few large ones.
 
     operators: for every case (one ``LatinOperators``), per case (a sequence), or None
-        (built here). Cases of several geometries may share a batch: the torch backend
-        solves those that share the interface discretisation together (a hole moved inside
-        a substructure: the substructures that differ get their operators per geometry), the
-        NumPy backend one batch per geometry; other cases are solved as batches of their
-        own (``operators.interface_families``), the results in the cases' order.
+        (built here). Cases of several geometries may share a batch: those that share the
+        interface discretisation are solved together (a hole moved inside
+        a substructure: the substructures that differ, and the macro operator, act per
+        geometry on its cases' columns, the others on all at once); other cases are
+        solved as batches of their own (``batching.interface_families``), the results in
+        the cases' order.
     initial: per case, the interface fields to start from (see ``solve_latin``) or None.
     observer: see ``IterationObserver``.
     With the torch backend, a batch larger than the device's memory holds is solved in
@@ -106,9 +107,9 @@ def solve_latin_batch(
     if len(starts) != len(assemblies):
         raise ModelError(f"initial: expected {len(assemblies)} entries (one per case), got "
                          f"{len(starts)}")
-    # one batch per geometry on NumPy, per family of interfaces on torch; answers in order
-    groups = (interface_families(ops_list) if options.backend == "torch"
-              else np.arange(len(ops_list)))[geometry]
+    # one batch per family of interfaces (geometries that differ inside substructures
+    # only); answers in order
+    groups = interface_families(ops_list)[geometry]
     if np.any(groups != groups[0]):
         by_case: dict[int, SolveResult] = {}
         for group in np.unique(groups):
@@ -155,22 +156,22 @@ def solve_latin_batch(
     # (measured 3x slower per iteration with 2 OpenBLAS threads on b1-9)
     # overflow and NaN are detected in η and end the case as a failure (``_outcome``)
     functionals = _functionals(ops_list, geometry, assemblies, points)
-    with threadpool_limits(limits=1, user_api="blas"), np.errstate(over="ignore",
-                                                                    invalid="ignore"):
+    # so does the recovery (one product per substructure): with two threads, OpenBLAS's
+    # spinning workers slowed the next cases' iterations (B3 5 × 5 study: 2.2 s against 2.0)
+    with one_blas_thread(), np.errstate(over="ignore", invalid="ignore"):
         state = _iterate(ops, local, options, w_hat, f_hat, observer, functionals,
                          (ops_list, geometry))
-    t_iter = time.perf_counter() - t1
+        t_iter = time.perf_counter() - t1
 
-    t2 = time.perf_counter()
-    fields_of: list[dict[str, FloatArray]] = [{} for _ in range(n_cases)]
-    for g, ops_g in enumerate(ops_list):  # interior displacements, geometry by geometry
-        members = np.flatnonzero(geometry == g).tolist()
-        with np.errstate(over="ignore", invalid="ignore"):  # a failed case: inf / NaN
+        t2 = time.perf_counter()
+        fields_of: list[dict[str, FloatArray]] = [{} for _ in range(n_cases)]
+        for g, ops_g in enumerate(ops_list):  # interior displacements, geometry by geometry
+            members = np.flatnonzero(geometry == g).tolist()
             recovered = ops_g.recover(state.w[members].reshape(-1, *shape[1:]),
                                       state.f[members].reshape(-1, *shape[1:]))
-        for i, member in enumerate(members):
-            fields_of[member] = {name: u.reshape(len(members), n_steps, -1, 2)[i]
-                                 for name, u in recovered.items()}
+            for i, member in enumerate(members):
+                fields_of[member] = {name: u.reshape(len(members), n_steps, -1, 2)[i]
+                                     for name, u in recovered.items()}
     results = []
     for c, (assembly, pts) in enumerate(zip(assemblies, points, strict=True)):
         history = np.array(state.histories[c])
@@ -437,8 +438,8 @@ def _engine(ops: LatinOperators, local: LocalStage, options: LatinOptions,
 
         return TorchFields(geometries[0], geometries[1], local, options, w_hat, f_hat,
                            macro_data, functionals)
-    assert len(geometries[0]) == 1, "solve_latin_batch splits NumPy batches by geometry"
-    return NumpyFields(ops, local, options, w_hat, f_hat, macro_data, functionals)
+    return NumpyFields(ops, local, options, w_hat, f_hat, macro_data, functionals,
+                       geometries)
 
 
 def _functionals(ops_list: list[LatinOperators], geometry: IntArray,

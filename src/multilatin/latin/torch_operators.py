@@ -30,7 +30,7 @@ Rows = list[tuple[int, Any]]
 
 class DeviceOperators:
     """The linear stage of ``operators`` (one per geometry, sharing the interface
-    discretisation: ``operators.same_interfaces``) on a torch device."""
+    discretisation: ``batching.same_interfaces``) on a torch device."""
 
     def __init__(self, operators: Sequence[LatinOperators], torch: Any, device: Any) -> None:
         self.torch = torch

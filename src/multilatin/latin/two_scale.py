@@ -33,7 +33,7 @@ from __future__ import annotations
 
 from collections.abc import Callable
 from dataclasses import dataclass, field
-from typing import Any
+from typing import TYPE_CHECKING, Any
 
 import numpy as np
 import numpy.typing as npt
@@ -42,6 +42,10 @@ import scipy.sparse as sp
 from ..decomposition.assembly import Assembly
 from ..decomposition.interfaces import InterfacePoints, interface_functions
 from ..fem.elasticity import FloatArray
+from . import kernels
+
+if TYPE_CHECKING:
+    from .local_stage import LocalStage
 
 #: inner passes of the coupled local stage per LATIN iteration (measured on b1, η < 3e-6:
 #: 3 Chebyshev passes → 61–85 outer iterations, 2 → 82–103; 5 relaxed passes 59–82)
@@ -65,6 +69,9 @@ class TwoScaleDirection:
     #: NumPy: the support as runs of consecutive flat indices, (start, stop, offset in the
     #: support): slices gather and scatter twice as fast as an index array
     runs: tuple[tuple[int, int, int], ...] = field(init=False, repr=False, default=())
+    #: NumPy: each function's entries, function after function: (starts (r + 1,), flat
+    #: indices, E's and M0 E's values), for the compiled inner passes
+    entries: tuple[Any, ...] = field(init=False, repr=False, default=())
 
     def __post_init__(self) -> None:
         if isinstance(self.basis, np.ndarray):
@@ -73,6 +80,12 @@ class TwoScaleDirection:
             cuts = np.flatnonzero(np.diff(self.support) != 1) + 1
             starts = np.concatenate([[0], cuts])
             stops = np.concatenate([cuts, [self.support.size]])
+            function, at = np.nonzero(self.basis.T)  # by function, then by index
+            object.__setattr__(self, "entries", (
+                np.searchsorted(function, np.arange(self.basis.shape[1] + 1)).astype(np.int64),
+                self.support[at].astype(np.int64),
+                np.ascontiguousarray(self.basis[at, function]),
+                np.ascontiguousarray(self.weighted[at, function])))
             object.__setattr__(self, "runs", tuple(
                 (int(self.support[a]), int(self.support[b - 1]) + 1, int(a))
                 for a, b in zip(starts, stops, strict=True)))
@@ -113,7 +126,12 @@ class TwoScaleDirection:
         return (coordinates @ self.coupling) @ self.basis.T
 
     def add_correction(self, flat: Any, field: Any) -> None:
-        """flat += (H − D) x for rows x of ``field``, both (n, 2P), in place."""
+        """flat += (H − D) x for rows x of ``field``, both (n, 2P), in place (compiled
+        where Numba is, for NumPy arrays: ``kernels.two_scale_correction``)."""
+        if self.entries and kernels.two_scale_correction is not None and flat.flags.c_contiguous:
+            kernels.two_scale_correction(flat, np.ascontiguousarray(field), *self.entries,
+                                         self.coupling)
+            return
         self.scatter(flat, self.expand(self.project(field)), add=True)
 
     def transposed_correction(self, flat: FloatArray) -> FloatArray:
@@ -226,3 +244,22 @@ def coupled_local_stage(local: Callable[[Any, Any], tuple[Any, Any]],
             step = residual + beta * step
         a = a + alpha * step
     return w_hat, f_hat, (a + projected_w).reshape(shape[0], shape[1], -1)
+
+
+def compiled_local_stage(local: LocalStage, direction: TwoScaleDirection,
+                         displacement: FloatArray, force: FloatArray, start: FloatArray
+                         ) -> tuple[FloatArray, FloatArray, FloatArray]:
+    """``coupled_local_stage`` with the compiled kernels (``local.fused``): the local stage
+    off the contact interfaces once, then the inner passes of the contact part with their
+    projections in one compiled loop (``kernels.coupled_contact``); the same answers to
+    rounding (tests)."""
+    assert kernels.coupled_contact is not None
+    displacement = np.ascontiguousarray(displacement)
+    force = np.ascontiguousarray(force)
+    w_hat, f_hat = local.without_contact(displacement, force)
+    macro = np.empty((*displacement.shape[:2], direction.n_functions))
+    kernels.coupled_contact(displacement, force, w_hat, f_hat,
+                            np.ascontiguousarray(start), macro, *direction.entries,
+                            np.ascontiguousarray(direction.coupling), direction.ratio,
+                            INNER_ITERATIONS, *local.contact_data())
+    return w_hat, f_hat, macro

@@ -60,13 +60,15 @@ class StudyPlan:
     grid: Grid
     chains: tuple[tuple[Case, ...], ...]
     geometric: tuple[str, ...]  # grid parameters that change an operator (outer loops)
-    inner: int | None = None  # the innermost traversal dimension, when it changes no operator
+    #: the innermost traversal dimension: the grid lines that multiresolution batches
+    #: (geometric on the NumPy backend only; None on torch when it changes an operator)
+    inner: int | None = None
 
     def batches(self, chain: tuple[Case, ...], size: int, by: str = "line"
                 ) -> list[tuple[Case, ...]]:
         """Consecutive cases of ``chain`` in pieces of at most ``size`` that keep together
-        (``by``): ``"line"``, a line of the grid along the innermost non-geometric
-        dimension, one geometry (the cases a batched multiresolution step solves together);
+        (``by``): ``"line"``, a line of the grid along the innermost dimension (``inner``:
+        the cases a batched multiresolution step solves together);
         ``"geometry"``, every case of a geometry (a study from zero on the NumPy backend,
         ``START_FROM``); ``"any"``, whatever their geometry (the same on the torch backend,
         which batches several geometries)."""
@@ -169,8 +171,13 @@ def plan_study(model: Model, grid: Grid, options: LatinOptions | None = None,
         tuple(Case(number, ordered[number], grid.mu(ordered[number], model.parameters), c)
               for number in range(bounds[c], bounds[c + 1]))
         for c in range(n_chains))
-    inner = (order[-1] if order and order[-1] not in geometric_dims
-             and len(grid[names[order[-1]]]) > 1 else None)
+    # the grid lines that multiresolution batches: along the innermost dimension; a
+    # geometric one only on NumPy, whose batches take several geometries sharing their
+    # interfaces (a hole moved inside a substructure; others are solved apart) but keep the
+    # lines (torch's wavefront needs a line of one geometry)
+    several = [d for d in order if len(grid[names[d]]) > 1]
+    inner = (several[-1] if several and (several[-1] not in geometric_dims
+                                         or options.backend == "numpy") else None)
     return StudyPlan(grid, chain_cases, tuple(geometric), inner)
 
 
@@ -311,7 +318,8 @@ def run_batch(model: Model, grid: Grid, cases: tuple[Case, ...], mode: str,
               ) -> tuple[list[dict[str, Any]], ChainState | None]:
     """Solve cases together (``solve_latin_batch``), each started from its converged
     neighbour one grid step away (multiresolution: a grid line from the previous line). On
-    the NumPy backend a batch is one geometry's line; where some case has no such neighbour
+    the NumPy backend a batch is a grid line (``StudyPlan.inner``: of one geometry, or of
+    hole positions along a geometric innermost parameter); where some case has no such neighbour
     (the first line of a chain), and in cold mode, the cases are solved one by one, each
     from the previous. On the torch backend a batch may hold lines of several geometries
     (``StudyPlan.wavefront``), a case without a converged neighbour starting from zero. A
