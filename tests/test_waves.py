@@ -14,7 +14,7 @@ from multilatin.latin import LatinOptions
 from multilatin.parameters import Grid
 from multilatin.study.plan import plan_study
 from multilatin.study.runner import run_study
-from multilatin.study.waves import line_tasks
+from multilatin.study.waves import line_tasks, run_line_task
 
 
 def _distance(a: tuple[int, ...], b: tuple[int, ...]) -> int:
@@ -123,6 +123,27 @@ def test_a_single_valued_parameter_last_does_not_cut_the_grid_lines() -> None:
     lines = plan.batches(plan.chains[0], 16)
     assert [len(line) for line in lines] == [5] * 12
     assert [c.index[:3] for c in lines[1]] == [(0, 1, j) for j in (4, 3, 2, 1, 0)]
+
+
+def test_a_task_hands_on_its_own_cases_only() -> None:
+    """A line task's output (kept by Dask until its children are done) retains its own
+    converged cases, not its parents' as well; its children still find a neighbour one
+    step away in it and start from the same cases as before the trim."""
+    model = ml.load_model("b1")
+    grid = Grid({"mu1": [0.1, 0.2, 0.3, 0.4, 0.5], "mu2": [0.0, 0.2]})
+    plan = plan_study(model, grid, None, 1)
+    tasks = line_tasks(plan, plan.chains[0], 1, 16)
+    root, child, grandchild = (next(t for t in tasks if t.depth == d) for d in range(3))
+    outputs = {}
+    for task in (root, child, grandchild):
+        parents = [outputs[id(tasks[p])] for p in task.parents]
+        outputs[id(task)] = run_line_task(model, grid, task.cases, "multiresolution",
+                                          LatinOptions(), parents, None)
+        records, state = outputs[id(task)]
+        assert state is not None
+        assert set(state.retained) == {case.index for case in task.cases}
+        if task.depth:
+            assert all(r["start"] != "zero" for r in records)
 
 
 def test_hole_positions_are_batched_as_lines_on_numpy_only(tmp_path: Path) -> None:
