@@ -112,13 +112,15 @@ class NumpyFields:
         #: Eᵀ M0 Ŵ per case and step, where the coupled local stage starts (``two_scale``)
         self.side_macro = (ops.two_scale.project(w_hat.reshape(-1, 2 * pts.n_points))
                            .reshape(*w_hat.shape[:2], -1) if ops.two_scale is not None else None)
+        #: the active cases' columns per geometry, for the linear stage (``_geometries``)
+        self.geometries = self._geometries()
 
     def linear_stage(self, relaxation: FloatArray) -> None:
         ta = time.perf_counter()
         ops, options = self.ops, self.options
         flat = (-1, ops.points.n_points, 2)
         shape = self.w_hat.shape
-        geometries = self._geometries()
+        geometries = self.geometries
         w_new, f_new = ops.micro_stage(self.w_hat.reshape(flat), self.f_hat.reshape(flat),
                                        geometries)
         tm = time.perf_counter()
@@ -151,7 +153,8 @@ class NumpyFields:
 
     def _geometries(self) -> list[tuple[LatinOperators, slice | IntArray]] | None:
         """Per geometry of the active cases, its operators and the columns (case × step)
-        of its cases; None when they share one."""
+        of its cases; None when they share one (``geometries``, set at the start and when
+        cases leave)."""
         if self.geometry_of is None:
             return None
         n_steps = self.w_hat.shape[1]
@@ -231,6 +234,7 @@ class NumpyFields:
         if self.macro_data is not None:
             self.macro_data = self.macro_data[cases]
         self.local = self.local.subset(cases)
+        self.geometries = self._geometries()
         if self.side_macro is not None:
             self.side_macro = self.side_macro[cases]
         if self.mixer is not None:

@@ -221,7 +221,8 @@ def _project_rows(rows: FloatArray, starts: IntArray, flat: IntArray, values: Fl
 def _coupled_contact(displacement: FloatArray, force: FloatArray, w_hat: FloatArray,
                      f_hat: FloatArray, start: FloatArray, macro: FloatArray,
                      starts: IntArray, flat: IntArray, basis: FloatArray,
-                     weighted: FloatArray, coupling: FloatArray, ratio: float, passes: int,
+                     weighted: FloatArray, coupling: FloatArray, alphas: FloatArray,
+                     betas: FloatArray,
                      a: IntArray, b: IntArray, k_contact: FloatArray,
                      k_contact_b: FloatArray, n_contact: FloatArray, mu_contact: FloatArray,
                      gap_contact: FloatArray, stops: IntArray, k_stop: FloatArray,
@@ -232,7 +233,6 @@ def _coupled_contact(displacement: FloatArray, force: FloatArray, w_hat: FloatAr
     n_cases, n_steps, n_points = displacement.shape[0], displacement.shape[1], \
         displacement.shape[2]
     r = coupling.shape[0]
-    centre, half = 0.5 * (1.0 + ratio), 0.5 * (1.0 - ratio)
     shifted = np.empty((1, n_steps, n_points, 2))
     shifted_rows = shifted.reshape(n_steps, 2 * n_points)
     for c in range(n_cases):
@@ -243,8 +243,7 @@ def _coupled_contact(displacement: FloatArray, force: FloatArray, w_hat: FloatAr
                       projected)
         x = start[c] - projected  # Eᵀ M0 (Ŵ − W)
         step = np.zeros((n_steps, r))
-        alpha = 0.0
-        for inner in range(passes):
+        for inner in range(alphas.size):
             shift = np.zeros((n_steps, r))  # G x
             for t in range(n_steps):
                 for i in range(r):
@@ -265,14 +264,9 @@ def _coupled_contact(displacement: FloatArray, force: FloatArray, w_hat: FloatAr
             residual = -projected - x
             _project_rows(w_hat[c].reshape(n_steps, 2 * n_points), starts, flat, weighted,
                           residual)
-            if inner == 0:  # Chebyshev on [k / D, 1], as ``two_scale.coupled_local_stage``
-                alpha = 1.0 / centre
-                step[:] = residual
-            else:
-                beta = 0.5 * (half * alpha) ** 2 if inner == 1 else (0.5 * half * alpha) ** 2
-                alpha = 1.0 / (centre - beta / alpha)
-                step[:] = residual + beta * step
-            x += alpha * step
+            # Chebyshev's steps (``two_scale.chebyshev_steps``)
+            step[:] = residual + betas[inner] * step
+            x += alphas[inner] * step
         macro[c] = x + projected
 
 

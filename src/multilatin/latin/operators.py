@@ -58,8 +58,12 @@ def operator_signature(assembly: Assembly, options: LatinOptions) -> str:
     (``interface_signature``) and the substructures' stiffnesses (holes included).
     Friction coefficients (but whether a stop has one), gaps and loads are not in it: they
     change no operator."""
-    text = repr((interface_signature(assembly, options),
-                 [s.signature() for s in assembly.substructures]))
+    return _with_substructures(interface_signature(assembly, options), assembly)
+
+
+def _with_substructures(interfaces: str, assembly: Assembly) -> str:
+    """``operator_signature`` from the ``interface_signature`` already computed."""
+    text = repr((interfaces, [s.signature() for s in assembly.substructures]))
     return hashlib.sha1(text.encode()).hexdigest()
 
 
@@ -141,7 +145,7 @@ class LatinOperators:
         self.assembly = assembly
         self.options = options
         self.interface_signature = interface_signature(assembly, options)
-        self.signature = operator_signature(assembly, options)
+        self.signature = _with_substructures(self.interface_signature, assembly)
         if reuse is not None and reuse.interface_signature == self.interface_signature:
             # the same interfaces (paper §6: a hole moved inside a substructure): their
             # points, search direction and macro basis are the same, the contact data apart

@@ -152,12 +152,11 @@ def solve_latin_batch(
     check_scale(assemblies, points[0], ops.search_direction, local)
 
     t1 = time.perf_counter()
-    # the iteration is many small dense products: BLAS threads cost more than they give
-    # (measured 3x slower per iteration with 2 OpenBLAS threads on b1-9)
-    # overflow and NaN are detected in η and end the case as a failure (``_outcome``)
     functionals = _functionals(ops_list, geometry, assemblies, points)
-    # so does the recovery (one product per substructure): with two threads, OpenBLAS's
-    # spinning workers slowed the next cases' iterations (B3 5 × 5 study: 2.2 s against 2.0)
+    # one BLAS thread for the iteration (``one_blas_thread``) and for the recovery too (one
+    # product per substructure): with two, OpenBLAS's spinning workers slowed the next
+    # cases' iterations (B3 5 × 5 study: 2.2 s against 2.0). Overflow and NaN are detected
+    # in η and end the case as a failure (``_outcome``)
     with one_blas_thread(), np.errstate(over="ignore", invalid="ignore"):
         state = _iterate(ops, local, options, w_hat, f_hat, observer, functionals,
                          (ops_list, geometry))

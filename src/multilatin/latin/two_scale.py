@@ -224,26 +224,34 @@ def coupled_local_stage(local: Callable[[Any, Any], tuple[Any, Any]],
     if isinstance(shifted, np.ndarray):
         shifted = np.ascontiguousarray(shifted)
     base = direction.gather(shifted)
-    # I − T' has its spectrum in [k / D, 1]
-    centre, half = 0.5 * (1.0 + direction.ratio), 0.5 * (1.0 - direction.ratio)
+    alphas, betas = chebyshev_steps(direction.ratio)
     step = None
-    alpha = 0.0
-    for inner in range(INNER_ITERATIONS):
+    for inner, (alpha, beta) in enumerate(zip(alphas, betas, strict=True)):
         direction.scatter(shifted, base + direction.expand(a))
         if inner == 0 or contact is None:
             w_hat, f_hat = local(displacement, shifted.reshape(shape))
         else:
             contact(displacement, shifted.reshape(shape), w_hat, f_hat)
         residual = direction.project(w_hat.reshape(rows, -1)) - projected_w - a
-        if step is None:
-            alpha = 1.0 / centre
-            step = residual
-        else:
-            beta = 0.5 * (half * alpha) ** 2 if inner == 1 else (0.5 * half * alpha) ** 2
-            alpha = 1.0 / (centre - beta / alpha)
-            step = residual + beta * step
+        step = residual if step is None else residual + beta * step
         a = a + alpha * step
     return w_hat, f_hat, (a + projected_w).reshape(shape[0], shape[1], -1)
+
+
+def chebyshev_steps(ratio: float) -> tuple[FloatArray, FloatArray]:
+    """Chebyshev's semi-iteration for a map whose I − T' has its spectrum in [ratio, 1]:
+    per pass (``INNER_ITERATIONS``), the step length α and the weight β of the previous
+    direction (0 at the first pass), s ← r + β s, a ← a + α s."""
+    passes = INNER_ITERATIONS
+    centre, half = 0.5 * (1.0 + ratio), 0.5 * (1.0 - ratio)
+    alphas, betas = np.zeros(passes), np.zeros(passes)
+    alpha = 1.0 / centre
+    alphas[0] = alpha
+    for inner in range(1, passes):
+        beta = 0.5 * (half * alpha) ** 2 if inner == 1 else (0.5 * half * alpha) ** 2
+        alpha = 1.0 / (centre - beta / alpha)
+        alphas[inner], betas[inner] = alpha, beta
+    return alphas, betas
 
 
 def compiled_local_stage(local: LocalStage, direction: TwoScaleDirection,
@@ -260,6 +268,6 @@ def compiled_local_stage(local: LocalStage, direction: TwoScaleDirection,
     macro = np.empty((*displacement.shape[:2], direction.n_functions))
     kernels.coupled_contact(displacement, force, w_hat, f_hat,
                             np.ascontiguousarray(start), macro, *direction.entries,
-                            np.ascontiguousarray(direction.coupling), direction.ratio,
-                            INNER_ITERATIONS, *local.contact_data())
+                            np.ascontiguousarray(direction.coupling),
+                            *chebyshev_steps(direction.ratio), *local.contact_data())
     return w_hat, f_hat, macro
