@@ -73,6 +73,8 @@ def test_a_new_hole_rebuilds_only_its_substructure():
     # the interfaces are taken over as they were (only the hole moved), the contact data
     # from the new case: the same arrays as operators built from scratch
     assert reused.interface_keys == scratch.interface_keys
+    assert reused.points.coords is first.points.coords  # taken over, not rebuilt
+    assert scratch.points.coords is not first.points.coords
     for name in ("coords", "weights", "normals", "contact_pairs", "stops", "boundary",
                  "held_side", "corner_stops", "contact_friction", "contact_gap", "stop_gap"):
         np.testing.assert_array_equal(getattr(reused.points, name),
