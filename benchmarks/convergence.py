@@ -49,8 +49,10 @@ def parse_variant(text: str) -> dict[str, object]:
             raise SystemExit(f"--variant {text!r}: unknown option {name!r}")
         default = getattr(LatinOptions(), name)
         out[name] = (value.strip() if isinstance(default, str) else
-                     type(default)(float(value)) if not isinstance(default, bool) else
-                     value.strip().lower() in ("1", "true", "yes"))
+                     value.strip().lower() in ("1", "true", "yes") if isinstance(default, bool)
+                     else None if value.strip().lower() == "none"
+                     else float(value) if default is None  # an optional number (qoi_rtol)
+                     else type(default)(float(value)))
     return out
 
 

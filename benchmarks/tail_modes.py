@@ -27,7 +27,7 @@ from multilatin.decomposition.assembly import Assembly
 from multilatin.latin import LatinOperators, solve_latin
 from multilatin.latin.local_stage import LocalStage
 
-CASES = ((0.3, 0.0), (0.1, 0.3))
+CASES = ((0.3, 0.0), (0.1, 0.3), (0.3, 0.15))
 
 
 def dominant_modes(states: np.ndarray, rank_tol: float = 1e-6

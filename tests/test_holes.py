@@ -6,6 +6,7 @@ import pytest
 
 from multilatin.cli import main
 from multilatin.errors import ModelError
+from multilatin.io.modelfile import ModelSpec
 from multilatin.latin import LatinOperators, LatinOptions, solve_latin
 from multilatin.model import load_model
 
@@ -91,6 +92,66 @@ def test_a_new_hole_rebuilds_only_its_substructure():
     b = solve_latin(moved, operators=scratch)
     assert a.iterations == b.iterations
     assert a.qoi["R_stop"] == pytest.approx(b.qoi["R_stop"], rel=1e-12)
+
+
+def test_a_friction_study_shares_its_geometry_and_a_new_hole_does_not():
+    """The model keeps its recent substructures: cases that differ in friction share the
+    same meshes and cut cells (the same objects, cut once); a moved hole gets its own; each
+    assembly equals one built from a fresh model."""
+    model = load_model("b3")
+    first = model.assemble({"mu1": 0.1, "xc": 24.0})
+    again = model.assemble({"mu1": 0.4, "mu2": 0.2, "xc": 24.0})
+    moved = model.assemble({"mu1": 0.4, "xc": 26.0})
+    holed = next(i for i, sub in enumerate(first.substructures) if sub.hole is not None)
+    assert all(a is b for a, b in zip(first.substructures, again.substructures, strict=True))
+    assert moved.substructures[holed] is not first.substructures[holed]
+    fresh = load_model("b3").assemble({"mu1": 0.4, "xc": 26.0})
+    assert fresh.substructures[holed].signature() == moved.substructures[holed].signature()
+    assert first.substructures[holed].signature() != moved.substructures[holed].signature()
+    assert fresh.interfaces == moved.interfaces  # frictions from the case (0.4), not cached
+    assert any(itf.contact is not None and itf.contact.friction == 0.4 for itf in moved.interfaces)
+
+
+def test_a_parameter_read_by_a_material_or_a_box_rebuilds_the_substructures():
+    """The cache keys on every parameter the substructures read (here Young's modulus and a
+    body's width), not on hole parameters alone."""
+    text = """
+        [parameters.E1]
+        default = 1000.0
+        [parameters.width]
+        default = 2.0
+        [parameters.load]
+        default = 1.0
+        [materials.m]
+        E = "E1"
+        nu = 0.25
+        [[bodies]]
+        name = "plate"
+        x = [0.0, "width"]
+        y = [0.0, 1.0]
+        elements = [4, 2]
+        material = "m"
+        [[boundary]]
+        name = "left"
+        face = "plate.left"
+        type = "displacement"
+        value = [0.0, 0.0]
+        [[boundary]]
+        name = "right"
+        face = "plate.right"
+        type = "force"
+        value = ["load", 0.0]
+    """
+    spec = ModelSpec.from_string(text)
+    base = spec.build({"E1": 1000.0, "width": 2.0, "load": 1.0})
+    assert spec.build({"E1": 1000.0, "width": 2.0, "load": 3.0}).substructures[0] \
+        is base.substructures[0]
+    stiffer = spec.build({"E1": 2000.0, "width": 2.0, "load": 1.0}).substructures[0]
+    assert stiffer.material.young == 2000.0
+    wider = spec.build({"E1": 1000.0, "width": 3.0, "load": 1.0}).substructures[0]
+    assert wider.mesh.x1 == 3.0 and base.substructures[0].mesh.x1 == 2.0
+    assert spec.build({"E1": 1000.0, "width": 2.0, "load": 1.0}).substructures[0] \
+        is base.substructures[0]  # still kept
 
 
 @pytest.mark.parametrize(

@@ -221,5 +221,18 @@ def test_dask_cluster_gives_the_serial_results(b1: ml.Model, tmp_path: Path) -> 
     serial = run_study(b1, grid, chains=2, out=tmp_path / "serial", progress=False)
     distributed = run_study(b1, grid, chains=2, workers=2, schedule="chains",
                             out=tmp_path / "dask", progress=False)
-    xr.testing.assert_identical(_comparable(serial.dataset), _comparable(distributed.dataset))
+    # the same iterations and statuses; the same numbers but for rounding: Dask's workers
+    # run BLAS on one thread (its nanny sets OMP_NUM_THREADS=1), this process on every
+    # core, and OpenBLAS's dense products may round differently with another thread count.
+    # An error estimate is a difference of nearly equal iterates: rounding weighs more there
+    left, right = _comparable(serial.dataset), _comparable(distributed.dataset)
+    assert sorted(left.data_vars) == sorted(right.data_vars)
+    for name in left.data_vars:
+        if str(name).endswith("_err"):  # within 1e-8 of the QoI's own scale
+            scale = float(np.nanmax(np.abs(left[str(name)[:-4]].values)))
+            xr.testing.assert_allclose(left[name], right[name], rtol=1e-6, atol=1e-8 * scale)
+        elif left[name].dtype.kind == "f":
+            xr.testing.assert_allclose(left[name], right[name], rtol=1e-9, atol=1e-12)
+        else:
+            xr.testing.assert_identical(left[name], right[name])
     assert len({r["chain"] for r in distributed.records}) == 2

@@ -63,7 +63,8 @@ def test_a_warm_start_alone_picks_another_solution(b1: ml.Model, tmp_path: Path,
     (0.05, 0.2), case (0.05, 0.25) converges to a state 1.2 % away from the reference's, and
     the state is flagged as not unique."""
     monkeypatch.setattr(study_module, "_path_independent",
-                        lambda assembly, options, ops, result, start: (result, 0))
+                        lambda assemblies, options, ops, results, starts:
+                        [(result, 0) for result in results])
     clear_operator_cache()
     result = run_study(b1, Grid({"mu2": [0.2, 0.25], "mu1": [0.05]}), out=tmp_path,
                        progress=False)

@@ -18,14 +18,13 @@ import numpy as np
 from ..errors import ModelError
 from ..fem.levelset import Circle, LevelSet, Slot, Union
 from ..fem.mesh import UnstructuredMesh
-from ..parameters import Mu
 from .assembly import Substructure
 
 HOLE_FIELDS = {"name", "substructure", "body", "shape", "centre", "radius", "start", "end"}
 SHAPES = ("circle", "slot")
 
 
-def _parameters_named(table: Mapping[str, Any], mu: Mu) -> str:
+def _parameters_named(table: Mapping[str, Any], mu: Mapping[str, float]) -> str:
     """``"(xc = 25, rc = 3)"``: the parameters that the hole's fields use, for messages."""
     used = sorted({name for value in table.values()
                    for name in re.findall(r"[A-Za-z_]\w*", str(value)) if name in mu})
@@ -88,7 +87,8 @@ def _box(sub: Substructure) -> str:
     return f"[{m.x0:g}, {m.x1:g}] x [{m.y0:g}, {m.y1:g}]"
 
 
-def place_holes(tables: Sequence[Mapping[str, Any]], subs: list[Substructure], mu: Mu,
+def place_holes(tables: Sequence[Mapping[str, Any]], subs: list[Substructure],
+                mu: Mapping[str, float],
                 num: Callable[[Any, str], float],
                 check_keys: Callable[[Mapping[str, Any], set[str], str], None]
                 ) -> list[Substructure]:

@@ -7,12 +7,12 @@ from __future__ import annotations
 import copy
 import functools
 from collections.abc import Sequence
+from dataclasses import dataclass
 from typing import Any
 
 import numpy as np
 import numpy.typing as npt
 import scipy.linalg as sla
-import scipy.sparse as sp
 
 from ..decomposition.assembly import Assembly
 from ..decomposition.interfaces import InterfacePoints, interface_functions
@@ -72,7 +72,7 @@ class LocalStage:
 
     def __init__(self, assemblies: Sequence[Assembly], points: Sequence[InterfacePoints],
                  k: FloatArray, compiled: bool | None = None,
-                 macro_only: tuple[IntArray, sp.csr_matrix] | None = None) -> None:
+                 macro_only: MacroOnlyMap | None = None) -> None:
         """compiled: the Numba kernels (``kernels``); None: when Numba is installed.
         macro_only: ``macro_only_map(points[0], k)`` when already built."""
         first = points[0]
@@ -80,8 +80,9 @@ class LocalStage:
             if other.n_points != first.n_points or not np.array_equal(other.pairs, first.pairs):
                 raise ModelError("a batch of cases must share the interface discretisation")
         self.pairs = first.pairs
-        self.macro_points, self.macro_map = (macro_only if macro_only is not None
-                                             else macro_only_map(first, k))
+        self.macro_map = macro_only if macro_only is not None else macro_only_map(first, k)
+        self.macro_points = self.macro_map.points
+        self.macro_columns = self.macro_map.columns
         self.k_macro = k[self.macro_points]
         self.k_pair = k[first.pairs[0]]
         self.k_pair_b = k[first.pairs[1]]
@@ -147,8 +148,8 @@ class LocalStage:
                         ) -> tuple[FloatArray, FloatArray]:
         """ŝ on perfect, prescribed and macro-only interfaces (the rest of the arrays
         uninitialised: ``contact_stage`` fills them)."""
-        w_hat = np.empty_like(displacement)
-        f_hat = np.empty_like(force)
+        w_hat = np.empty(displacement.shape)  # C order: the flat views below are views
+        f_hat = np.empty(force.shape)
         if self.tape is not None:
             self.tape.position = 0
         if self.fused:
@@ -161,14 +162,16 @@ class LocalStage:
                 self.prescribed, self.pair_held_side, self.pair_held_boundary)
         else:
             self._perfect_and_boundary(displacement, force, w_hat, f_hat)
-        m = self.macro_points
-        if m.size:  # macro-only interface (eq. [20]), see ``macro_only_map``
-            k = self.k_macro
-            x = displacement[:, :, m] - force[:, :, m] / k
-            flat = x.reshape(-1, m.size * 2)
-            w_m = x + np.asarray(self.macro_map @ flat.T).T.reshape(x.shape)
-            w_hat[:, :, m] = w_m
-            f_hat[:, :, m] = force[:, :, m] + k * (w_m - displacement[:, :, m])
+        if self.macro_points.size:  # macro-only interface (eq. [20]), see ``macro_only_map``
+            # on (case × step, point × component) rows: gathers of whole columns
+            rows = int(np.prod(displacement.shape[:2]))
+            columns, k = self.macro_columns, self.k_macro.ravel()
+            w_m = np.take(displacement.reshape(rows, -1), columns, axis=1)
+            f_m = np.take(force.reshape(rows, -1), columns, axis=1)
+            x = w_m - f_m / k
+            w_new = x + self.macro_map.apply(x)
+            w_hat.reshape(rows, -1)[:, columns] = w_new
+            f_hat.reshape(rows, -1)[:, columns] = f_m + k * (w_new - w_m)
         return w_hat, f_hat
 
     @property
@@ -403,7 +406,31 @@ def _prescribed(assembly: Assembly, points: InterfacePoints) -> FloatArray:
     return prescribed
 
 
-def macro_only_map(points: InterfacePoints, k: FloatArray) -> tuple[IntArray, sp.csr_matrix]:
+@dataclass(frozen=True)
+class MacroOnlyMap:
+    """The local stage of the macro-only interfaces as Ŵ = X + Q X on the flattened
+    (point, component) values of ``points`` (``macro_only_map``), Q = ``left`` @ ``right``
+    of rank 2 × (macro functions) per interface side and component: applied as two thin
+    products instead of one with Q."""
+
+    points: IntArray  # (m,)
+    left: FloatArray  # (2m, r)
+    right: FloatArray  # (r, 2m)
+
+    @property
+    def columns(self) -> IntArray:
+        """The flat (point, component) columns of the points, point-major."""
+        return np.asarray((2 * self.points[:, None] + np.arange(2)).ravel(), dtype=np.int64)
+
+    def apply(self, x: FloatArray) -> FloatArray:
+        """Q X for rows X of shape (…, 2m)."""
+        return np.asarray((x @ self.right.T) @ self.left.T)
+
+    def dense(self) -> FloatArray:
+        return np.asarray(self.left @ self.right)
+
+
+def macro_only_map(points: InterfacePoints, k: FloatArray) -> MacroOnlyMap:
     """The local stage of macro-only perfect interfaces (paper eq. [20]) as a linear map.
 
     On each side s (points P_s, weights M_s, search direction k_s), with the interface's macro
@@ -417,9 +444,10 @@ def macro_only_map(points: InterfacePoints, k: FloatArray) -> tuple[IntArray, sp
 
     so that F̂_s = k_s g_s (a − G_s⁻¹ g_sᵀ M_s X_s) is macro only. Returns the points of
     every macro-only interface and Q with Ŵ = X + Q X on their flattened (point, component)
-    values.
+    values, factored: g_s on the left, (a − G_s⁻¹ g_sᵀ M_s X_s)'s map on the right.
     """
-    blocks: list[tuple[IntArray, IntArray, FloatArray]] = []
+    left: list[tuple[IntArray, FloatArray]] = []  # (rows, g_s) per side and component
+    right: list[tuple[IntArray, FloatArray]] = []  # (columns, map) of the same
     chosen: list[IntArray] = []
     offset = 0
     for i in points.macro_only:
@@ -429,24 +457,26 @@ def macro_only_map(points: InterfacePoints, k: FloatArray) -> tuple[IntArray, sp
                  offset + sides[0].size + np.arange(sides[1].size)]
         offset += sum(p.size for p in sides)
         chosen.extend(sides)
+        columns = np.concatenate(local)
         for comp in range(2):
             weighted = [g.T * points.weights[p] for g, p in zip(functions, sides, strict=True)]
             gram = [wg @ g for wg, g in zip(weighted, functions, strict=True)]
             k_side = [float(k[p[0], comp]) for p in sides]
             total = sla.inv(sum(ks * gm for ks, gm in zip(k_side, gram, strict=True)))
-            to_a = np.hstack([ks * wg for ks, wg in zip(k_side, weighted, strict=True)])
-            columns = np.concatenate(local)
+            to_a = total @ np.hstack([ks * wg for ks, wg in zip(k_side, weighted, strict=True)])
             for side, start in enumerate((0, sides[0].size)):
-                g = functions[side]
-                block = g @ total @ to_a
+                coefficients = to_a.copy()
                 own = slice(start, start + sides[side].size)
-                block[:, own] -= g @ sla.solve(gram[side], weighted[side])
-                blocks.append((2 * local[side] + comp, 2 * columns + comp, block))
-    size = 2 * offset
-    if not blocks:
-        return np.zeros(0, dtype=np.int64), sp.csr_matrix((0, 0))
-    rows = np.concatenate([np.repeat(r, c.size) for r, c, _ in blocks])
-    cols = np.concatenate([np.tile(c, r.size) for r, c, _ in blocks])
-    vals = np.concatenate([b.ravel() for _, _, b in blocks])
-    return (np.concatenate(chosen).astype(np.int64),
-            sp.csr_matrix((vals, (rows, cols)), shape=(size, size)))
+                coefficients[:, own] -= sla.solve(gram[side], weighted[side])
+                left.append((2 * local[side] + comp, functions[side]))
+                right.append((2 * columns + comp, coefficients))
+    rank = sum(g.shape[1] for _, g in left)
+    out = MacroOnlyMap(np.concatenate(chosen).astype(np.int64) if chosen
+                       else np.zeros(0, dtype=np.int64),
+                       np.zeros((2 * offset, rank)), np.zeros((rank, 2 * offset)))
+    at = 0
+    for (rows, g), (columns, coefficients) in zip(left, right, strict=True):
+        out.left[rows, at:at + g.shape[1]] = g
+        out.right[at:at + g.shape[1], columns] = coefficients
+        at += g.shape[1]
+    return out

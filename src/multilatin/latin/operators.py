@@ -29,7 +29,7 @@ from ..decomposition.interfaces import (
 from ..errors import ModelError
 from ..fem.elasticity import FloatArray, IntArray
 from ..fem.mesh import SIDES, normal_axis
-from .local_stage import macro_only_map
+from .local_stage import MacroOnlyMap, macro_only_map
 from .two_scale import TwoScaleDirection, stiffened_points, two_scale_direction
 
 if TYPE_CHECKING:
@@ -326,7 +326,7 @@ class LatinOperators:
         return factor  # type: ignore[no-any-return]
 
     @functools.cached_property
-    def macro_only(self) -> tuple[IntArray, sp.csr_matrix]:
+    def macro_only(self) -> MacroOnlyMap:
         """The local stage's map on macro-only interfaces (``local_stage.macro_only_map``):
         it depends on the interface discretisation and k only, so it is built once here."""
         return macro_only_map(self.points, self.search_direction)

@@ -43,8 +43,8 @@ class TorchLocalStage:
         self.macro_points = index(local.macro_points)
         self.n_macro_points = local.macro_points.size
         self.k_macro = tensor(local.k_macro)
-        self.macro_map_t = (tensor(local.macro_map.toarray().T) if local.macro_points.size
-                            else None)
+        self.macro_right_t = tensor(local.macro_map.right.T)  # Q = left @ right
+        self.macro_left_t = tensor(local.macro_map.left.T)
         a, b = local.contact_pairs
         self.contact = (index(a), index(b))
         self.n_pairs = a.size
@@ -96,8 +96,8 @@ class TorchLocalStage:
         if self.n_macro_points:  # macro-only interface (eq. [20]), see ``macro_only_map``
             m, k = self.macro_points, self.k_macro
             x = displacement[:, :, m] - force[:, :, m] / k
-            w_m = x + (x.reshape(-1, 2 * self.n_macro_points) @ self.macro_map_t
-                       ).reshape(x.shape)
+            w_m = x + (x.reshape(-1, 2 * self.n_macro_points) @ self.macro_right_t
+                       @ self.macro_left_t).reshape(x.shape)
             w_hat[:, :, m] = w_m
             f_hat[:, :, m] = force[:, :, m] + k * (w_m - displacement[:, :, m])
         if self.n_pairs or self.n_stops:

@@ -15,7 +15,7 @@ import logging
 import sys
 import time
 from collections import OrderedDict
-from collections.abc import Iterator
+from collections.abc import Iterator, Sequence
 from dataclasses import dataclass, field
 from typing import Any
 
@@ -289,7 +289,7 @@ def run_case(model: Model, grid: Grid, case: Case, mode: str, options: LatinOpti
         start_index, initial = _start(state, case, assembly, ops)
     setup_s = time.perf_counter() - t0
     result = solve_latin(assembly, options, operators=ops, initial=initial, check=False)
-    result, spent = _path_independent(assembly, options, ops, result, start_index)
+    [(result, spent)] = _path_independent([assembly], options, [ops], [result], [start_index])
     wall_s = time.perf_counter() - t0
     if mode != "cold" and result.converged and state is not None:
         state = _retain(state, case, result)
@@ -297,20 +297,28 @@ def run_case(model: Model, grid: Grid, case: Case, mode: str, options: LatinOpti
                    spent), state
 
 
-def _path_independent(assembly: Assembly, options: LatinOptions, ops: LatinOperators,
-                      result: SolveResult, start_index: tuple[int, ...] | None
-                      ) -> tuple[SolveResult, int]:
-    """A warm-started case whose discrete problem does not determine its answer
-    (``multilatin.uniqueness``) is solved again from zero with the same operators: a warm
-    start would pick the solution nearest its neighbour's, so the study's answer would
-    depend on the order of the grid. Returns the result kept and the iterations spent on the
-    warm attempt (0 when it is kept)."""
-    if start_index is None or not result.converged or result.unique:
-        return result, 0
-    log.info("%s: not unique from a warm start; solved again from zero",
-             assembly.name)
-    cold = solve_latin(assembly, options, operators=ops, check=False)
-    return cold, result.iterations
+def _path_independent(assemblies: Sequence[Assembly], options: LatinOptions,
+                      operators: Sequence[LatinOperators], results: Sequence[SolveResult],
+                      start_indices: Sequence[tuple[int, ...] | None]
+                      ) -> list[tuple[SolveResult, int]]:
+    """Warm-started cases whose discrete problem does not determine their answer
+    (``multilatin.uniqueness``) are solved again from zero with the same operators (all of
+    them as one batch): a warm start would pick the solution nearest its neighbour's, so
+    the study's answer would depend on the order of the grid. Returns per case the result
+    kept and the iterations spent on the warm attempt (0 when it is kept)."""
+    again = [n for n, (result, start) in enumerate(zip(results, start_indices, strict=True))
+             if start is not None and result.converged and not result.unique]
+    kept = [(result, 0) for result in results]
+    if not again:
+        return kept
+    for n in again:
+        log.info("%s: not unique from a warm start; solved again from zero",
+                 assemblies[n].name)
+    cold = solve_latin_batch([assemblies[n] for n in again], options,
+                             operators=[operators[n] for n in again], check=False)
+    for n, result in zip(again, cold, strict=True):
+        kept[n] = (result, results[n].iterations)
+    return kept
 
 
 def run_batch(model: Model, grid: Grid, cases: tuple[Case, ...], mode: str,
@@ -364,9 +372,8 @@ def _solve_together(model: Model, grid: Grid, cases: tuple[Case, ...], mode: str
     setup_s = time.perf_counter() - t0
     results = solve_latin_batch(assemblies, options, operators=per_case,
                                 initial=[fields for _, fields in starts], check=False)
-    kept = [_path_independent(assembly, options, ops, result, start_index)
-            for assembly, ops, result, (start_index, _) in zip(assemblies, per_case, results,
-                                                               starts, strict=True)]
+    kept = _path_independent(assemblies, options, per_case, results,
+                             [start_index for start_index, _ in starts])
     wall_s = time.perf_counter() - t0
     total_iterations = sum(r.iterations + spent for r, spent in kept)
     records = []

@@ -11,7 +11,7 @@ from __future__ import annotations
 import math
 import sys
 from collections.abc import Mapping
-from dataclasses import dataclass
+from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any
 
@@ -30,6 +30,14 @@ else:  # pragma: no cover
 __all__ = ["ModelSpec"]
 
 
+class BuildCache(list[Any]):
+    """What a model keeps between builds; not pickled (a model sent to a worker process
+    carries its file's table, not its meshes)."""
+
+    def __reduce__(self) -> tuple[type[BuildCache], tuple[()]]:
+        return BuildCache, ()
+
+
 @dataclass(frozen=True)
 class ModelSpec:
     """A parsed, validated model file (parameters still symbolic)."""
@@ -38,6 +46,9 @@ class ModelSpec:
     data: Mapping[str, Any]
     parameters: Parameters
     source: str = ""
+    #: the substructures of recent builds (``BodySections.substructures``), not compared
+    built: BuildCache = field(default_factory=lambda: BuildCache(), init=False,
+                              compare=False, repr=False)
 
     # ------------------------------------------------------------------ loading
     @staticmethod
@@ -122,7 +133,7 @@ class ModelSpec:
         """
         mu = mu if isinstance(mu, Mu) else self.parameters.parse(mu)
         refine = positive_int(refine, "refine")
-        builder = Builder(self.data, mu, refine, dict(split or {}))
+        builder = Builder(self.data, mu, refine, dict(split or {}), self.built)
         return builder.assembly(self.name)
 
 

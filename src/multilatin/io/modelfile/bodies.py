@@ -17,11 +17,13 @@ from ...fem.elasticity import PLANE_STRAIN, PLANE_STRESS
 from ...fem.mesh import RectMesh, UnstructuredMesh
 from ...limits import check_meshes
 from ..meshfile import read_mesh
-from .checks import SectionReader, check_keys, pair, positive_int, require
+from .checks import ReadRecorder, SectionReader, check_keys, pair, positive_int, require
 
 #: Young's moduli outside this window are a units error, and would over- or underflow the
 #: solvers' norms (E² and 1/E appear in them)
 YOUNG_RANGE = (1e-100, 1e100)
+#: geometries (parameter values that the substructures read) a model keeps built
+SUBSTRUCTURE_CACHE_SIZE = 8
 
 
 class BodySections(SectionReader):
@@ -81,6 +83,29 @@ class BodySections(SectionReader):
         return x0, x1, y0, y1
 
     def substructures(self) -> tuple[list[Substructure], dict[str, tuple[float, ...]]]:
+        """The substructures (meshes, materials, holes) and the bodies' boxes. With a
+        ``cache`` (the model's), those of an earlier build are returned again when every
+        parameter they read has the same value: in a study over frictions, gaps or loads
+        every case shares its geometry's meshes and cut cells (the same objects)."""
+        if self.cache is None:
+            return self._substructures()
+        key = (self.refine, tuple(sorted(self.split.items())))
+        for n, (entry_key, read, subs, bodies) in enumerate(self.cache):
+            if entry_key == key and all(self.mu.get(name) == value
+                                        for name, value in read.items()):
+                self.cache.insert(0, self.cache.pop(n))  # most recently used first
+                return list(subs), dict(bodies)
+        recorder = ReadRecorder(self.mu)
+        self.lookup = recorder
+        try:
+            subs, bodies = self._substructures()
+        finally:
+            self.lookup = self.mu
+        self.cache.insert(0, (key, dict(recorder.read), tuple(subs), dict(bodies)))
+        del self.cache[SUBSTRUCTURE_CACHE_SIZE:]
+        return list(subs), dict(bodies)
+
+    def _substructures(self) -> tuple[list[Substructure], dict[str, tuple[float, ...]]]:
         materials = self.materials()
         subs: list[Substructure] = []
         planned: list[tuple[str, str, Material, tuple[float, float, float, float], int, int]] = []
@@ -160,7 +185,7 @@ class BodySections(SectionReader):
             if names.count(name) > 1:
                 raise ModelError(f"substructures: the name {name!r} is used twice")
         self._check_overlaps(subs)
-        subs = place_holes(self.data.get("holes", []), subs, self.mu, self.num, check_keys)
+        subs = place_holes(self.data.get("holes", []), subs, self.lookup, self.num, check_keys)
         return subs, bodies
 
     def file_mesh(self, table: Mapping[str, Any], where: str) -> UnstructuredMesh:

@@ -3,7 +3,7 @@ offending field and value, and ``SectionReader`` (one parameter set, numbers eva
 
 from __future__ import annotations
 
-from collections.abc import Mapping
+from collections.abc import Iterator, Mapping
 from typing import Any
 
 from ...decomposition.assembly import ContactLaw
@@ -51,20 +51,51 @@ def unit_text(value: Any, where: str) -> str:
     return value.strip()
 
 
+class ReadRecorder(Mapping[str, float]):
+    """A parameter set that records which names were looked up (present or not): a section
+    built from it is a function of those values alone, so that a later parameter set equal
+    on them builds the same (``BodySections.substructures``' cache)."""
+
+    def __init__(self, mu: Mapping[str, float]) -> None:
+        self.mu = mu
+        self.read: dict[str, float | None] = {}
+
+    def __getitem__(self, key: str) -> float:
+        self.read[key] = self.mu.get(key)
+        return self.mu[key]
+
+    def __contains__(self, key: object) -> bool:
+        if isinstance(key, str):
+            self.read.setdefault(key, self.mu.get(key))
+        return key in self.mu
+
+    def __iter__(self) -> Iterator[str]:
+        self.read.update(self.mu)  # whoever iterates may read every value
+        return iter(self.mu)
+
+    def __len__(self) -> int:
+        return len(self.mu)
+
+
 class SectionReader:
     """What every section reader shares: the model table, one parameter set, the
-    discretisation choices, and evaluation of numbers and contact laws."""
+    discretisation choices, and evaluation of numbers and contact laws. ``cache``: kept by
+    the model between builds (``BodySections.substructures``)."""
 
     def __init__(
-        self, data: Mapping[str, Any], mu: Mu, refine: int, split: dict[str, tuple[int, int]]
+        self, data: Mapping[str, Any], mu: Mu, refine: int, split: dict[str, tuple[int, int]],
+        cache: list[Any] | None = None,
     ) -> None:
         self.data = data
         self.mu = mu
+        #: where expressions look their parameters up (a ``ReadRecorder`` while one is kept)
+        self.lookup: Mapping[str, float] = mu
         self.refine = refine
         self.split = split
+        self.cache = cache
 
     def num(self, value: Any, where: str) -> float:
-        return evaluate(value, self.mu, where)
+        return evaluate(value, self.lookup, where)
 
     def contact_law(self, table: Mapping[str, Any], where: str) -> ContactLaw:
         friction = self.num(table.get("friction", 0.0), f"{where}.friction")
