@@ -221,8 +221,9 @@ def _project_rows(rows: FloatArray, starts: IntArray, flat: IntArray, values: Fl
 def _coupled_contact(displacement: FloatArray, force: FloatArray, w_hat: FloatArray,
                      f_hat: FloatArray, start: FloatArray, macro: FloatArray,
                      starts: IntArray, flat: IntArray, basis: FloatArray,
-                     weighted: FloatArray, coupling: FloatArray, alphas: FloatArray,
-                     betas: FloatArray,
+                     weighted: FloatArray, coupling_starts: IntArray,
+                     coupling_columns: IntArray, coupling_values: FloatArray,
+                     alphas: FloatArray, betas: FloatArray,
                      a: IntArray, b: IntArray, k_contact: FloatArray,
                      k_contact_b: FloatArray, n_contact: FloatArray, mu_contact: FloatArray,
                      gap_contact: FloatArray, stops: IntArray, k_stop: FloatArray,
@@ -232,7 +233,7 @@ def _coupled_contact(displacement: FloatArray, force: FloatArray, w_hat: FloatAr
                      ) -> None:  # pragma: no cover - compiled
     n_cases, n_steps, n_points = displacement.shape[0], displacement.shape[1], \
         displacement.shape[2]
-    r = coupling.shape[0]
+    r = coupling_starts.size - 1
     shifted = np.empty((1, n_steps, n_points, 2))
     shifted_rows = shifted.reshape(n_steps, 2 * n_points)
     for c in range(n_cases):
@@ -244,11 +245,11 @@ def _coupled_contact(displacement: FloatArray, force: FloatArray, w_hat: FloatAr
         x = start[c] - projected  # Eᵀ M0 (Ŵ − W)
         step = np.zeros((n_steps, r))
         for inner in range(alphas.size):
-            shift = np.zeros((n_steps, r))  # G x
+            shift = np.zeros((n_steps, r))  # G x, G's nonzeros row by row
             for t in range(n_steps):
                 for i in range(r):
-                    for j in range(r):
-                        shift[t, j] += x[t, i] * coupling[i, j]
+                    for e in range(coupling_starts[i], coupling_starts[i + 1]):
+                        shift[t, coupling_columns[e]] += x[t, i] * coupling_values[e]
             for e in range(flat.size):  # F + E G x on the support
                 for t in range(n_steps):
                     shifted_rows[t, flat[e]] = force_rows[t, flat[e]]
@@ -272,21 +273,24 @@ def _coupled_contact(displacement: FloatArray, force: FloatArray, w_hat: FloatAr
 
 def _two_scale_correction(out: FloatArray, field: FloatArray, starts: IntArray,
                           flat: IntArray, basis: FloatArray, weighted: FloatArray,
-                          coupling: FloatArray) -> None:  # pragma: no cover - compiled
-    r = coupling.shape[0]
+                          coupling_starts: IntArray, coupling_columns: IntArray,
+                          coupling_values: FloatArray) -> None:  # pragma: no cover - compiled
+    r = coupling_starts.size - 1
     projected = np.empty(r)
+    shift = np.empty(r)
     for t in range(field.shape[0]):
         for j in range(r):  # Eᵀ M0 x
             total = 0.0
             for e in range(starts[j], starts[j + 1]):
                 total += weighted[e] * field[t, flat[e]]
             projected[j] = total
+        shift[:] = 0.0  # G (Eᵀ M0 x), G's nonzeros row by row
+        for i in range(r):
+            for e in range(coupling_starts[i], coupling_starts[i + 1]):
+                shift[coupling_columns[e]] += projected[i] * coupling_values[e]
         for j in range(r):  # += E G (Eᵀ M0 x)
-            shift = 0.0
-            for i in range(r):
-                shift += projected[i] * coupling[i, j]
             for e in range(starts[j], starts[j + 1]):
-                out[t, flat[e]] += basis[e] * shift
+                out[t, flat[e]] += basis[e] * shift[j]
 
 
 def _relax(current: FloatArray, new: FloatArray, omega: float

@@ -72,6 +72,9 @@ class TwoScaleDirection:
     #: NumPy: each function's entries, function after function: (starts (r + 1,), flat
     #: indices, E's and M0 E's values), for the compiled inner passes
     entries: tuple[Any, ...] = field(init=False, repr=False, default=())
+    #: NumPy: G's nonzeros row by row (starts (r + 1,), columns, values): G is block
+    #: diagonal (functions of different sides or components do not meet), 2 × 2 blocks
+    coupling_entries: tuple[Any, ...] = field(init=False, repr=False, default=())
 
     def __post_init__(self) -> None:
         if isinstance(self.basis, np.ndarray):
@@ -86,6 +89,10 @@ class TwoScaleDirection:
                 self.support[at].astype(np.int64),
                 np.ascontiguousarray(self.basis[at, function]),
                 np.ascontiguousarray(self.weighted[at, function])))
+            rows = sp.csr_matrix(self.coupling)  # its exact zeros left out
+            object.__setattr__(self, "coupling_entries", (
+                rows.indptr.astype(np.int64), rows.indices.astype(np.int64),
+                np.ascontiguousarray(rows.data, dtype=np.float64)))
             object.__setattr__(self, "runs", tuple(
                 (int(self.support[a]), int(self.support[b - 1]) + 1, int(a))
                 for a, b in zip(starts, stops, strict=True)))
@@ -130,7 +137,7 @@ class TwoScaleDirection:
         where Numba is, for NumPy arrays: ``kernels.two_scale_correction``)."""
         if self.entries and kernels.two_scale_correction is not None and flat.flags.c_contiguous:
             kernels.two_scale_correction(flat, np.ascontiguousarray(field), *self.entries,
-                                         self.coupling)
+                                         *self.coupling_entries)
             return
         self.scatter(flat, self.expand(self.project(field)), add=True)
 
@@ -268,6 +275,6 @@ def compiled_local_stage(local: LocalStage, direction: TwoScaleDirection,
     macro = np.empty((*displacement.shape[:2], direction.n_functions))
     kernels.coupled_contact(displacement, force, w_hat, f_hat,
                             np.ascontiguousarray(start), macro, *direction.entries,
-                            np.ascontiguousarray(direction.coupling),
+                            *direction.coupling_entries,
                             *chebyshev_steps(direction.ratio), *local.contact_data())
     return w_hat, f_hat, macro
