@@ -120,6 +120,31 @@ def test_the_compiled_inner_passes_equal_the_numpy_ones(name: str) -> None:
                                atol=1e-12 * np.abs(numpy_product).max())
 
 
+@pytest.mark.skipif(kernels.direction_update is None, reason="Numba not installed")
+@pytest.mark.parametrize("micro_stiffening", [4.0, 1.0])
+def test_the_fused_force_update_is_the_numpy_one_bitwise(micro_stiffening: float) -> None:
+    """``LatinOperators.direction_update`` (one compiled pass: base + H (a − b)) gives the
+    very numbers of the NumPy composition, with and without the two-scale part, with b and
+    base left out, and in place."""
+    options = LatinOptions(micro_stiffening=micro_stiffening)
+    ops = LatinOperators(ml.load_model("b3").assemble({}), options)
+    assert (ops.two_scale is None) == (micro_stiffening == 1.0)
+    rng = np.random.default_rng(3)
+    a, b, base = (rng.normal(size=(7, ops.points.n_points, 2)) for _ in range(3))
+    np.testing.assert_array_equal(ops.direction_update(a, b, base=base),
+                                  base + ops.apply_direction(a - b))
+    np.testing.assert_array_equal(ops.direction_update(a, base=base),
+                                  base + ops.apply_direction(a))
+    np.testing.assert_array_equal(ops.direction_update(a, b), ops.apply_direction(a - b))
+    expected = base + ops.apply_direction(a - b)
+    out = ops.direction_update(a, b, base=base, out=base)
+    assert out is base
+    np.testing.assert_array_equal(base, expected)
+    # a non-contiguous field takes the NumPy path, with the same numbers
+    np.testing.assert_array_equal(ops.direction_update(a[::2], b[::2]),
+                                  ops.apply_direction(a[::2] - b[::2]))
+
+
 @pytest.mark.parametrize("name, mu", [("b1", (0.1, 0.3)), ("b1", (0.3, 0.15)),
                                       ("b3", (0.35, 0.25))])
 def test_the_fixed_point_does_not_depend_on_it(name: str, mu: tuple[float, float]) -> None:

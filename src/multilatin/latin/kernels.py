@@ -12,6 +12,8 @@ agree to rounding (tests).
   (``two_scale.coupled_local_stage``: its inner Chebyshev passes, the projections on the
   sides' macro functions with them), case by case;
 - ``two_scale_correction``: out += (H − D) x row by row (``two_scale.TwoScaleDirection``);
+- ``direction_update``: out = base + H (a − b) in one pass (the linear stage's forces,
+  ``LatinOperators.direction_update``);
 - ``relax``: s ← ω s_new + (1 − ω) s in place;
 - ``indicator_squares``: ‖s − ŝ‖², ‖s‖², ‖ŝ‖² per case (paper §4.3).
 """
@@ -293,6 +295,48 @@ def _two_scale_correction(out: FloatArray, field: FloatArray, starts: IntArray,
                 out[t, flat[e]] += basis[e] * shift[j]
 
 
+def _direction_update(out: FloatArray, base: FloatArray, a: FloatArray, b: FloatArray,
+                      use_base: bool, use_b: bool, k: FloatArray, starts: IntArray,
+                      flat: IntArray, basis: FloatArray, weighted: FloatArray,
+                      coupling_starts: IntArray, coupling_columns: IntArray,
+                      coupling_values: FloatArray) -> None:  # pragma: no cover - compiled
+    """Rows (n, 2P): out = base + (k (a − b) + (H − D)(a − b)), with the operations and
+    their order of NumPy's k x then ``two_scale_correction``; a − b is never stored
+    (``use_b`` False: a alone; ``use_base`` False: out = H (a − b)). ``out`` may be
+    ``base``. Row by row, so that the fields are read once."""
+    r = coupling_starts.size - 1
+    n = a.shape[1]
+    projected = np.empty(r)
+    shift = np.empty(r)
+    row = np.empty(n)
+    for t in range(a.shape[0]):
+        if use_b:
+            for i in range(n):
+                row[i] = k[i] * (a[t, i] - b[t, i])
+        else:
+            for i in range(n):
+                row[i] = k[i] * a[t, i]
+        for j in range(r):  # Eᵀ M0 (a − b)
+            total = 0.0
+            for e in range(starts[j], starts[j + 1]):
+                total += weighted[e] * (a[t, flat[e]] - b[t, flat[e]] if use_b
+                                        else a[t, flat[e]])
+            projected[j] = total
+        shift[:] = 0.0  # G Eᵀ M0 (a − b)
+        for i in range(r):
+            for e in range(coupling_starts[i], coupling_starts[i + 1]):
+                shift[coupling_columns[e]] += projected[i] * coupling_values[e]
+        for j in range(r):  # + E G Eᵀ M0 (a − b), function after function
+            for e in range(starts[j], starts[j + 1]):
+                row[flat[e]] += basis[e] * shift[j]
+        if use_base:
+            for i in range(n):
+                out[t, i] = base[t, i] + row[i]
+        else:
+            for i in range(n):
+                out[t, i] = row[i]
+
+
 def _relax(current: FloatArray, new: FloatArray, omega: float
            ) -> None:  # pragma: no cover - compiled
     flat, flat_new = current.reshape(-1), new.reshape(-1)
@@ -328,8 +372,9 @@ indicator_squares: Callable[..., Any] | None
 perfect_and_boundary: Callable[..., Any] | None
 coupled_contact: Callable[..., Any] | None
 two_scale_correction: Callable[..., Any] | None
+direction_update: Callable[..., Any] | None
 _KERNELS = ("contact_and_stops", "relax", "indicator_squares", "perfect_and_boundary",
-            "coupled_contact", "two_scale_correction")
+            "coupled_contact", "two_scale_correction", "direction_update")
 
 
 def _compile() -> None:
@@ -349,7 +394,8 @@ def _compile() -> None:
                     "perfect_and_boundary": jit(_perfect_and_boundary),
                     "relax": jit(_relax), "indicator_squares": jit(_indicator_squares),
                     "coupled_contact": jit(_coupled_contact),
-                    "two_scale_correction": jit(_two_scale_correction)}
+                    "two_scale_correction": jit(_two_scale_correction),
+                    "direction_update": jit(_direction_update)}
     globals().update(compiled)
 
 

@@ -29,6 +29,7 @@ from ..decomposition.interfaces import (
 from ..errors import ModelError
 from ..fem.elasticity import FloatArray, IntArray
 from ..fem.mesh import SIDES, normal_axis
+from . import kernels
 from .local_stage import MacroOnlyMap, macro_only_map
 from .two_scale import TwoScaleDirection, stiffened_points, two_scale_direction
 
@@ -354,7 +355,7 @@ class LatinOperators:
         the columns of its cases; the substructures they share act on every column at
         once, the others geometry by geometry. None: these operators on every column."""
         shape = displacement_hat.shape
-        rhs = (force_hat + self.apply_direction(displacement_hat)).reshape(shape[0], -1)
+        rhs = self.direction_update(displacement_hat, base=force_hat).reshape(shape[0], -1)
         flat_displacement = np.empty_like(rhs)
         for s, (lo, hi) in enumerate(self.flat_ranges):
             for block, columns in self._blocks(s, geometries):
@@ -365,7 +366,7 @@ class LatinOperators:
                     flat_displacement[columns, lo:hi] = (rhs[columns, lo:hi]
                                                          @ block.condensed_transposed)
         displacement: FloatArray = flat_displacement.reshape(shape)
-        force = force_hat + self.apply_direction(displacement_hat - displacement)
+        force = self.direction_update(displacement_hat, displacement, base=force_hat)
         return displacement, force
 
     def apply_direction(self, field: FloatArray) -> FloatArray:
@@ -375,6 +376,38 @@ class LatinOperators:
             self.two_scale.add_correction(out.reshape(field.shape[0], -1),
                                           field.reshape(field.shape[0], -1))
         return out
+
+    @functools.cached_property
+    def _direction_entries(self) -> tuple[FloatArray | IntArray, ...]:
+        """k and the two-scale part's arrays for ``kernels.direction_update``."""
+        k_flat = np.ascontiguousarray(self.search_direction.reshape(-1))
+        if self.two_scale is None:
+            none, zero = np.zeros(0, dtype=np.int64), np.zeros(1, dtype=np.int64)
+            return (k_flat, zero, none, np.zeros(0), np.zeros(0), zero, none, np.zeros(0))
+        return (k_flat, *self.two_scale.entries, *self.two_scale.coupling_entries)
+
+    def direction_update(self, a: FloatArray, b: FloatArray | None = None,
+                         base: FloatArray | None = None, out: FloatArray | None = None
+                         ) -> FloatArray:
+        """base + H (a − b) on fields (n, n_points, 2) (``b``, ``base`` optional; ``out``
+        may be ``base``): one compiled pass where Numba is, the same numbers as
+        ``apply_direction`` (the linear stage's force updates, eq. [13])."""
+        arrays = [x for x in (a, b, base, out) if x is not None]
+        if kernels.direction_update is None or not all(x.flags.c_contiguous for x in arrays):
+            value = self.apply_direction(a if b is None else a - b)
+            if base is None:
+                return value
+            if out is base:
+                base += value
+                return base
+            return base + value
+        rows = a.reshape(a.shape[0], -1)
+        result = out if out is not None else np.empty_like(a)
+        kernels.direction_update(result.reshape(rows.shape),
+                                 rows if base is None else base.reshape(rows.shape), rows,
+                                 rows if b is None else b.reshape(rows.shape), base is not None,
+                                 b is not None, *self._direction_entries)
+        return result
 
     def macro_correction(self, displacement: FloatArray, force: FloatArray,
                          macro_force_data: FloatArray, geometries: Geometries | None = None
@@ -402,7 +435,7 @@ class LatinOperators:
         extension = np.asarray((self.basis_transposed.T @ macro.T).T).reshape(shape)
         correction_field = correction.reshape(shape)
         displacement += correction_field
-        force += self.apply_direction(extension - correction_field)
+        self.direction_update(extension, correction_field, base=force, out=force)
 
     def recover(self, displacement: FloatArray, force: FloatArray) -> dict[str, FloatArray]:
         """Interior displacements u_E = S_E⁻¹ T_Eᵀ M0 (F + k W) of every substructure, for
