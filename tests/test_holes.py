@@ -1,6 +1,8 @@
 """Holes by level set in the bundled models B2 and B3 (paper §7.2, §7.3), against a
 conforming-mesh reference (gmsh), and bad holes refused."""
 
+import pickle
+
 import numpy as np
 import pytest
 
@@ -110,6 +112,8 @@ def test_a_friction_study_shares_its_geometry_and_a_new_hole_does_not():
     assert first.substructures[holed].signature() != moved.substructures[holed].signature()
     assert fresh.interfaces == moved.interfaces  # frictions from the case (0.4), not cached
     assert any(itf.contact is not None and itf.contact.friction == 0.4 for itf in moved.interfaces)
+    assert len(model.spec.built) == 3  # the defaults (built when loaded), xc = 24 and 26
+    assert len(pickle.loads(pickle.dumps(model)).spec.built) == 0  # not sent to workers
 
 
 def test_a_parameter_read_by_a_material_or_a_box_rebuilds_the_substructures():

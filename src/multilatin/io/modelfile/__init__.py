@@ -20,7 +20,7 @@ from ...errors import ModelError
 from ...parameters import Mu, Parameter, Parameters
 from ..expressions import evaluate
 from .builder import Builder
-from .checks import TOP_LEVEL, check_keys, positive_int, require, unit_text
+from .checks import TOP_LEVEL, BuildCache, check_keys, positive_int, require, unit_text
 
 if sys.version_info >= (3, 11):
     import tomllib
@@ -28,14 +28,6 @@ else:  # pragma: no cover
     import tomli as tomllib
 
 __all__ = ["ModelSpec"]
-
-
-class BuildCache(list[Any]):
-    """What a model keeps between builds; not pickled (a model sent to a worker process
-    carries its file's table, not its meshes)."""
-
-    def __reduce__(self) -> tuple[type[BuildCache], tuple[()]]:
-        return BuildCache, ()
 
 
 @dataclass(frozen=True)

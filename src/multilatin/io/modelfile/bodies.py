@@ -90,20 +90,22 @@ class BodySections(SectionReader):
         if self.cache is None:
             return self._substructures()
         key = (self.refine, tuple(sorted(self.split.items())))
-        for n, (entry_key, read, subs, bodies) in enumerate(self.cache):
-            if entry_key == key and all(self.mu.get(name) == value
-                                        for name, value in read.items()):
-                self.cache.insert(0, self.cache.pop(n))  # most recently used first
-                return list(subs), dict(bodies)
+        with self.cache.lock:
+            for n, (entry_key, read, subs, bodies) in enumerate(self.cache):
+                if entry_key == key and all(self.mu.get(name) == value
+                                            for name, value in read.items()):
+                    self.cache.insert(0, self.cache.pop(n))  # most recently used first
+                    return list(subs), dict(bodies)
         recorder = ReadRecorder(self.mu)
         self.lookup = recorder
         try:
-            subs, bodies = self._substructures()
+            built, boxes = self._substructures()
         finally:
             self.lookup = self.mu
-        self.cache.insert(0, (key, dict(recorder.read), tuple(subs), dict(bodies)))
-        del self.cache[SUBSTRUCTURE_CACHE_SIZE:]
-        return list(subs), dict(bodies)
+        with self.cache.lock:
+            self.cache.insert(0, (key, dict(recorder.read), tuple(built), dict(boxes)))
+            del self.cache[SUBSTRUCTURE_CACHE_SIZE:]
+        return built, boxes
 
     def _substructures(self) -> tuple[list[Substructure], dict[str, tuple[float, ...]]]:
         materials = self.materials()

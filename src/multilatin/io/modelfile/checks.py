@@ -3,6 +3,7 @@ offending field and value, and ``SectionReader`` (one parameter set, numbers eva
 
 from __future__ import annotations
 
+import threading
 from collections.abc import Iterator, Mapping
 from typing import Any
 
@@ -51,6 +52,19 @@ def unit_text(value: Any, where: str) -> str:
     return value.strip()
 
 
+class BuildCache(list[Any]):
+    """What a model keeps between builds (``BodySections.substructures``), with a lock for
+    builds from several threads; not pickled (a model sent to a worker process carries its
+    file's table, not its meshes)."""
+
+    def __init__(self) -> None:
+        super().__init__()
+        self.lock = threading.Lock()
+
+    def __reduce__(self) -> tuple[type[BuildCache], tuple[()]]:
+        return BuildCache, ()
+
+
 class ReadRecorder(Mapping[str, float]):
     """A parameter set that records which names were looked up (present or not): a section
     built from it is a function of those values alone, so that a later parameter set equal
@@ -84,7 +98,7 @@ class SectionReader:
 
     def __init__(
         self, data: Mapping[str, Any], mu: Mu, refine: int, split: dict[str, tuple[int, int]],
-        cache: list[Any] | None = None,
+        cache: BuildCache | None = None,
     ) -> None:
         self.data = data
         self.mu = mu
