@@ -247,11 +247,10 @@ def _coupled_contact(displacement: FloatArray, force: FloatArray, w_hat: FloatAr
         x = start[c] - projected  # Eᵀ M0 (Ŵ − W)
         step = np.zeros((n_steps, r))
         for inner in range(alphas.size):
-            shift = np.zeros((n_steps, r))  # G x, G's nonzeros row by row
+            shift = np.empty((n_steps, r))  # G x
             for t in range(n_steps):
-                for i in range(r):
-                    for e in range(coupling_starts[i], coupling_starts[i + 1]):
-                        shift[t, coupling_columns[e]] += x[t, i] * coupling_values[e]
+                _coupling_shift(x[t], coupling_starts, coupling_columns, coupling_values,
+                                shift[t])
             for e in range(flat.size):  # F + E G x on the support
                 for t in range(n_steps):
                     shifted_rows[t, flat[e]] = force_rows[t, flat[e]]
@@ -273,26 +272,43 @@ def _coupled_contact(displacement: FloatArray, force: FloatArray, w_hat: FloatAr
         macro[c] = x + projected
 
 
+def _coupling_shift(projected: FloatArray, coupling_starts: IntArray,
+                    coupling_columns: IntArray, coupling_values: FloatArray,
+                    shift: FloatArray) -> None:  # pragma: no cover - compiled
+    """shift = G projected over G's nonzeros row by row (G is block diagonal)."""
+    shift[:] = 0.0
+    for i in range(coupling_starts.size - 1):
+        for e in range(coupling_starts[i], coupling_starts[i + 1]):
+            shift[coupling_columns[e]] += projected[i] * coupling_values[e]
+
+
+def _correction_row(out: FloatArray, field: FloatArray, starts: IntArray, flat: IntArray,
+                    basis: FloatArray, weighted: FloatArray, coupling_starts: IntArray,
+                    coupling_columns: IntArray, coupling_values: FloatArray,
+                    projected: FloatArray, shift: FloatArray
+                    ) -> None:  # pragma: no cover - compiled
+    """out += (H − D) x = E G Eᵀ M0 x for one row x = ``field`` (2P,), function after
+    function; ``projected`` and ``shift`` are (r,) work arrays."""
+    for j in range(starts.size - 1):  # Eᵀ M0 x
+        total = 0.0
+        for e in range(starts[j], starts[j + 1]):
+            total += weighted[e] * field[flat[e]]
+        projected[j] = total
+    _coupling_shift(projected, coupling_starts, coupling_columns, coupling_values, shift)
+    for j in range(starts.size - 1):  # += E G (Eᵀ M0 x)
+        for e in range(starts[j], starts[j + 1]):
+            out[flat[e]] += basis[e] * shift[j]
+
+
 def _two_scale_correction(out: FloatArray, field: FloatArray, starts: IntArray,
                           flat: IntArray, basis: FloatArray, weighted: FloatArray,
                           coupling_starts: IntArray, coupling_columns: IntArray,
                           coupling_values: FloatArray) -> None:  # pragma: no cover - compiled
     r = coupling_starts.size - 1
-    projected = np.empty(r)
-    shift = np.empty(r)
+    projected, shift = np.empty(r), np.empty(r)
     for t in range(field.shape[0]):
-        for j in range(r):  # Eᵀ M0 x
-            total = 0.0
-            for e in range(starts[j], starts[j + 1]):
-                total += weighted[e] * field[t, flat[e]]
-            projected[j] = total
-        shift[:] = 0.0  # G (Eᵀ M0 x), G's nonzeros row by row
-        for i in range(r):
-            for e in range(coupling_starts[i], coupling_starts[i + 1]):
-                shift[coupling_columns[e]] += projected[i] * coupling_values[e]
-        for j in range(r):  # += E G (Eᵀ M0 x)
-            for e in range(starts[j], starts[j + 1]):
-                out[t, flat[e]] += basis[e] * shift[j]
+        _correction_row(out[t], field[t], starts, flat, basis, weighted, coupling_starts,
+                        coupling_columns, coupling_values, projected, shift)
 
 
 def _direction_update(out: FloatArray, base: FloatArray, a: FloatArray, b: FloatArray,
@@ -300,41 +316,29 @@ def _direction_update(out: FloatArray, base: FloatArray, a: FloatArray, b: Float
                       flat: IntArray, basis: FloatArray, weighted: FloatArray,
                       coupling_starts: IntArray, coupling_columns: IntArray,
                       coupling_values: FloatArray) -> None:  # pragma: no cover - compiled
-    """Rows (n, 2P): out = base + (k (a − b) + (H − D)(a − b)), with the operations and
-    their order of NumPy's k x then ``two_scale_correction``; a − b is never stored
-    (``use_b`` False: a alone; ``use_base`` False: out = H (a − b)). ``out`` may be
-    ``base``. Row by row, so that the fields are read once."""
+    """Rows (n, 2P): out = base + (k d + (H − D) d), d = a − b, with the operations and
+    their order of NumPy's k x then ``two_scale_correction`` (``use_b`` False: d = a;
+    ``use_base`` False: out = H d). ``out`` may be ``base``. Row by row, so that the
+    fields are read once."""
     r = coupling_starts.size - 1
     n = a.shape[1]
-    projected = np.empty(r)
-    shift = np.empty(r)
-    row = np.empty(n)
+    projected, shift = np.empty(r), np.empty(r)
+    difference, row = np.empty(n), np.empty(n)
     for t in range(a.shape[0]):
         if use_b:
             for i in range(n):
-                row[i] = k[i] * (a[t, i] - b[t, i])
+                difference[i] = a[t, i] - b[t, i]
         else:
-            for i in range(n):
-                row[i] = k[i] * a[t, i]
-        for j in range(r):  # Eᵀ M0 (a − b)
-            total = 0.0
-            for e in range(starts[j], starts[j + 1]):
-                total += weighted[e] * (a[t, flat[e]] - b[t, flat[e]] if use_b
-                                        else a[t, flat[e]])
-            projected[j] = total
-        shift[:] = 0.0  # G Eᵀ M0 (a − b)
-        for i in range(r):
-            for e in range(coupling_starts[i], coupling_starts[i + 1]):
-                shift[coupling_columns[e]] += projected[i] * coupling_values[e]
-        for j in range(r):  # + E G Eᵀ M0 (a − b), function after function
-            for e in range(starts[j], starts[j + 1]):
-                row[flat[e]] += basis[e] * shift[j]
+            difference[:] = a[t]
+        for i in range(n):
+            row[i] = k[i] * difference[i]
+        _correction_row(row, difference, starts, flat, basis, weighted, coupling_starts,
+                        coupling_columns, coupling_values, projected, shift)
         if use_base:
             for i in range(n):
                 out[t, i] = base[t, i] + row[i]
         else:
-            for i in range(n):
-                out[t, i] = row[i]
+            out[t] = row
 
 
 def _relax(current: FloatArray, new: FloatArray, omega: float
@@ -378,7 +382,8 @@ _KERNELS = ("contact_and_stops", "relax", "indicator_squares", "perfect_and_boun
 
 
 def _compile() -> None:
-    global _in_cone, _series_trial, _contact_and_stops, _project_rows
+    global _in_cone, _series_trial, _contact_and_stops, _project_rows, _coupling_shift
+    global _correction_row
     compiled: dict[str, Callable[..., Any] | None] = dict.fromkeys(_KERNELS)
     try:  # pragma: no cover - depends on the installed extras
         numba = importlib.import_module("numba")
@@ -388,8 +393,10 @@ def _compile() -> None:
         jit_inline = numba.njit(cache=True, inline="always")
         _in_cone, _series_trial = jit_inline(_in_cone), jit_inline(_series_trial)
         jit = numba.njit(cache=True)
-        # called from ``_coupled_contact``: compiled before it
+        # called from ``_coupled_contact`` and the corrections: compiled before them
         _contact_and_stops, _project_rows = jit(_contact_and_stops), jit(_project_rows)
+        _coupling_shift = jit_inline(_coupling_shift)
+        _correction_row = jit_inline(_correction_row)
         compiled = {"contact_and_stops": _contact_and_stops,
                     "perfect_and_boundary": jit(_perfect_and_boundary),
                     "relax": jit(_relax), "indicator_squares": jit(_indicator_squares),

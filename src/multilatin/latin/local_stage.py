@@ -426,9 +426,6 @@ class MacroOnlyMap:
         """Q X for rows X of shape (…, 2m)."""
         return np.asarray((x @ self.right.T) @ self.left.T)
 
-    def dense(self) -> FloatArray:
-        return np.asarray(self.left @ self.right)
-
 
 def macro_only_map(points: InterfacePoints, k: FloatArray) -> MacroOnlyMap:
     """The local stage of macro-only perfect interfaces (paper eq. [20]) as a linear map.
