@@ -107,8 +107,9 @@ def test_multiresolution_changes_no_answer(b1: ml.Model, tmp_path: Path) -> None
 
 
 def test_batched_multiresolution_changes_no_answer(b1: ml.Model, tmp_path: Path) -> None:
-    """Grid lines solved as batches: the first line case by case, each next line as one batch
-    from the previous line's converged cases (one grid step away); tightly
+    """Grid lines solved as batches (``rolling=False``; the rolling batch starts every case
+    from the same neighbour, tests/test_rolling.py): the first line case by case, each next
+    line as one batch from the previous line's converged cases (one grid step away); tightly
     converged QoIs equal the cold ones. (μ1 + μ2 is kept off the multiples of 0.06, where a
     push step of 150 N x n equals the friction capacity 2500 (μ1 + μ2) and the centre block's
     position at that step is not unique.)"""
@@ -116,7 +117,7 @@ def test_batched_multiresolution_changes_no_answer(b1: ml.Model, tmp_path: Path)
     clear_operator_cache()
     grid = Grid({"mu1": [0.25, 0.35], "mu2": [0.0, 0.1, 0.2]})
     result = run_study(b1, grid, options=options, modes=("multiresolution", "cold"),
-                       out=tmp_path, progress=False, batch=8)
+                       out=tmp_path, progress=False, batch=8, rolling=False)
     warm, cold = result.mode_records("multiresolution"), result.mode_records("cold")
     assert [r["batch"] for r in warm] == [1, 1, 1, 3, 3, 3]
     assert [r["start"] for r in warm] == [

@@ -159,7 +159,7 @@ def test_hole_positions_are_batched_as_lines_on_numpy_only(tmp_path: Path) -> No
     assert [len(line) for line in plan.batches(plan.chains[0], 16)] == [3, 3]
     options = LatinOptions(tol=1e-7)
     result = run_study(model, grid, options=options, modes=("multiresolution", "cold"),
-                       out=tmp_path, progress=False)
+                       out=tmp_path, progress=False, rolling=False)
     warm, cold = result.mode_records("multiresolution"), result.mode_records("cold")
     assert [r["batch"] for r in warm] == [1, 1, 1, 3, 3, 3]
     for record in warm[3:]:

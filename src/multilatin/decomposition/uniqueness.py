@@ -139,41 +139,47 @@ def free_motions(assembly: Assembly, points: InterfacePoints, displacement_hat: 
         weights = points.weights[p]
         bodies = tuple(sorted({assembly.substructures[s].body for s in group}))
         with_friction = bool(np.any(friction > 0))
-        for t, column in zip(*np.nonzero(free), strict=True):
-            for sign in (1.0, -1.0):
-                mode = sign * vectors[t, :, column]
-                velocity = modes @ mode
-                into = np.sum(velocity * normal, axis=1)  # along n: into the partner
-                if np.any(touching[t] & (into > 1e-9)):
-                    continue  # it would push into a touching partner
-                reserve = _friction_reserve(velocity, normal, tangential_force[t], limit[t],
-                                            moving[t], weights)
-                if reserve <= reserve_tol:
-                    out.append(FreeMotion(int(t) + 1, bodies, (float(mode[0]), float(mode[1])),
+        # every free direction of every step at once, each with both signs
+        steps, columns = np.nonzero(free)
+        directions = vectors[steps, :, columns]  # (P, 3)
+        admissible = []
+        for sign in (1.0, -1.0):
+            velocity = np.einsum("nck,pk->pnc", modes, sign * directions)  # (P, n, 2)
+            into = np.einsum("pnc,nc->pn", velocity, normal)  # along n: into the partner
+            pushes = np.any(touching[steps] & (into > 1e-9), axis=1)  # into a touching one
+            reserve = _friction_reserve(velocity, normal, tangential_force[steps],
+                                        limit[steps], moving[steps], weights)
+            admissible.append((~pushes & (reserve <= reserve_tol), reserve))
+        for i, t in enumerate(steps.tolist()):
+            for sign, (free_along, reserve) in zip((1.0, -1.0), admissible, strict=True):
+                if free_along[i]:  # one sign of a direction is enough to say it is free
+                    mode = sign * directions[i]
+                    out.append(FreeMotion(t + 1, bodies, (float(mode[0]), float(mode[1])),
                                           float(mode[2] / size),
                                           (float(centre[0]), float(centre[1])),
-                                          max(reserve, 0.0), int(t) + 1 == n_steps
-                                          or with_friction))
-                    break  # one sign of a direction is enough to say it is free
+                                          max(float(reserve[i]), 0.0),
+                                          t + 1 == n_steps or with_friction))
+                    break
     out.sort(key=lambda motion: motion.step)
     return out
 
 
 def _friction_reserve(velocity: FloatArray, normal: FloatArray, tangential_force: FloatArray,
-                      limit: FloatArray, moving: np.ndarray, weights: FloatArray) -> float:
-    """The share of the friction capacity along ``velocity`` not yet used, 0 when the
-    motion changes no friction force. A point slipping during the step (``moving``) keeps
-    its force for a small motion either way if its force is at the limit; a point at rest
-    keeps it only for a motion against its force, at the limit."""
-    slide = velocity - np.sum(velocity * normal, axis=1)[:, None] * normal
-    speed = np.linalg.norm(slide, axis=1)
-    size = np.linalg.norm(tangential_force, axis=1)
-    against = -np.sum(tangential_force * slide, axis=1)  # = μ|N| speed when at the limit
+                      limit: FloatArray, moving: np.ndarray, weights: FloatArray) -> FloatArray:
+    """Per motion p (``velocity`` (P, n, 2) at the n points, and the forces, limits and
+    slips of its step, (P, n, …)): the share of the friction capacity along it not yet
+    used, 0 when the motion changes no friction force. A point slipping during the step
+    (``moving``) keeps its force for a small motion either way if its force is at the
+    limit; a point at rest keeps it only for a motion against its force, at the limit."""
+    slide = velocity - np.sum(velocity * normal, axis=2)[..., None] * normal
+    speed = np.linalg.norm(slide, axis=2)
+    size = np.linalg.norm(tangential_force, axis=2)
+    against = -np.sum(tangential_force * slide, axis=2)  # = μ|N| speed when at the limit
     used = np.where(moving, size * speed, against)
-    capacity = float(np.sum(weights * limit * speed))
-    if capacity <= 0:
-        return 0.0
-    return (capacity - float(np.sum(weights * used))) / capacity
+    capacity = np.sum(weights * limit * speed, axis=1)
+    positive = capacity > 0
+    return np.where(positive, (capacity - np.sum(weights * used, axis=1))
+                    / np.where(positive, capacity, 1.0), 0.0)
 
 
 def _rigid_rows(x: FloatArray, centre: FloatArray, size: float) -> FloatArray:

@@ -103,6 +103,7 @@ class NumpyFields:
         self.functionals = functionals
         self.shared = functionals is not None and all(f is functionals[0] for f in functionals)
         self.active = np.arange(w_hat.shape[0])
+        self.n_total = w_hat.shape[0]  # the cases ever in the batch (joined ones too)
         self.mixer = (Anderson(options.anderson_depth, options.relaxation,
                                np.sqrt(pts.weights[:, None] * k),
                                np.sqrt(pts.weights[:, None] / k))
@@ -225,6 +226,38 @@ class NumpyFields:
         self.f = np.array(self.f)
         self.w[cases] += dw
         self.f[cases] += df
+
+    def join(self, local: LocalStage, w_hat: FloatArray, f_hat: FloatArray,
+             macro_data: FloatArray | None, functionals: list[QoiFunctionals] | None,
+             ops: LatinOperators) -> None:
+        """Cases join the active ones (``iteration.BatchIterations.join``): their local
+        stage, start ŝ, F_dᴹ, QoI functionals and operators (sharing these interfaces). Their
+        s is zero until their first linear stage, which is not relaxed."""
+        n_new = w_hat.shape[0]
+        numbers = np.arange(self.n_total, self.n_total + n_new)
+        if self.geometry_of is None and ops is not self.ops:
+            self.geometry_of = [self.ops] * self.n_total
+        if self.geometry_of is not None:
+            self.geometry_of.extend([ops] * n_new)
+        self.n_total += n_new
+        self.active = np.concatenate([self.active, numbers])
+        if self.w is not None and self.f is not None:
+            self.w = np.concatenate([self.w, np.zeros_like(w_hat)])
+            self.f = np.concatenate([self.f, np.zeros_like(f_hat)])
+        self.w_hat = np.concatenate([self.w_hat, w_hat])
+        self.f_hat = np.concatenate([self.f_hat, f_hat])
+        if self.macro_data is not None and macro_data is not None:
+            self.macro_data = np.concatenate([self.macro_data, macro_data])
+        self.local = self.local.joined(local)
+        if self.functionals is not None and functionals is not None:
+            self.functionals = self.functionals + functionals
+            self.shared = all(f is self.functionals[0] for f in self.functionals)
+        if self.side_macro is not None:
+            assert self.ops.two_scale is not None
+            side = self.ops.two_scale.project(w_hat.reshape(-1, 2 * self.ops.points.n_points))
+            self.side_macro = np.concatenate([self.side_macro,
+                                              side.reshape(*w_hat.shape[:2], -1)])
+        self.geometries = self._geometries()
 
     def keep(self, cases: IntArray) -> None:
         assert self.w is not None and self.f is not None

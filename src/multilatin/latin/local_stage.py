@@ -60,6 +60,10 @@ class BranchTape:
         return True
 
 
+#: the local stage's arrays that hold one entry per case
+_PER_CASE = ("mu_contact", "gap_contact", "mu_stop", "gap_stop", "prescribed")
+
+
 class LocalStage:
     """Closed-form interface behaviours, vectorised over every point of every case of a batch
     (paper §3, §4.2). Fields have shape ``(n_cases, n_steps, n_points, 2)``.
@@ -128,8 +132,18 @@ class LocalStage:
         """The same local stage restricted to ``cases`` (cases leave a batch as they
         converge)."""
         out = copy.copy(self)
-        for name in ("mu_contact", "gap_contact", "mu_stop", "gap_stop", "prescribed"):
+        for name in _PER_CASE:
             setattr(out, name, getattr(self, name)[cases])
+        return out
+
+    def joined(self, other: LocalStage) -> LocalStage:
+        """This local stage's cases followed by ``other``'s (cases joining a running batch;
+        the same interface discretisation)."""
+        if not np.array_equal(other.pairs, self.pairs):
+            raise ModelError("a batch of cases must share the interface discretisation")
+        out = copy.copy(self)
+        for name in _PER_CASE:
+            setattr(out, name, np.concatenate([getattr(self, name), getattr(other, name)]))
         return out
 
     def prescribed_force_field(self, n_points: int) -> FloatArray:

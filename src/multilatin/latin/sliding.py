@@ -70,18 +70,28 @@ class SlidingExtrapolation:
         """Restart the case's record (its fields were moved by another rule)."""
         self.marks.pop(case, None)
 
-    def __call__(self, iteration: int, active: IntArray, eta: FloatArray,
+    def join(self, local: LocalStage, n_new: int) -> None:
+        """Cases join the batch (``local``: the whole batch's local stage, theirs last)."""
+        self.local = local
+        self.jumped_at = np.concatenate([self.jumped_at, np.full(n_new, -1, dtype=np.int64)])
+        self.jumps = np.concatenate([self.jumps, np.zeros(n_new, dtype=np.int64)])
+        self.taken_back = np.concatenate([self.taken_back, np.zeros(n_new, dtype=bool)])
+
+    def __call__(self, counts: IntArray | int, active: IntArray, eta: FloatArray,
                  engine: FieldEngine) -> list[int]:
-        """At every ``WINDOW``-th iteration: check the last jumps (η per active case),
-        record s, and shift the steady crawls. Returns the cases (batch indices) moved."""
-        if iteration % WINDOW or not active.size:
+        """At every ``WINDOW``-th iteration of a case (``counts``: each active case's own
+        iterations): check its last jump (η per active case), record s, and shift a
+        steady crawl. Returns the cases (batch indices) moved."""
+        counts = np.broadcast_to(np.asarray(counts), active.shape)  # one count for all: too
+        due = counts % WINDOW == 0
+        if not due.any():
             return []
         moved: list[int] = []
         positions: list[int] = []
         shifts_w: list[FloatArray] = []
         shifts_f: list[FloatArray] = []
         for i, case in enumerate(active.tolist()):
-            if case not in self.pending:
+            if not due[i] or case not in self.pending:
                 continue
             eta_at_jump, dw, df = self.pending.pop(case)
             if not eta[i] <= eta_at_jump:  # overshot: back, and no more jumps
@@ -97,7 +107,7 @@ class SlidingExtrapolation:
             positions, shifts_w, shifts_f = [], [], []
         w, f = engine.fields()[:2]
         for i, case in enumerate(active.tolist()):
-            if self.taken_back[case] or case in self.pending:
+            if not due[i] or self.taken_back[case] or case in self.pending:
                 continue
             marks = self.marks.setdefault(case, [])
             marks.append((np.array(w[i]), np.array(f[i])))
@@ -124,7 +134,7 @@ class SlidingExtrapolation:
             self.pending[case] = (float(eta[i]), shifts_w[-1], shifts_f[-1])
             marks.clear()
             moved.append(case)
-            self.jumped_at[case] = iteration
+            self.jumped_at[case] = int(counts[i])
             self.jumps[case] += 1
         if positions:
             engine.shift(np.array(positions), np.stack(shifts_w), np.stack(shifts_f))

@@ -297,6 +297,13 @@ def run_case(model: Model, grid: Grid, case: Case, mode: str, options: LatinOpti
                    spent), state
 
 
+def solve_again(result: SolveResult, start_index: tuple[int, ...] | None) -> bool:
+    """A warm-started answer that the discrete problem does not determine: the case is
+    solved again from zero (``multilatin.uniqueness``; a warm start would pick the solution
+    nearest its neighbour's, and the study's answer would depend on its order)."""
+    return start_index is not None and result.converged and not result.unique
+
+
 def _path_independent(assemblies: Sequence[Assembly], options: LatinOptions,
                       operators: Sequence[LatinOperators], results: Sequence[SolveResult],
                       start_indices: Sequence[tuple[int, ...] | None]
@@ -307,7 +314,7 @@ def _path_independent(assemblies: Sequence[Assembly], options: LatinOptions,
     the study's answer would depend on the order of the grid. Returns per case the result
     kept and the iterations spent on the warm attempt (0 when it is kept)."""
     again = [n for n, (result, start) in enumerate(zip(results, start_indices, strict=True))
-             if start is not None and result.converged and not result.unique]
+             if solve_again(result, start)]
     kept = [(result, 0) for result in results]
     if not again:
         return kept

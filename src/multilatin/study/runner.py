@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import functools
 import json
 import logging
 import os
@@ -25,6 +26,7 @@ from ..limits import check_study
 from ..model import Model
 from ..parameters import Grid
 from .plan import MODES, SCHEDULES, START_FROM, Case, ChainState, StudyPlan, plan_study, run_chain_step
+from .rolling import rolls, run_rolling
 from .store import StudyStore
 from .waves import submit_line_tasks
 
@@ -137,6 +139,7 @@ def run_study(
     command: str = "",
     on_case: Callable[[dict[str, Any]], None] | None = None,
     on_failure: str = "warn",
+    rolling: bool = True,
 ) -> StudyResult:
     """Run (or resume) a study of ``model`` over ``grid``.
 
@@ -165,6 +168,10 @@ def run_study(
         once its QoIs' estimated errors are below 0.1 % (or at η < 3e-6 before), which keeps
         R_stop within 0.1 % of its tight value on B1's 13 × 13 and B3's 5 × 5 grids with 27 %
         and 66 % fewer multiresolution iterations (docs/tolerance.md).
+    rolling: a serial multiresolution chain (NumPy, relaxation, ``batch`` > 1) runs as one
+        rolling batch of up to ``batch`` cases, each joining as soon as its neighbour has
+        converged (``study.rolling``: the same starts and answers as grid lines solved
+        batch after batch, which ``rolling=False`` does).
     on_failure: when cases did not converge (recorded, QoIs NaN in ``dataset``, left out of
         ``gains``): ``"warn"`` (a ``RuntimeWarning`` naming them), ``"raise"``
         (``NotConvergedError`` once the study is written, the result attached) or
@@ -220,7 +227,8 @@ def run_study(
             if pending:
                 log.info("%s: %d of %d cases to compute (%s)", model.name, len(pending),
                          plan.size, mode)
-            runner = _run_dask if (workers or scheduler) else _run_serial
+            runner = (_run_dask if (workers or scheduler) else
+                      functools.partial(_run_serial, rolling=rolling))
             bar = _progress_bar(plan.size, plan.size - len(pending), mode, progress,
                                 model.name)
             started = time.perf_counter()
@@ -371,9 +379,14 @@ def _pending_batches(plan: StudyPlan, chain: tuple[Case, ...], mode: str, store:
 def _run_serial(model: Model, grid: Grid, plan: StudyPlan, mode: str, options: LatinOptions,
                 store: StudyStore, finished: Callable[[list[dict[str, Any]], ChainState | None], None],
                 batch: int, workers: int, scheduler: str | None, start: str,
-                schedule: str) -> None:
+                schedule: str, rolling: bool = True) -> None:
     for chain_number, chain in enumerate(plan.chains):
         state = store.chain_state(mode, chain_number) if mode != "cold" else None
+        if rolling and rolls(mode, options, start, batch):
+            pending = {c.number for c in chain if not store.finished(mode, c.number)}
+            run_rolling(model, grid, plan, chain, mode, options, state, pending, batch,
+                        finished)
+            continue
         for cases in _pending_batches(plan, chain, mode, store, batch, start,
                                       options.backend):
             records, state = run_chain_step(model, grid, cases, mode, options, state, start)

@@ -1,0 +1,309 @@
+"""The control of batched LATIN iterations (method.md §4, §7): η, stopping, relaxation and
+the guards, per case, over a batch whose cases may also *join while it runs*.
+
+``BatchIterations`` holds the active cases' fields in a backend (``engine``) and steps
+them together; each case keeps its own iteration count, so a case that joins later (a
+rolling batch: ``solver.solve_latin_stream``) is stopped, relaxed and extrapolated exactly
+as if it had started alone. A batch whose cases all start together (``solve_latin_batch``)
+is the special case with no later joins.
+"""
+
+from __future__ import annotations
+
+import logging
+from collections.abc import Callable, Sequence
+from dataclasses import dataclass
+
+import numpy as np
+import numpy.typing as npt
+
+from ..fem.elasticity import FloatArray, IntArray
+from .engine import FieldEngine, NumpyFields, indicator_weights
+from .extrapolation import ReducedRankExtrapolation
+from .guards import DRIFT_WINDOW, damp_stagnating, drifts
+from .local_stage import LocalStage
+from .operators import LatinOperators
+from .options import LatinOptions
+from .sliding import SlidingExtrapolation
+from .tracking import WINDOW, QoiFunctionals, error_estimates
+
+log = logging.getLogger(__name__)
+
+#: called after every iteration with (iteration, active cases, W, F) of the active cases,
+#: s = (W, F) after relaxation, shapes ``(n_active, n_steps, n_points, 2)``; the arrays are
+#: the solver's own and change in place on the next iteration (copy what you keep)
+IterationObserver = Callable[[int, IntArray, FloatArray, FloatArray], None]
+
+#: with ``qoi_rtol``, η < tol stops a case only once its QoIs' estimates have settled too,
+#: or once η is this much below tol: a study honours the accuracy it asked for (session 14:
+#: a B1-9 warm case stopped on η 0.69 % off, its estimate saying so)
+ETA_STOP_UNDER = 0.1
+#: the iterations of tracked QoIs an error estimate reads (``tracking.error_estimates``)
+RECENT = WINDOW + 5
+
+
+@dataclass
+class IterationState:
+    """Per case: s = (W, F), ŝ = (Ŵ, F̂) at exit and the history of η; batch timings."""
+
+    #: per case that left: (W, F, Ŵ, F̂), each (n_steps, n_points, 2)
+    exits: dict[int, tuple[FloatArray, FloatArray, FloatArray, FloatArray]]
+    histories: list[list[float]]
+    #: per case, the tracked QoIs of its last ``RECENT`` iterations (n_cases, RECENT, n_qoi,
+    #: n_steps) and their η, written round the buffer (its iteration i at (i − 1) % RECENT)
+    qoi_recent: FloatArray
+    eta_recent: FloatArray
+    qoi_scale: FloatArray  # per case and QoI, the largest magnitude seen at its steps
+    #: per case, QoI and step: whether the QoI reports that step (``QoiFunctionals.reported``)
+    qoi_reported: npt.NDArray[np.bool_]
+    stopped_on_qoi: npt.NDArray[np.bool_]  # per case: stopped by ``qoi_rtol`` before η < tol
+    sizes: list[list[float]]  # per case, ½(‖s‖ + ‖ŝ‖) after each iteration
+    drifting: npt.NDArray[np.bool_]  # per case: stopped as s grows without bound
+    t_linear: float = 0.0  # linear stage, macro problem included
+    t_local: float = 0.0
+    t_macro: float = 0.0
+
+    @classmethod
+    def empty(cls, reported: npt.NDArray[np.bool_]) -> IterationState:
+        """Room for the cases of ``reported`` (n_cases, n_qoi, n_steps)."""
+        n_cases, n_qoi, n_steps = reported.shape
+        return cls({}, [[] for _ in range(n_cases)], np.zeros((n_cases, RECENT, n_qoi, n_steps)),
+                   np.zeros((n_cases, RECENT)), np.zeros((n_cases, n_qoi)), reported,
+                   np.zeros(n_cases, dtype=bool), [[] for _ in range(n_cases)],
+                   np.zeros(n_cases, dtype=bool))
+
+    def extend(self, reported: npt.NDArray[np.bool_]) -> None:
+        """Room for more cases after these (cases joining a rolling batch): the per-case
+        arrays grow by doubling, so that many joins cost linear time."""
+        first, n_new = len(self.histories), reported.shape[0]
+        if first + n_new > self.stopped_on_qoi.size:
+            capacity = max(2 * self.stopped_on_qoi.size, first + n_new)
+            for name in ("qoi_recent", "eta_recent", "qoi_scale", "qoi_reported",
+                         "stopped_on_qoi", "drifting"):
+                old = getattr(self, name)
+                grown = np.zeros((capacity, *old.shape[1:]), dtype=old.dtype)
+                grown[:old.shape[0]] = old
+                setattr(self, name, grown)
+        self.qoi_reported[first:first + n_new] = reported
+        self.histories += [[] for _ in range(n_new)]
+        self.sizes += [[] for _ in range(n_new)]
+
+    def recent_qoi(self, case: int, iterations: int) -> FloatArray:
+        """The tracked QoIs of the case's last iterations (at most ``RECENT``), oldest first."""
+        held = min(iterations, RECENT)
+        order = np.roll(np.arange(RECENT), -(iterations % RECENT))[RECENT - held:]
+        return np.asarray(self.qoi_recent[case, order], dtype=np.float64)
+
+
+def qoi_settled(state: IterationState, active: IntArray, counts: IntArray, rtol: float
+                ) -> npt.NDArray[np.bool_]:
+    """Per active case: every QoI's estimated error (``tracking.error_estimates``) below
+    ``rtol`` × max(|value|, 1 % of the largest magnitude it took), at the steps it reports.
+    ``counts``: each active case's own iterations."""
+    rows = np.arange(active.size)
+    values = state.qoi_recent[active, (counts - 1) % RECENT]
+    bound = rtol * np.maximum(np.abs(values), 1e-2 * state.qoi_scale[active][:, :, None])
+    ignored = ~state.qoi_reported[active]
+    # the estimate is at least the latest two-iteration change: where that alone exceeds
+    # the bound, the case goes on without the full estimate
+    settled = np.all((np.abs(values - state.qoi_recent[active, (counts - 3) % RECENT])
+                      <= bound) | ignored, axis=(1, 2))
+    candidates = rows[settled]
+    if candidates.size:
+        # oldest first: the case's iteration i sits at (i − 1) % RECENT
+        order = (counts[candidates, None] + np.arange(RECENT)) % RECENT
+        chosen = active[candidates]
+        recent = state.qoi_recent[chosen[:, None], order].transpose(1, 0, 2, 3)
+        eta = state.eta_recent[chosen[:, None], order].T
+        estimates = error_estimates(recent, eta[:, :, None, None])  # (n, n_qoi, n_steps)
+        settled[candidates] = np.all((estimates <= bound[candidates]) | ignored[candidates],
+                                     axis=(1, 2))
+    return np.asarray(settled, dtype=bool)
+
+
+def make_engine(ops: LatinOperators, local: LocalStage, options: LatinOptions,
+                w_hat: FloatArray, f_hat: FloatArray, macro_data: FloatArray | None,
+                functionals: list[QoiFunctionals] | None,
+                geometries: tuple[list[LatinOperators], IntArray]) -> FieldEngine:
+    """The backend that does the iteration's field work (``LatinOptions.backend``)."""
+    if options.backend == "torch":
+        from .torch_engine import TorchFields  # PyTorch loads only when asked for
+
+        return TorchFields(geometries[0], geometries[1], local, options, w_hat, f_hat,
+                           macro_data, functionals)
+    return NumpyFields(ops, local, options, w_hat, f_hat, macro_data, functionals,
+                       geometries)
+
+
+class BatchIterations:
+    """LATIN iterations of a batch of cases (``step``), each until its η < tol (or its QoIs
+    settle, ``qoi_rtol``) or the cap; cases may join a running batch (``join``, NumPy
+    backend, relaxation only). Cases are numbered in the order they joined; ``state``
+    holds their fields as they leave and their histories."""
+
+    def __init__(self, ops: LatinOperators, local: LocalStage, options: LatinOptions,
+                 w_hat: FloatArray, f_hat: FloatArray,
+                 observer: IterationObserver | None = None,
+                 functionals: list[QoiFunctionals] | None = None,
+                 geometries: tuple[list[LatinOperators], IntArray] | None = None) -> None:
+        """ŝ = (``w_hat``, ``f_hat``), shapes ``(n_cases, n_steps, n_points, 2)``.
+        geometries: the distinct operators of the cases and each case's index into them;
+        None: ``ops`` for every case."""
+        self.ops, self.options, self.observer = ops, options, observer
+        self.local = local  # every case that ever joined, by its number
+        n_cases, self.n_steps = w_hat.shape[0], w_hat.shape[1]
+        self.n_qoi = len(functionals[0].names) if functionals else 0
+        self.tracked = bool(functionals)  # QoIs tracked for their error estimates
+        self.state = IterationState.empty(self._reported(functionals, w_hat.shape))
+        self.active = np.arange(n_cases)
+        self.counts = np.zeros(n_cases, dtype=np.int64)  # per case: its own iterations
+        self.iteration = 0  # the batch's steps
+        macro_data = self._macro_data(local, n_cases)
+        geometries = geometries or ([ops], np.zeros(n_cases, dtype=np.int64))
+        self.engine = make_engine(ops, local, options, w_hat, f_hat, macro_data, functionals,
+                                  geometries)
+        self.relaxation = np.full(n_cases, options.relaxation)  # per active case
+        self.anderson = options.acceleration == "anderson"
+        weights = indicator_weights(ops.points.weights, ops.indicator_k)
+        self.sliding = (SlidingExtrapolation(local, *weights, n_cases)
+                        if options.extrapolate_sliding and not self.anderson else None)
+        self.rre = (ReducedRankExtrapolation(options.rre_cycle, *weights, n_cases)
+                    if options.acceleration == "rre" else None)
+
+    def _reported(self, functionals: list[QoiFunctionals] | None,
+                  shape: tuple[int, ...]) -> npt.NDArray[np.bool_]:
+        if functionals:
+            return np.stack([fn.reported(shape[1]) for fn in functionals])
+        return np.ones((shape[0], self.n_qoi, shape[1]), dtype=bool)
+
+    def _macro_data(self, local: LocalStage, n_cases: int) -> FloatArray | None:
+        """F_dᴹ per case and step: (n_cases, n_steps, n_macro), or None without a macro
+        basis."""
+        ops = self.ops
+        if ops.macro_basis is None:
+            return None
+        n_steps = local.prescribed.shape[1]
+        prescribed = local.prescribed_force_field(ops.points.n_points)
+        return np.asarray((ops.project @ prescribed.reshape(n_cases * n_steps, -1).T
+                           ).T.reshape(n_cases, n_steps, -1))
+
+    def join(self, local: LocalStage, w_hat: FloatArray, f_hat: FloatArray,
+             functionals: list[QoiFunctionals] | None, geometry: LatinOperators
+             ) -> IntArray:
+        """Cases join the running batch (their own local stage, start ŝ, QoI functionals
+        and operators, which share this batch's interfaces); returns their numbers. Their
+        first linear stage is not relaxed (as a batch's first is not)."""
+        if not isinstance(self.engine, NumpyFields) or self.anderson or self.rre is not None:
+            raise ValueError("cases join a running batch on the NumPy backend with "
+                             "relaxation only")
+        n_new = w_hat.shape[0]
+        first = len(self.state.histories)
+        numbers = np.arange(first, first + n_new)
+        self.state.extend(self._reported(functionals, w_hat.shape))
+        self.local = self.local.joined(local)
+        self.counts = np.concatenate([self.counts, np.zeros(n_new, dtype=np.int64)])
+        self.engine.join(local, w_hat, f_hat, self._macro_data(local, n_new), functionals,
+                         geometry)
+        self.active = np.concatenate([self.active, numbers])
+        self.relaxation = np.concatenate([self.relaxation, np.full(n_new, 1.0)])
+        if self.sliding is not None:
+            self.sliding.join(self.local, n_new)
+        return numbers
+
+    def step(self) -> IntArray:
+        """One iteration of every active case; returns the cases that left the batch
+        (converged, failed, or at the cap), their fields in ``state``."""
+        options, out, engine = self.options, self.state, self.engine
+        self.iteration += 1
+        active = self.active
+        self.counts[active] += 1
+        counts = self.counts[active]
+        relaxation = self.relaxation
+        engine.linear_stage(relaxation)
+        relaxation[counts == 1] = options.relaxation  # a joined case: relaxed from now on
+        if self.observer is not None:
+            w, f = engine.fields()[:2]
+            self.observer(self.iteration, active, w, f)
+        engine.local_stage()
+        if self.tracked:  # the QoIs, for their error estimate (tracking.py)
+            values = engine.qoi_values()
+            out.qoi_recent[active, (counts - 1) % RECENT] = values
+            out.qoi_scale[active] = np.maximum(out.qoi_scale[active], np.where(
+                out.qoi_reported[active], np.abs(values), 0.0).max(axis=2, initial=0.0))
+        # η = ‖s − ŝ‖ / ½(‖s‖ + ‖ŝ‖), ‖s‖² = Σ_t Σ_points ∫ (k⁻¹ F·F + k W·W) dΓ (§4.3)
+        gap, size = engine.indicator()
+        # a NaN or overflowed norm leaves η NaN; η = 0 only for a zero solution (no load)
+        eta = np.full_like(gap, np.nan)
+        finite = np.isfinite(gap) & np.isfinite(size)
+        np.divide(gap, size, out=eta, where=finite & (size > 0))
+        eta[finite & (size == 0)] = 0.0  # then gap = 0 too (gap ≤ ‖s‖ + ‖ŝ‖)
+        out.eta_recent[active, (counts - 1) % RECENT] = eta
+        for c, value, norm in zip(active, eta, size, strict=True):
+            out.histories[c].append(float(value))
+            out.sizes[c].append(float(norm))
+        if self.iteration % 50 == 0:
+            log.debug("iteration %d: eta = %.3e (worst of %d cases)", self.iteration,
+                      eta.max(), active.size)
+        due = np.flatnonzero(counts % options.stagnation_window == 0)
+        if due.size and not self.anderson:
+            damped = relaxation[due]
+            damp_stagnating(out.histories, active[due], damped, options)
+            relaxation[due] = damped
+        capped = counts >= options.max_iter
+        done = (eta < options.tol) | ~np.isfinite(eta) | capped
+        due = (counts % DRIFT_WINDOW == 0) & ~done
+        if due.any():
+            drifting = np.zeros_like(done)
+            drifting[due] = [drifts(out.sizes[c]) for c in active[due]]
+            out.drifting[active[drifting]] = True
+            done |= drifting
+        if options.qoi_rtol is not None and self.tracked:
+            eligible = np.flatnonzero(counts >= WINDOW + 5)
+            settled = np.zeros_like(done)
+            settled[eligible] = qoi_settled(out, active[eligible], counts[eligible],
+                                            options.qoi_rtol)
+            # η < tol alone is no QoI accuracy
+            done &= (settled | ~np.isfinite(eta) | (eta < ETA_STOP_UNDER * options.tol)
+                     | capped | (counts < WINDOW + 5))
+            on_qoi = settled & ~done & np.isfinite(eta)
+            if self.sliding is not None:  # the QoIs' recent history spans a jump: not yet
+                on_qoi &= (self.sliding.jumped_at[active] < 0) | (
+                    counts - self.sliding.jumped_at[active] > RECENT)
+            out.stopped_on_qoi[active[on_qoi]] = True
+            done |= on_qoi
+        leaving = active[done]
+        if leaving.size:
+            fields = engine.fields(np.flatnonzero(done))
+            for i, case in enumerate(leaving.tolist()):
+                out.exits[case] = (fields[0][i], fields[1][i], fields[2][i], fields[3][i])
+            keep = np.flatnonzero(~done)
+            self.active = active[keep]
+            self.relaxation = relaxation[keep]
+            if keep.size:
+                engine.keep(keep)
+        if self.rre is not None and self.active.size:
+            for case in self.rre(self.active, engine):
+                if self.sliding is not None:
+                    self.sliding.forget(case)
+        if self.sliding is not None and self.active.size:
+            for case in self.sliding(self.counts[self.active], self.active, eta[~done],
+                                     engine):
+                if self.rre is not None:
+                    self.rre.forget(case)
+        out.t_linear, out.t_macro, out.t_local = engine.t_linear, engine.t_macro, engine.t_local
+        return leaving
+
+
+def iterate(ops: LatinOperators, local: LocalStage, options: LatinOptions,
+            w_hat: FloatArray, f_hat: FloatArray, observer: IterationObserver | None = None,
+            functionals: Sequence[QoiFunctionals] | None = None,
+            geometries: tuple[list[LatinOperators], IntArray] | None = None
+            ) -> IterationState:
+    """Batched LATIN iterations from ŝ = (``w_hat``, ``f_hat``), every case until it
+    leaves (``BatchIterations``)."""
+    batch = BatchIterations(ops, local, options, w_hat, f_hat, observer,
+                            list(functionals) if functionals is not None else None,
+                            geometries)
+    while batch.active.size:
+        batch.step()
+    return batch.state

@@ -1,0 +1,173 @@
+"""A rolling batch (``latin.stream``, ``study.rolling``): cases join the running iteration
+when they are ready and leave it when they converge. Each case must be iterated exactly as
+alone — the same iterations and answers as a batch that starts together — and a study run
+as a rolling batch must start every case from the neighbour the line-by-line batches start
+it from, so that its answers are theirs."""
+
+from __future__ import annotations
+
+from collections.abc import Hashable
+from pathlib import Path
+
+import numpy as np
+import pytest
+
+import multilatin as ml
+from multilatin.decomposition.result import SolveResult
+from multilatin.latin import LatinOptions, solve_latin_batch
+from multilatin.latin.operators import LatinOperators
+from multilatin.latin.stream import StreamCase, solve_latin_stream
+from multilatin.parameters import Grid
+from multilatin.study.plan import clear_operator_cache
+from multilatin.study.rolling import start_neighbours
+from multilatin.study.runner import run_study
+
+#: the studies' stopping rule (QoI estimates) and the sliding extrapolation, both of which
+#: read each case's own iteration count
+OPTIONS = LatinOptions(qoi_rtol=1e-3)
+
+
+@pytest.fixture(scope="module")
+def b1() -> ml.Model:
+    return ml.load_model("b1")
+
+
+class _Feed:
+    """Cases handed out in order (when ``chained``, each only once the one before is
+    done); results collected."""
+
+    def __init__(self, cases: list[StreamCase], chained: bool = False) -> None:
+        self.cases, self.chained = list(cases), chained
+        self.pending = list(cases)
+        self.results: dict[Hashable, SolveResult] = {}
+        self.widths: list[float] = []
+
+    def take(self, count: int) -> list[StreamCase]:
+        taken = len(self.cases) - len(self.pending)
+        if self.chained and len(self.results) < taken:
+            return []  # the one before is still running
+        ready = self.pending[:1 if self.chained else count][:count]
+        del self.pending[:len(ready)]
+        return ready
+
+    def done(self, key: Hashable, result: SolveResult, wall_s: float) -> None:
+        assert wall_s > 0
+        self.results[key] = result
+        self.widths.append(result.timings["batch_size"])
+
+    def finished(self) -> bool:
+        return not self.pending and len(self.results) == len(self.cases)
+
+
+def test_cases_joining_a_running_batch_are_iterated_as_alone(b1: ml.Model) -> None:
+    """Seven cases of B1's μ2 line from zero, and three from a neighbour's converged fields,
+    through rolling batches of width 1, 3 and 10 (cases join as others leave): the same
+    iterations, and R_stop and every interface field equal to rounding, as one batch that
+    starts together."""
+    assemblies = [b1.assemble({"mu1": 0.3, "mu2": mu2})
+                  for mu2 in (0.0, 0.1, 0.2, 0.3, 0.4, 0.5, 0.6, 0.05, 0.15, 0.25)]
+    ops = LatinOperators(assemblies[0], OPTIONS)
+    first = solve_latin_batch(assemblies[:1], OPTIONS, ops, check=False)[0]
+    assert first.interface is not None
+    start = (first.interface.displacement_hat, first.interface.force_hat)
+    initial = [None] * 7 + [start] * 3
+    together = solve_latin_batch(assemblies, OPTIONS, ops, check=False, initial=initial)
+    assert len({r.iterations for r in together}) > 3  # cases leave at different times
+    for width in (1, 3, 10):
+        feed = _Feed([StreamCase(n, a, ops, s)
+                      for n, (a, s) in enumerate(zip(assemblies, initial, strict=True))])
+        steps = solve_latin_stream(feed, OPTIONS, width)
+        assert steps >= max(r.iterations for r in together)
+        for n, expected in enumerate(together):
+            got = feed.results[n]
+            assert got.iterations == expected.iterations, (width, n)
+            assert got.converged and got.stopped_on_qoi == expected.stopped_on_qoi
+            assert got.qoi["R_stop"] == pytest.approx(expected.qoi["R_stop"], rel=1e-10)
+            assert got.interface is not None and expected.interface is not None
+            np.testing.assert_allclose(got.interface.force_hat, expected.interface.force_hat,
+                                       rtol=0, atol=1e-9 * np.abs(
+                                           expected.interface.force_hat).max())
+        assert max(feed.widths) == min(width, 10)
+
+
+def test_a_case_joins_after_its_neighbour_converged(b1: ml.Model) -> None:
+    """Chained cases (each ready only after the one before has left) keep the batch at one
+    case and still give the batch's answers."""
+    assemblies = [b1.assemble({"mu1": 0.1, "mu2": mu2}) for mu2 in (0.0, 0.3)]
+    ops = LatinOperators(assemblies[0], OPTIONS)
+    feed = _Feed([StreamCase(n, a, ops) for n, a in enumerate(assemblies)], chained=True)
+    solve_latin_stream(feed, OPTIONS, 4)
+    assert feed.widths == [1.0, 1.0]
+    alone = solve_latin_batch(assemblies, OPTIONS, ops, check=False)
+    assert [feed.results[n].iterations for n in range(2)] == [r.iterations for r in alone]
+
+
+def test_a_rolling_batch_refuses_a_zero_width(b1: ml.Model) -> None:
+    with pytest.raises(ValueError, match="width"):
+        solve_latin_stream(_Feed([]), OPTIONS, 0)
+
+
+def test_a_rolling_study_gives_the_line_by_line_answers(b1: ml.Model, tmp_path: Path) -> None:
+    """B1 on a 2 × 4 grid that holds cases the discrete problem leaves undetermined ((0,
+    0.3) and, warm-started, (0.05, 0.25): solved again from zero): the rolling study starts
+    every case from the same neighbour as the line-by-line study, with the same iterations,
+    the same uniqueness flags and R_stop equal to rounding; cases ran side by side."""
+    grid = Grid({"mu1": [0.0, 0.05], "mu2": [0.15, 0.2, 0.25, 0.3]})
+    runs = {}
+    for rolling in (False, True):
+        clear_operator_cache()
+        runs[rolling] = run_study(b1, grid, out=tmp_path / str(rolling), progress=False,
+                                  rolling=rolling, batch=4)
+    lines = sorted(runs[False].records, key=lambda r: r["number"])
+    rolled = sorted(runs[True].records, key=lambda r: r["number"])
+    assert [r["start"] for r in rolled] == [r["start"] for r in lines]
+    assert [r["iterations"] for r in rolled] == [r["iterations"] for r in lines]
+    assert [r["unique"] for r in rolled] == [r["unique"] for r in lines]
+    assert sum("not unique" in r["start"] for r in rolled) >= 1
+    for got, expected in zip(rolled, lines, strict=True):
+        assert got["qoi"]["R_stop"] == pytest.approx(expected["qoi"]["R_stop"], rel=1e-9)
+    assert max(r["batch"] for r in rolled) > 1
+
+
+def test_start_neighbours_follow_the_line_rule(b1: ml.Model) -> None:
+    """The first line goes case after case, each from the one before; every later line
+    from the line before it, one grid step away; a resumed chain's finished cases count."""
+    grid = Grid({"mu1": [0.0, 0.1, 0.2], "mu2": [0.0, 0.3, 0.6]})
+    from multilatin.study.plan import plan_study
+
+    plan = plan_study(b1, grid, OPTIONS, 1)
+    chain = plan.chains[0]
+    parents = start_neighbours(plan, chain, set())
+    by_number = {c.number: c for c in chain}
+    for number, parent in parents.items():
+        case = by_number[number]
+        if number == 0:
+            assert parent is None
+            continue
+        assert parent is not None
+        assert sum(abs(a - b) for a, b in zip(parent, case.index, strict=True)) == 1
+        if case.index[0] > 0:  # a later line: from the line before, same μ2
+            assert parent == (case.index[0] - 1, case.index[1])
+    resumed = start_neighbours(plan, chain, {0, 1, 2})
+    assert set(resumed) == set(range(3, 9))
+    assert all(resumed[n] == parents[n] for n in resumed)
+
+
+def test_hole_positions_join_a_rolling_batch_with_their_own_operators(tmp_path: Path) -> None:
+    """B3's hole positions: every case has its own holed substructure (operators sharing
+    the interfaces), so cases of several geometries iterate side by side in the rolling
+    batch. The same starts, iterations and R_stop (to rounding) as the line-by-line study,
+    and several geometries ran together."""
+    model = ml.load_model("b3")
+    grid = Grid.parse(["xc=24:26:3", "yc=74:76:2", "rc=3"])
+    runs = {}
+    for rolling in (False, True):
+        clear_operator_cache()
+        runs[rolling] = sorted(run_study(model, grid, out=tmp_path / str(rolling),
+                                         progress=False, rolling=rolling).records,
+                               key=lambda r: r["number"])
+    assert [r["start"] for r in runs[True]] == [r["start"] for r in runs[False]]
+    assert [r["iterations"] for r in runs[True]] == [r["iterations"] for r in runs[False]]
+    for got, expected in zip(runs[True], runs[False], strict=True):
+        assert got["qoi"]["R_stop"] == pytest.approx(expected["qoi"]["R_stop"], rel=1e-9)
+    assert max(r["batch"] for r in runs[True]) >= 2
