@@ -176,9 +176,13 @@ def build_parser() -> argparse.ArgumentParser:
                        "neighbour, or every case of a geometry from zero in batches of "
                        "--batch sharing the operators (for a GPU) (default: %(default)s)")
     study.add_argument("--batch", type=int, default=16,
-                       help="multiresolution: solve up to N cases of a grid line together, "
-                            "each from its nearest converged neighbour (1: one by one; "
-                            "default: %(default)s)")
+                       help="multiresolution: iterate up to N cases together, each from its "
+                            "nearest converged neighbour (1: one by one; default: "
+                            "%(default)s)")
+    study.add_argument("--lines", action="store_true",
+                       help="serial multiresolution: solve grid lines batch after batch "
+                            "instead of one rolling batch that a case joins once its "
+                            "neighbour has converged (the same answers)")
     for p in (solve, ref, study):
         p.add_argument("--mortar", action="store_true",
                        help="join the non-matching meshes of interfaces declared type = "
@@ -300,7 +304,7 @@ def _study(model: Model, args: argparse.Namespace, argv: list[str] | None) -> in
     result = run_study(model, grid, options=_latin_options(args), modes=modes, out=out,
                        chains=args.chains, batch=args.batch, start=args.start,
                        workers=args.workers, scheduler=args.scheduler,
-                       schedule=args.schedule,
+                       schedule=args.schedule, rolling=not args.lines,
                        progress=not args.no_progress and not args.json, command=command)
     written = write_study_outputs(result, out)
     if args.json:

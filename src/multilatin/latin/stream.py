@@ -89,22 +89,24 @@ def solve_latin_stream(feed: CaseFeed, options: LatinOptions, width: int = 16) -
     waiting: list[StreamCase] = []  # another interface family: after the running batch
     built: _Built = OrderedDict()
     steps = 0
+    # one BLAS thread for the whole stream, as for a batch's iteration and recovery
+    # (``solve_latin_batch``); the operators of cases that join are built inside it too
     with one_blas_thread(), np.errstate(over="ignore", invalid="ignore"):
         while True:
             n_active = 0 if batch is None else int(batch.active.size)
             if batch is not None and n_active == 0:
                 batch, members = None, {}
             room = width - n_active
-            incoming = waiting[:room]
-            waiting = waiting[room:]
+            incoming, waiting = waiting[:room], waiting[room:]
             if room > len(incoming):
                 incoming += feed.take(room - len(incoming))
             family: LatinOperators | None = (
                 batch.ops if batch is not None else
                 incoming[0].operators if incoming else None)
-            joining = [c for c in incoming
-                       if family is not None and same_interfaces(family, c.operators)]
-            waiting = [c for c in incoming if c not in joining] + waiting
+            joins = [family is not None and same_interfaces(family, c.operators)
+                     for c in incoming]
+            waiting = [c for c, j in zip(incoming, joins, strict=True) if not j] + waiting
+            joining = [c for c, j in zip(incoming, joins, strict=True) if j]
             if joining:
                 batch = _join(batch, members, joining, options, built)
             if batch is None or not batch.active.size:
@@ -119,7 +121,10 @@ def solve_latin_stream(feed: CaseFeed, options: LatinOptions, width: int = 16) -
             for number in active.tolist():
                 members[number].wall_s += share
             if left.size:
-                _leave(batch, members, left, options, feed)
+                t1 = time.perf_counter()
+                leaving = [members.pop(number) for number in left.tolist()]
+                fields = _recover(batch, leaving, left)
+                _leave(batch, leaving, left, fields, time.perf_counter() - t1, options, feed)
 
 
 def _join(batch: BatchIterations | None, members: dict[int, _Member],
@@ -167,21 +172,25 @@ def _join(batch: BatchIterations | None, members: dict[int, _Member],
     return batch
 
 
-def _leave(batch: BatchIterations, members: dict[int, _Member], left: IntArray,
-           options: LatinOptions, feed: CaseFeed) -> None:
-    """The cases that left: their results (interior displacements recovered per
-    operators), handed to the feed; their exit fields then dropped from the batch's
-    state (a long stream holds only its active cases' fields)."""
-    t0 = time.perf_counter()
-    numbers = left.tolist()
-    leaving = [members.pop(number) for number in numbers]
+def _recover(batch: BatchIterations, leaving: list[_Member], left: IntArray
+             ) -> list[dict[str, FloatArray]]:
+    """The interior displacements of the cases that left, per operators."""
     distinct = list({id(m.case.operators): m.case.operators for m in leaving}.values())
     geometry = np.array([distinct.index(m.case.operators) for m in leaving])
+    return _recovered(batch.state, left.tolist(), distinct, geometry)
+
+
+def _leave(batch: BatchIterations, leaving: list[_Member], left: IntArray,
+           fields: list[dict[str, FloatArray]], recovery_s: float, options: LatinOptions,
+           feed: CaseFeed) -> None:
+    """The cases that left: their results handed to the feed, their exit fields then
+    dropped from the batch's state (a long stream holds only its active cases' fields)."""
+    t0 = time.perf_counter()
+    numbers = left.tolist()
     state = batch.state
-    fields = _recovered(state, numbers, distinct, geometry)
     results = [_result(number, m.case.assembly, m.points, state, field, options)
                for number, m, field in zip(numbers, leaving, fields, strict=True)]
-    share = (time.perf_counter() - t0) / len(leaving)
+    share = (time.perf_counter() - t0 + recovery_s) / len(leaving)
     for number, m, result in zip(numbers, leaving, results, strict=True):
         del state.exits[number]
         width = batch.active.size + len(leaving)
