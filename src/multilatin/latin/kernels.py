@@ -210,16 +210,6 @@ def _perfect_and_boundary(displacement: FloatArray, force: FloatArray, w_hat: Fl
                         w_hat[c, t, p, d], f_hat[c, t, p, d] = w + (data - f) / k, data
 
 
-def _project_rows(rows: FloatArray, starts: IntArray, flat: IntArray, values: FloatArray,
-                  out: FloatArray) -> None:  # pragma: no cover - compiled
-    """out[t, j] += Σ values[e] rows[t, flat[e]] over function j's entries e."""
-    for j in range(starts.size - 1):
-        for e in range(starts[j], starts[j + 1]):
-            index, value = flat[e], values[e]
-            for t in range(rows.shape[0]):
-                out[t, j] += value * rows[t, index]
-
-
 def _coupled_contact(displacement: FloatArray, force: FloatArray, w_hat: FloatArray,
                      f_hat: FloatArray, start: FloatArray, macro: FloatArray,
                      starts: IntArray, flat: IntArray, basis: FloatArray,
@@ -236,14 +226,31 @@ def _coupled_contact(displacement: FloatArray, force: FloatArray, w_hat: FloatAr
     n_cases, n_steps, n_points = displacement.shape[0], displacement.shape[1], \
         displacement.shape[2]
     r = coupling_starts.size - 1
+    # the functions' support as compact columns (support[u]; entry e at slot[e]), so that
+    # the projections and the shift run along contiguous steps; every sum in the order of
+    # the row-by-row form (over e within a function, functions in order)
+    slot = np.empty(flat.size, dtype=np.int64)
+    position = np.full(2 * n_points, -1, dtype=np.int64)
+    n_support = 0
+    for e in range(flat.size):
+        if position[flat[e]] < 0:
+            position[flat[e]] = n_support
+            n_support += 1
+        slot[e] = position[flat[e]]
+    support = np.empty(n_support, dtype=np.int64)
+    for e in range(flat.size):
+        support[slot[e]] = flat[e]
+    columns = np.empty((n_support, n_steps))
+    sums = np.empty((r, n_steps))
+    shift_t = np.empty((r, n_steps))
     shifted = np.empty((1, n_steps, n_points, 2))
     shifted_rows = shifted.reshape(n_steps, 2 * n_points)
     for c in range(n_cases):
         shifted[0] = force[c]
         force_rows = force[c].reshape(n_steps, 2 * n_points)
         projected = np.zeros((n_steps, r))  # Eᵀ M0 W
-        _project_rows(displacement[c].reshape(n_steps, 2 * n_points), starts, flat, weighted,
-                      projected)
+        _project_columns(displacement[c].reshape(n_steps, 2 * n_points), support, slot,
+                         starts, weighted, columns, sums, projected)
         x = start[c] - projected  # Eᵀ M0 (Ŵ − W)
         step = np.zeros((n_steps, r))
         for inner in range(alphas.size):
@@ -251,25 +258,53 @@ def _coupled_contact(displacement: FloatArray, force: FloatArray, w_hat: FloatAr
             for t in range(n_steps):
                 _coupling_shift(x[t], coupling_starts, coupling_columns, coupling_values,
                                 shift[t])
-            for e in range(flat.size):  # F + E G x on the support
+            for j in range(r):
                 for t in range(n_steps):
-                    shifted_rows[t, flat[e]] = force_rows[t, flat[e]]
+                    shift_t[j, t] = shift[t, j]
+            for u in range(n_support):  # F + E G x on the support
+                for t in range(n_steps):
+                    columns[u, t] = force_rows[t, support[u]]
             for j in range(r):
                 for e in range(starts[j], starts[j + 1]):
+                    u, value = slot[e], basis[e]
                     for t in range(n_steps):
-                        shifted_rows[t, flat[e]] += basis[e] * shift[t, j]
+                        columns[u, t] += value * shift_t[j, t]
+            for u in range(n_support):
+                for t in range(n_steps):
+                    shifted_rows[t, support[u]] = columns[u, t]
             _contact_and_stops(displacement[c:c + 1], shifted, w_hat[c:c + 1], f_hat[c:c + 1],
                                a, b, k_contact, k_contact_b, n_contact, mu_contact[c:c + 1],
                                gap_contact[c:c + 1], stops, k_stop, n_stop, mu_stop[c:c + 1],
                                gap_stop[c:c + 1], corner_of_pair, corner_stops, held_side,
                                held_boundary, held_stop, prescribed[c:c + 1])
             residual = -projected - x
-            _project_rows(w_hat[c].reshape(n_steps, 2 * n_points), starts, flat, weighted,
-                          residual)
+            _project_columns(w_hat[c].reshape(n_steps, 2 * n_points), support, slot, starts,
+                             weighted, columns, sums, residual)
             # Chebyshev's steps (``two_scale.chebyshev_steps``)
             step[:] = residual + betas[inner] * step
             x += alphas[inner] * step
         macro[c] = x + projected
+
+
+def _project_columns(rows: FloatArray, support: IntArray, slot: IntArray, starts: IntArray,
+                     values: FloatArray, columns: FloatArray, sums: FloatArray,
+                     out: FloatArray) -> None:  # pragma: no cover - compiled
+    """out[t, j] += Σ values[e] rows[t, flat[e]] over function j's entries e (in order), the
+    rows' support gathered first into compact columns (work arrays ``columns`` (n_support,
+    T), ``sums`` (r, T)): the steps then run along contiguous memory."""
+    n_steps = rows.shape[0]
+    for u in range(support.size):
+        for t in range(n_steps):
+            columns[u, t] = rows[t, support[u]]
+    for j in range(starts.size - 1):
+        for t in range(n_steps):
+            sums[j, t] = out[t, j]
+        for e in range(starts[j], starts[j + 1]):
+            u, value = slot[e], values[e]
+            for t in range(n_steps):
+                sums[j, t] += value * columns[u, t]
+        for t in range(n_steps):
+            out[t, j] = sums[j, t]
 
 
 def _coupling_shift(projected: FloatArray, coupling_starts: IntArray,
@@ -382,7 +417,7 @@ _KERNELS = ("contact_and_stops", "relax", "indicator_squares", "perfect_and_boun
 
 
 def _compile() -> None:
-    global _in_cone, _series_trial, _contact_and_stops, _project_rows, _coupling_shift
+    global _in_cone, _series_trial, _contact_and_stops, _project_columns, _coupling_shift
     global _correction_row
     compiled: dict[str, Callable[..., Any] | None] = dict.fromkeys(_KERNELS)
     try:  # pragma: no cover - depends on the installed extras
@@ -394,7 +429,7 @@ def _compile() -> None:
         _in_cone, _series_trial = jit_inline(_in_cone), jit_inline(_series_trial)
         jit = numba.njit(cache=True)
         # called from ``_coupled_contact`` and the corrections: compiled before them
-        _contact_and_stops, _project_rows = jit(_contact_and_stops), jit(_project_rows)
+        _contact_and_stops, _project_columns = jit(_contact_and_stops), jit(_project_columns)
         _coupling_shift = jit_inline(_coupling_shift)
         _correction_row = jit_inline(_correction_row)
         compiled = {"contact_and_stops": _contact_and_stops,
