@@ -171,3 +171,27 @@ def test_hole_positions_join_a_rolling_batch_with_their_own_operators(tmp_path: 
     for got, expected in zip(runs[True], runs[False], strict=True):
         assert got["qoi"]["R_stop"] == pytest.approx(expected["qoi"]["R_stop"], rel=1e-9)
     assert max(r["batch"] for r in runs[True]) >= 2
+
+
+def test_cases_of_other_interfaces_wait_for_the_running_batch(b1: ml.Model) -> None:
+    """A feed that mixes two interface discretisations (b1 and b1-4): the b1-4 case waits
+    until the b1 cases have left, then runs in a batch of its own; every answer is the one
+    of its own batch."""
+    b1_4 = ml.load_model("b1-4")
+    first = [b1.assemble({"mu1": 0.3, "mu2": mu2}) for mu2 in (0.1, 0.4, 0.6)]
+    other = b1_4.assemble({"mu1": 0.3, "mu2": 0.4})
+    ops, ops_4 = LatinOperators(first[0], OPTIONS), LatinOperators(other, OPTIONS)
+    cases = [StreamCase(0, first[0], ops), StreamCase(1, first[1], ops),
+             StreamCase(2, other, ops_4), StreamCase(3, first[2], ops)]
+    feed = _Feed(cases)
+    solve_latin_stream(feed, OPTIONS, 4)
+    expected = solve_latin_batch(first, OPTIONS, ops, check=False)
+    alone = solve_latin_batch([other], OPTIONS, ops_4, check=False)[0]
+    for key, result in zip((0, 1, 3), expected, strict=True):
+        assert feed.results[key].iterations == result.iterations
+        assert feed.results[key].qoi["R_stop"] == pytest.approx(result.qoi["R_stop"],
+                                                                rel=1e-10)
+    assert feed.results[2].iterations == alone.iterations
+    assert feed.results[2].qoi["R_stop"] == pytest.approx(alone.qoi["R_stop"], rel=1e-10)
+    assert feed.results[2].timings["batch_size"] == 1.0  # after the b1 cases left
+    assert list(feed.results)[-1] == 2
