@@ -14,7 +14,7 @@ import pytest
 
 import multilatin as ml
 from multilatin.decomposition.result import SolveResult
-from multilatin.latin import LatinOptions, solve_latin_batch
+from multilatin.latin import LatinOptions, solve_latin_batch, stream
 from multilatin.latin.operators import LatinOperators
 from multilatin.latin.stream import StreamCase, solve_latin_stream
 from multilatin.parameters import Grid
@@ -59,11 +59,15 @@ class _Feed:
         return not self.pending and len(self.results) == len(self.cases)
 
 
-def test_cases_joining_a_running_batch_are_iterated_as_alone(b1: ml.Model) -> None:
+@pytest.mark.parametrize("renumber_after", [4, 0])
+def test_cases_joining_a_running_batch_are_iterated_as_alone(
+        b1: ml.Model, renumber_after: int, monkeypatch: pytest.MonkeyPatch) -> None:
     """Seven cases of B1's μ2 line from zero, and three from a neighbour's converged fields,
     through rolling batches of width 1, 3 and 10 (cases join as others leave): the same
     iterations, and R_stop and every interface field equal to rounding, as one batch that
-    starts together."""
+    starts together — also when the batch renumbers its cases after every case that leaves
+    (``renumber_after`` 0; by default after four times its width)."""
+    monkeypatch.setattr(stream, "RENUMBER_AFTER", renumber_after)
     assemblies = [b1.assemble({"mu1": 0.3, "mu2": mu2})
                   for mu2 in (0.0, 0.1, 0.2, 0.3, 0.4, 0.5, 0.6, 0.05, 0.15, 0.25)]
     ops = LatinOperators(assemblies[0], OPTIONS)
@@ -153,13 +157,16 @@ def test_start_neighbours_follow_the_line_rule(b1: ml.Model) -> None:
     assert all(resumed[n] == parents[n] for n in resumed)
 
 
-def test_hole_positions_join_a_rolling_batch_with_their_own_operators(tmp_path: Path) -> None:
+def test_hole_positions_join_a_rolling_batch_with_their_own_operators(
+        tmp_path: Path, monkeypatch: pytest.MonkeyPatch) -> None:
     """B3's hole positions: every case has its own holed substructure (operators sharing
     the interfaces), so cases of several geometries iterate side by side in the rolling
     batch. The same starts, iterations and R_stop (to rounding) as the line-by-line study,
-    and several geometries ran together."""
+    and several geometries ran together; the batch renumbers its cases (and their
+    operators) whenever a case leaves."""
     model = ml.load_model("b3")
     grid = Grid.parse(["xc=24:26:3", "yc=74:76:2", "rc=3"])
+    monkeypatch.setattr(stream, "RENUMBER_AFTER", 0)  # cases renumbered as others leave
     runs = {}
     for rolling in (False, True):
         clear_operator_cache()

@@ -259,6 +259,18 @@ class NumpyFields:
                                               side.reshape(*w_hat.shape[:2], -1)])
         self.geometries = self._geometries()
 
+    def renumber(self) -> None:
+        """The active cases become cases 0 … n − 1, in their order: what the batch held for
+        the cases that left is let go (a long rolling batch stays as small as its width)."""
+        if self.geometry_of is not None:
+            self.geometry_of = [self.geometry_of[c] for c in self.active]
+        if self.functionals is not None:
+            self.functionals = [self.functionals[c] for c in self.active]
+            self.shared = all(f is self.functionals[0] for f in self.functionals)
+        self.n_total = int(self.active.size)
+        self.active = np.arange(self.n_total)
+        self.geometries = self._geometries()
+
     def keep(self, cases: IntArray) -> None:
         assert self.w is not None and self.f is not None
         self.active = self.active[cases]

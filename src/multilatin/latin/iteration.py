@@ -210,6 +210,29 @@ class BatchIterations:
             self.sliding.join(self.local, n_new)
         return numbers
 
+    def renumber(self) -> IntArray:
+        """The active cases become cases 0 … n − 1 in their order, and what the batch kept
+        for the cases that left (their histories, QoI buffers, local-stage data) is let go:
+        a rolling batch that never empties stays as large as its width, not as the number of
+        cases that went through it. Returns the active cases' former numbers. Only between
+        steps, with no case's exit fields left in ``state``."""
+        if not isinstance(self.engine, NumpyFields) or self.state.exits:
+            raise ValueError("renumber: NumPy backend, exit fields handed on first")
+        kept = self.active.copy()
+        state = self.state
+        for name in ("qoi_recent", "eta_recent", "qoi_scale", "qoi_reported",
+                     "stopped_on_qoi", "drifting"):
+            setattr(state, name, getattr(state, name)[kept])
+        state.histories = [state.histories[c] for c in kept]
+        state.sizes = [state.sizes[c] for c in kept]
+        self.counts = self.counts[kept]
+        self.local = self.local.subset(kept)
+        self.engine.renumber()
+        if self.sliding is not None:
+            self.sliding.renumber(kept, self.local)
+        self.active = np.arange(kept.size)
+        return kept
+
     def step(self) -> IntArray:
         """One iteration of every active case; returns the cases that left the batch
         (converged, failed, or at the cap), their fields in ``state``."""

@@ -77,6 +77,15 @@ class SlidingExtrapolation:
         self.jumps = np.concatenate([self.jumps, np.zeros(n_new, dtype=np.int64)])
         self.taken_back = np.concatenate([self.taken_back, np.zeros(n_new, dtype=bool)])
 
+    def renumber(self, kept: IntArray, local: LocalStage) -> None:
+        """Cases ``kept`` become cases 0 … n − 1 (``local``: theirs); the others are let go."""
+        number = {int(c): i for i, c in enumerate(kept)}
+        self.marks = {number[c]: v for c, v in self.marks.items() if c in number}
+        self.pending = {number[c]: v for c, v in self.pending.items() if c in number}
+        self.jumped_at, self.jumps = self.jumped_at[kept], self.jumps[kept]
+        self.taken_back = self.taken_back[kept]
+        self.local = local
+
     def __call__(self, counts: IntArray | int, active: IntArray, eta: FloatArray,
                  engine: FieldEngine) -> list[int]:
         """At every ``WINDOW``-th iteration of a case (``counts``: each active case's own

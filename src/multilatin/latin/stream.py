@@ -39,6 +39,9 @@ __all__ = ["CaseFeed", "StreamCase", "solve_latin_stream"]
 
 log = logging.getLogger(__name__)
 
+#: a rolling batch forgets the cases that left (``BatchIterations.renumber``) once it has
+#: held this many times its width: a long stream costs memory and time as its width does
+RENUMBER_AFTER = 4
 #: the QoI functionals kept for cases still to join, by operators (the latest few)
 FUNCTIONALS_KEPT = 8
 #: the QoI functionals built so far: by (id of the operators, the QoIs) the operators (so
@@ -125,6 +128,9 @@ def solve_latin_stream(feed: CaseFeed, options: LatinOptions, width: int = 16) -
                 leaving = [members.pop(number) for number in left.tolist()]
                 fields = _recover(batch, leaving, left)
                 _leave(batch, leaving, left, fields, time.perf_counter() - t1, options, feed)
+                if len(batch.state.histories) > RENUMBER_AFTER * width and batch.active.size:
+                    kept = batch.renumber()
+                    members = {n: members[int(c)] for n, c in enumerate(kept)}
 
 
 def _join(batch: BatchIterations | None, members: dict[int, _Member],
