@@ -100,7 +100,6 @@ def qoi_settled(state: IterationState, active: IntArray, counts: IntArray, rtol:
     """Per active case: every QoI's estimated error (``tracking.error_estimates``) below
     ``rtol`` × max(|value|, 1 % of the largest magnitude it took), at the steps it reports.
     ``counts``: each active case's own iterations."""
-    rows = np.arange(active.size)
     values = state.qoi_recent[active, (counts - 1) % RECENT]
     bound = rtol * np.maximum(np.abs(values), 1e-2 * state.qoi_scale[active][:, :, None])
     ignored = ~state.qoi_reported[active]
@@ -108,7 +107,7 @@ def qoi_settled(state: IterationState, active: IntArray, counts: IntArray, rtol:
     # the bound, the case goes on without the full estimate
     settled = np.all((np.abs(values - state.qoi_recent[active, (counts - 3) % RECENT])
                       <= bound) | ignored, axis=(1, 2))
-    candidates = rows[settled]
+    candidates = np.flatnonzero(settled)
     if candidates.size:
         # oldest first: the case's iteration i sits at (i − 1) % RECENT
         order = (counts[candidates, None] + np.arange(RECENT)) % RECENT

@@ -190,6 +190,20 @@ def _assemble(model: Model, grid: Grid, index: tuple[int, ...]) -> Any:
         raise ModelError(f"parameter set ({params}): {error}") from None
 
 
+def nearest_index(indices: Sequence[tuple[int, ...]], index: tuple[int, ...]
+                  ) -> tuple[tuple[int, ...] | None, int | None]:
+    """Of ``indices`` (oldest first), the one nearest ``index`` in grid steps (L1; ties: the
+    latest), never ``index`` itself, and its distance; (None, None) when there is none."""
+    best, best_distance = None, None
+    for other in reversed(indices):
+        if other == index:
+            continue
+        distance = sum(abs(a - b) for a, b in zip(other, index, strict=True))
+        if best_distance is None or distance < best_distance:
+            best, best_distance = other, distance
+    return best, best_distance
+
+
 @dataclass
 class ChainState:
     """What a chain carries from case to case: the converged interface fields ŝ of its
@@ -201,24 +215,16 @@ class ChainState:
 
     def nearest(self, index: tuple[int, ...]) -> tuple[tuple[int, ...] | None,
                                                       tuple[FloatArray, FloatArray] | None]:
-        """The retained case nearest to ``index`` (grid steps, L1; ties: most recent), never
-        ``index`` itself: a case recomputed after its record was lost must not start from
-        its own earlier answer."""
-        best, best_distance = None, None
-        for other in reversed(self.retained):
-            if other == index:
-                continue
-            distance = sum(abs(a - b) for a, b in zip(other, index, strict=True))
-            if best_distance is None or distance < best_distance:
-                best, best_distance = other, distance
+        """The retained case nearest to ``index`` (``nearest_index``), never ``index``
+        itself: a case recomputed after its record was lost must not start from its own
+        earlier answer."""
+        best, _ = nearest_index(list(self.retained), index)
         return (best, self.retained[best]) if best is not None else (None, None)
 
     def distance(self, index: tuple[int, ...]) -> int | None:
         """Grid steps (L1) to the nearest retained case other than ``index``; None when
         there is none."""
-        nearest, _ = self.nearest(index)
-        return (None if nearest is None else
-                sum(abs(a - b) for a, b in zip(nearest, index, strict=True)))
+        return nearest_index(list(self.retained), index)[1]
 
     def added(self, index: tuple[int, ...], fields: tuple[FloatArray, FloatArray]
               ) -> ChainState:

@@ -13,7 +13,7 @@ few slow cases at the end of every line (B1 13 × 13: an iteration of one case c
 of thirteen 6 ms).
 
 A warm-started case whose answer the discrete problem does not determine is solved again
-from zero (``plan._path_independent``'s rule) inside the same rolling batch; the cases
+from zero (``plan.solve_again``, the line batches' rule) inside the same rolling batch; the cases
 that start from it wait for that answer.
 """
 
@@ -32,7 +32,16 @@ from ..latin.stream import StreamCase, solve_latin_stream
 from ..model import Model
 from ..parameters import Grid
 from . import plan as plan_module
-from .plan import Case, ChainState, StudyPlan, _operators, _record, _retain, _retained_capacity
+from .plan import (
+    Case,
+    ChainState,
+    StudyPlan,
+    _operators,
+    _record,
+    _retain,
+    _retained_capacity,
+    nearest_index,
+)
 
 log = logging.getLogger(__name__)
 
@@ -55,29 +64,19 @@ def start_neighbours(plan: StudyPlan, chain: tuple[Case, ...], finished: set[int
         todo = [c for c in line if c.number not in finished]
         if not todo:
             continue
-        together = len(todo) > 1 and all(
-            (d := _nearest(before[-capacity:], c.index)[1]) is not None and d <= 1
-            for c in todo)
-        for case in todo:
-            out[case.number] = _nearest(before[-capacity:], case.index)[0]
+        nearest = [nearest_index(before[-capacity:], c.index) for c in todo]
+        together = len(todo) > 1 and all(d is not None and d <= 1 for _, d in nearest)
+        for case, (index, _) in zip(todo, nearest, strict=True):
+            # a line that goes case after case: each from the nearest before it, its own
+            # line's cases included
+            out[case.number] = index if together else nearest_index(before[-capacity:],
+                                                                    case.index)[0]
             if not together:
                 before.append(case.index)
         if together:
             before.extend(c.index for c in todo)
         del before[:-capacity]
     return out
-
-
-def _nearest(indices: list[Index], index: Index) -> tuple[Index | None, int | None]:
-    """The index nearest ``index`` (grid steps, L1; ties: the latest) and its distance."""
-    best, best_distance = None, None
-    for other in reversed(indices):
-        if other == index:
-            continue
-        distance = sum(abs(a - b) for a, b in zip(other, index, strict=True))
-        if best_distance is None or distance < best_distance:
-            best, best_distance = other, distance
-    return best, best_distance
 
 
 class ChainFeed:
