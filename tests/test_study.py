@@ -108,8 +108,9 @@ def test_multiresolution_changes_no_answer(b1: ml.Model, tmp_path: Path) -> None
 
 def test_batched_multiresolution_changes_no_answer(b1: ml.Model, tmp_path: Path) -> None:
     """Grid lines solved as batches (``rolling=False``; the rolling batch starts every case
-    from the same neighbour, tests/test_rolling.py): the first line case by case, each next
-    line as one batch from the previous line's converged cases (one grid step away); tightly
+    from the same neighbour, tests/test_rolling.py): the first line case by case from its
+    middle case outward, the next line as one batch from the first line's converged cases
+    (one grid step away: the waves' rule, ``study.waves.from_the_middle``); tightly
     converged QoIs equal the cold ones. (μ1 + μ2 is kept off the multiples of 0.06, where a
     push step of 150 N x n equals the friction capacity 2500 (μ1 + μ2) and the centre block's
     position at that step is not unique.)"""
@@ -120,11 +121,11 @@ def test_batched_multiresolution_changes_no_answer(b1: ml.Model, tmp_path: Path)
                        out=tmp_path, progress=False, batch=8, rolling=False)
     warm, cold = result.mode_records("multiresolution"), result.mode_records("cold")
     assert [r["batch"] for r in warm] == [1, 1, 1, 3, 3, 3]
-    assert [r["start"] for r in warm] == [
-        "zero", "mu1=0.25, mu2=0", "mu1=0.25, mu2=0.1",
+    assert [r["start"] for r in warm] == [  # the first line from its middle case outward
+        "mu1=0.25, mu2=0.1", "zero", "mu1=0.25, mu2=0.1",
         "mu1=0.25, mu2=0.2", "mu1=0.25, mu2=0.1", "mu1=0.25, mu2=0"]
     assert [r["params"]["mu2"] for r in warm] == [0.0, 0.1, 0.2, 0.2, 0.1, 0.0]
-    assert [r["operators_built"] for r in warm] == [True] + [False] * 5
+    assert [r["operators_built"] for r in warm] == [False, True] + [False] * 4
     assert all(r["batch"] == 1 for r in cold)
     for w in warm:
         c = next(r for r in cold if r["params"] == w["params"])

@@ -64,9 +64,9 @@ def test_a_warm_start_alone_picks_another_solution(b1: ml.Model, tmp_path: Path,
     the state is flagged as not unique."""
     monkeypatch.setattr(study_module, "solve_again", lambda result, start: False)
     clear_operator_cache()
-    result = run_study(b1, Grid({"mu2": [0.2, 0.25], "mu1": [0.05]}), out=tmp_path,
-                       progress=False)
-    warm = result.mode_records("multiresolution")[1]
+    result = run_study(b1, Grid({"mu2": [0.15, 0.2, 0.25], "mu1": [0.05]}), out=tmp_path,
+                       progress=False)  # from the middle case outward
+    warm = result.mode_records("multiresolution")[2]
     assert warm["start"] == "mu2=0.2, mu1=0.05"
     reference = b1.reference({"mu1": 0.05, "mu2": 0.25}).qoi["R_stop"]
     assert reference == pytest.approx(777.097, abs=0.01)

@@ -67,11 +67,15 @@ def test_waves_on_dask_give_the_serial_answers_with_one_cold_start(
     assert len({r["chain"] for r in chains.records}) == 2
     (cold,) = [r for r in waves.records if r["start"] == "zero"]
     assert cold["index"][0] == 1  # in the middle line
-    for record in waves.records:  # from another neighbour than in the serial study
+    for record in waves.records:  # the serial study starts by the waves' rule too
         same = by_number[record["number"]]
         assert record["converged"] and record["unique"] == same["unique"]
-        assert record["qoi"]["R_stop"] == pytest.approx(same["qoi"]["R_stop"], rel=1e-3,
-                                                        abs=0.05)
+        assert record["start"] == same["start"]
+        # the same iterates but for rounding (Dask's workers run BLAS on one thread, the
+        # cases are batched otherwise), which a contact status flipping mid-iteration can
+        # carry up to the stopping accuracy (1e-5 here; the QoI rule asks 1e-3)
+        assert abs(record["iterations"] - same["iterations"]) <= 2
+        assert record["qoi"]["R_stop"] == pytest.approx(same["qoi"]["R_stop"], rel=1e-4)
     # the same warm starts on one worker (the line not cut): no answer depends on the
     # number of workers beyond the batches' rounding
     one = run_study(b1, grid, workers=1, out=tmp_path / "one", progress=False)

@@ -169,8 +169,8 @@ def build_parser() -> argparse.ArgumentParser:
     # as --start's: study.plan.SCHEDULES, spelt out (the command line loads no solver early)
     study.add_argument("--schedule", choices=["waves", "chains"], default="waves",
                        help="with --workers/--scheduler: grid lines as tasks, each from the "
-                            "line before it (waves), or contiguous chains from zero "
-                            "(default: %(default)s)")
+                            "neighbour line nearer the middle one (waves), or contiguous "
+                            "chains from zero (default: %(default)s)")
     study.add_argument("--start", choices=["neighbour", "zero"], default="neighbour",
                        help="multiresolution: start each case from its nearest converged "
                        "neighbour, or every case of a geometry from zero in batches of "

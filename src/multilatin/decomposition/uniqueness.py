@@ -24,7 +24,11 @@ motion against its force. Motions combining several clusters are not searched.
 
 from __future__ import annotations
 
+import threading
+import weakref
+from collections import OrderedDict
 from dataclasses import dataclass
+from typing import Any
 
 import numpy as np
 
@@ -83,17 +87,45 @@ def clusters(assembly: Assembly) -> list[IntArray]:
     return [np.array(g, dtype=np.int64) for g in groups.values()]
 
 
-def free_motions(assembly: Assembly, points: InterfacePoints, displacement_hat: FloatArray,
-                 force_hat: FloatArray, reserve_tol: float = RESERVE_TOL) -> list[FreeMotion]:
-    """The free rigid motions of a converged state ŝ = (Ŵ, F̂), shapes ``(n_steps,
-    n_points, 2)`` (see the module's docstring). Vectorised over the load steps: per cluster,
-    the constraints' Gram matrix on the three rigid modes for every step at once, its null
-    space by a batched eigendecomposition."""
-    n_steps = force_hat.shape[0]
-    force_scale = float(np.abs(force_hat).max()) or 1.0
-    displacement_scale = float(np.abs(displacement_hat).max()) or 1.0
+@dataclass(frozen=True)
+class _Cluster:
+    """What ``free_motions`` needs of a cluster that depends on the geometry alone: its
+    points, rigid modes and prescribed displacements (the same for every case of a
+    geometry: friction, gaps and fields are the case's)."""
+
+    bodies: tuple[str, ...]
+    centre: FloatArray
+    size: float
+    held: FloatArray  # (3, 3): the prescribed displacements' Gram matrix on the modes
+    p: IntArray  # the cluster's contact points (its side of contact pairs, then stops)
+    partner: IntArray  # the other side's point, -1 for a stop
+    own: tuple[np.ndarray, np.ndarray, np.ndarray]  # own_a, own_b, stops inside
+    normal: FloatArray
+    modes: FloatArray  # (n, 2, 3)
+    along_normal: FloatArray  # (n, 3)
+    weights: FloatArray
+
+
+#: per interface geometry (``InterfacePoints.coords``'s identity, kept alive by a weak
+#: reference check) and topology, its clusters that some rigid mode is not held in
+_GEOMETRIES: OrderedDict[tuple[Any, ...], tuple[weakref.ref[Any], list[_Cluster]]] = (
+    OrderedDict())
+_GEOMETRY_CACHE_SIZE = 8
+_GEOMETRIES_LOCK = threading.Lock()
+
+
+def _clusters_of(assembly: Assembly, points: InterfacePoints) -> list[_Cluster]:
+    """The free-to-move candidates of ``clusters(assembly)`` with their geometry, cached
+    per interface geometry: the cases of a study share ``points.coords``."""
+    key = (id(points.coords), tuple(itf.kind for itf in assembly.interfaces),
+           tuple(sub.body for sub in assembly.substructures))
+    with _GEOMETRIES_LOCK:
+        found = _GEOMETRIES.get(key)
+        if found is not None and found[0]() is points.coords:
+            _GEOMETRIES.move_to_end(key)
+            return found[1]
     a, b = points.contact_pairs
-    out: list[FreeMotion] = []
+    out = []
     for group in clusters(assembly):
         inside = np.isin(points.substructure, group)
         coords = points.coords[inside]
@@ -106,17 +138,40 @@ def free_motions(assembly: Assembly, points: InterfacePoints, displacement_hat: 
         if np.linalg.matrix_rank(held, tol=1e-10 * max(np.abs(held).max(), 1e-300)) == 3:
             continue  # held in every rigid mode (a clamped body)
         own_a, own_b = inside[a] & ~inside[b], inside[b] & ~inside[a]
-        own_stops = points.stops[inside[points.stops]]
-        p = np.concatenate([a[own_a], b[own_b], own_stops])  # the cluster's contact points
-        partner = np.concatenate([b[own_a], a[own_b], np.full(own_stops.size, -1)])
-        friction = np.concatenate([points.contact_friction[own_a],
-                                   points.contact_friction[own_b],
-                                   points.stop_friction[inside[points.stops]]])
-        gap = np.concatenate([points.contact_gap[own_a], points.contact_gap[own_b],
-                              points.stop_gap[inside[points.stops]]])
+        own_stops = inside[points.stops]
+        p = np.concatenate([a[own_a], b[own_b], points.stops[own_stops]])
+        partner = np.concatenate([b[own_a], a[own_b], np.full(int(own_stops.sum()), -1)])
         normal = points.normals[p]
         modes = _rigid_rows(points.coords[p], centre, size)  # (n, 2, 3)
-        along_normal = np.einsum("nc,nck->nk", normal, modes)  # (n, 3)
+        out.append(_Cluster(
+            tuple(sorted({assembly.substructures[s].body for s in group})), centre, size,
+            held, p, partner, (own_a, own_b, own_stops), normal, modes,
+            np.einsum("nc,nck->nk", normal, modes), points.weights[p]))
+    with _GEOMETRIES_LOCK:
+        _GEOMETRIES[key] = (weakref.ref(points.coords), out)
+        while len(_GEOMETRIES) > _GEOMETRY_CACHE_SIZE:
+            _GEOMETRIES.popitem(last=False)
+    return out
+
+
+def free_motions(assembly: Assembly, points: InterfacePoints, displacement_hat: FloatArray,
+                 force_hat: FloatArray, reserve_tol: float = RESERVE_TOL) -> list[FreeMotion]:
+    """The free rigid motions of a converged state ŝ = (Ŵ, F̂), shapes ``(n_steps,
+    n_points, 2)`` (see the module's docstring). Vectorised over the load steps: per cluster,
+    the constraints' Gram matrix on the three rigid modes for every step at once, its null
+    space by a batched eigendecomposition."""
+    n_steps = force_hat.shape[0]
+    force_scale = float(np.abs(force_hat).max()) or 1.0
+    displacement_scale = float(np.abs(displacement_hat).max()) or 1.0
+    out: list[FreeMotion] = []
+    for cluster in _clusters_of(assembly, points):
+        p, partner, normal, modes = cluster.p, cluster.partner, cluster.normal, cluster.modes
+        own_a, own_b, own_stops = cluster.own
+        friction = np.concatenate([points.contact_friction[own_a],
+                                   points.contact_friction[own_b],
+                                   points.stop_friction[own_stops]])
+        gap = np.concatenate([points.contact_gap[own_a], points.contact_gap[own_b],
+                              points.stop_gap[own_stops]])
         force = force_hat[:, p]  # (T, n, 2): the force on the cluster
         normal_force = np.einsum("tnc,nc->tn", force, normal)
         # [Ŵ] = Ŵ_partner − Ŵ_own (a stop's side is fixed): opening and slip increments
@@ -128,16 +183,14 @@ def free_motions(assembly: Assembly, points: InterfacePoints, displacement_hat: 
         moving = np.linalg.norm(slip, axis=2) > 1e-4 * displacement_scale  # (T, n)
         pressed = normal_force < -1e-9 * force_scale  # two-sided: no motion along n
         touching = ~pressed & (opening <= 1e-4 * displacement_scale)  # may only separate
-        gram = held + np.einsum("tn,nk,nl->tkl", pressed.astype(float), along_normal,
-                                along_normal)
+        gram = cluster.held + np.einsum("tn,nk,nl->tkl", pressed.astype(float),
+                                        cluster.along_normal, cluster.along_normal)
         values, vectors = np.linalg.eigh(gram)  # ascending
         free = values <= 1e-10 * np.maximum(values[:, -1:], 1e-300)
         if not free.any():
             continue
         tangential_force = force - normal_force[..., None] * normal
         limit = friction * np.abs(normal_force)  # (T, n): μ|N|
-        weights = points.weights[p]
-        bodies = tuple(sorted({assembly.substructures[s].body for s in group}))
         with_friction = bool(np.any(friction > 0))
         # every free direction of every step at once, each with both signs
         steps, columns = np.nonzero(free)
@@ -148,15 +201,16 @@ def free_motions(assembly: Assembly, points: InterfacePoints, displacement_hat: 
             into = np.einsum("pnc,nc->pn", velocity, normal)  # along n: into the partner
             pushes = np.any(touching[steps] & (into > 1e-9), axis=1)  # into a touching one
             reserve = _friction_reserve(velocity, normal, tangential_force[steps],
-                                        limit[steps], moving[steps], weights)
+                                        limit[steps], moving[steps], cluster.weights)
             admissible.append((~pushes & (reserve <= reserve_tol), reserve))
+        centre = (float(cluster.centre[0]), float(cluster.centre[1]))
         for i, t in enumerate(steps.tolist()):
             for sign, (free_along, reserve) in zip((1.0, -1.0), admissible, strict=True):
                 if free_along[i]:  # one sign of a direction is enough to say it is free
                     mode = sign * directions[i]
-                    out.append(FreeMotion(t + 1, bodies, (float(mode[0]), float(mode[1])),
-                                          float(mode[2] / size),
-                                          (float(centre[0]), float(centre[1])),
+                    out.append(FreeMotion(t + 1, cluster.bodies,
+                                          (float(mode[0]), float(mode[1])),
+                                          float(mode[2] / cluster.size), centre,
                                           max(float(reserve[i]), 0.0),
                                           t + 1 == n_steps or with_friction))
                     break

@@ -2,15 +2,19 @@
 running iteration as soon as the neighbour it starts from has converged, and leaves it —
 recorded in the study's journal — as soon as it converges itself.
 
-Which neighbour a case starts from is fixed before the chain runs, by the rule of the
-line-by-line batches (``plan.run_batch``): a grid line whose every case has a finished
-neighbour one grid step away starts each case from the nearest finished case of the
-earlier lines (ties: the most recent); another line (a chain's first) goes case by case,
-each from the nearest finished case before it. So every case starts from the same
-neighbour as in the line-by-line study, whatever the batch's width: the answers are the
-same, and only the grouping of the products changes — the batch no longer thins out to a
-few slow cases at the end of every line (B1 13 × 13: an iteration of one case costs 1.2 ms,
-of thirteen 6 ms).
+Which neighbour a case starts from is fixed before the chain runs. A study of one geometry
+over two or more parameters (``waves.from_the_middle``) starts by the rule of Dask's waves
+(``middle_starts``): the line nearest the middle of the grid from its middle case outward,
+every other line's case from its parent line's, one grid step nearer the middle — the
+chain of starts half as deep as from a corner (B1 13 × 13: 12 cases after the one from zero,
+24 before), so the batch fills sooner. Other studies start by the traversal's rule of the
+line-by-line batches (``start_neighbours``, ``plan.run_batch``): a grid line whose every case
+has a finished neighbour one grid step away starts each case from the nearest finished case
+of the earlier lines (ties: the most recent); another line (a chain's first) goes case by
+case, each from the nearest finished case before it. Either way every case starts from the
+same neighbour as in the line-by-line study (``rolling=False``), whatever the batch's width:
+the answers are the same, and only the grouping of the products changes. Ready cases join
+nearest the case from zero first (their dependants are the most).
 
 A warm-started case whose answer the discrete problem does not determine is solved again
 from zero (``plan.solve_again``, the line batches' rule) inside the same rolling batch; the cases
@@ -42,6 +46,7 @@ from .plan import (
     _retained_capacity,
     nearest_index,
 )
+from .waves import from_the_middle, line_graph
 
 log = logging.getLogger(__name__)
 
@@ -79,6 +84,38 @@ def start_neighbours(plan: StudyPlan, chain: tuple[Case, ...], finished: set[int
     return out
 
 
+def middle_starts(plan: StudyPlan, chain: tuple[Case, ...]
+                  ) -> tuple[dict[int, Index | None], dict[int, int]]:
+    """Per case number of ``chain``, the grid index of the neighbour it starts from by the
+    rule of Dask's waves (``waves.line_graph``): the line nearest the middle of the grid
+    from its middle case outward, each case from the one before it; every other line's
+    case from its parent line's case at the nearest value along the lines (the same
+    value on a full grid: one grid step). And per case number, its depth: the chain of
+    starts that leads to it from the one case started from zero."""
+    graph = line_graph(plan, chain)
+    out: dict[int, Index | None] = {}
+    depth: dict[int, int] = {}
+    by_index = {case.index: case for case in chain}
+    for n in graph.order:
+        line = sorted(graph.lines[n], key=graph.along)
+        parent = graph.parent[n]
+        if parent is None:
+            centre = len(line) // 2
+            out[line[centre].number], depth[line[centre].number] = None, 0
+            for i in [*range(centre + 1, len(line)), *range(centre - 1, -1, -1)]:
+                before = line[i - 1 if i > centre else i + 1]
+                out[line[i].number] = before.index
+                depth[line[i].number] = depth[before.number] + 1
+            continue
+        candidates = [case.index for case in graph.lines[parent]]
+        for case in line:
+            index, _ = nearest_index(candidates, case.index)
+            assert index is not None
+            out[case.number] = index
+            depth[case.number] = depth[by_index[index].number] + 1
+    return out, depth
+
+
 class ChainFeed:
     """The cases of one chain for ``solve_latin_stream``: ready when their start neighbour
     has finished; their records handed to ``on_records`` as they finish."""
@@ -91,12 +128,16 @@ class ChainFeed:
         self.model, self.grid, self.mode, self.options = model, grid, mode, options
         self.on_records = on_records
         finished = {c.number for c in chain} - pending
-        self.parent = start_neighbours(plan, chain, finished)
+        if from_the_middle(plan):  # half as deep a chain of starts as from a corner
+            self.parent, self.priority = middle_starts(plan, chain)
+        else:  # the traversal's rule: each geometry's operators built once, in turn
+            self.parent = start_neighbours(plan, chain, finished)
+            self.priority = {c.number: c.number for c in chain}
         self.by_index = {c.index: c for c in chain}
         self.done_numbers = set(finished)
         #: per case number, the pending cases that start from it
         self.dependants: dict[int, list[Case]] = {}
-        self.ready: list[tuple[int, Case]] = []  # a heap in traversal order
+        self.ready: list[tuple[int, int, Case]] = []  # a heap: priority, then traversal
         self.n_waiting = 0
         for case in chain:
             if case.number not in pending:
@@ -105,7 +146,7 @@ class ChainFeed:
             index = self.parent[case.number]
             parent = self.by_index.get(index) if index is not None else None
             if parent is None or parent.number in self.done_numbers:
-                heapq.heappush(self.ready, (case.number, case))
+                heapq.heappush(self.ready, (self.priority[case.number], case.number, case))
             else:
                 self.dependants.setdefault(parent.number, []).append(case)
         self.state = state if state is not None else ChainState(_retained_capacity(grid))
@@ -127,7 +168,7 @@ class ChainFeed:
             case, spent, spent_s = self.again.pop(0)
             out.append(self._stream_case(case, None, spent, spent_s))
         while self.ready and len(out) < count:
-            _, case = heapq.heappop(self.ready)
+            _, _, case = heapq.heappop(self.ready)
             self.n_waiting -= 1
             out.append(self._stream_case(case, self._start(case), 0, 0.0))
         return out
@@ -180,7 +221,8 @@ class ChainFeed:
                                            result.interface.force_hat)
             self.state = _retain(self.state, case, result)
         for dependant in self.dependants.pop(case.number, []):
-            heapq.heappush(self.ready, (dependant.number, dependant))
+            heapq.heappush(self.ready, (self.priority[dependant.number], dependant.number,
+                                            dependant))
         record = _record(self.grid, case, self.mode, result, spent_s + wall_s + setup_s,
                          setup_s, built, start_index, int(result.timings.get("batch_size", 1)),
                          spent)

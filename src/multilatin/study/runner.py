@@ -28,7 +28,7 @@ from ..parameters import Grid
 from .plan import MODES, SCHEDULES, START_FROM, Case, ChainState, StudyPlan, plan_study, run_chain_step
 from .rolling import rolls, run_rolling
 from .store import StudyStore
-from .waves import submit_line_tasks
+from .waves import from_the_middle, run_line_tasks, submit_line_tasks
 
 log = logging.getLogger(__name__)
 
@@ -386,6 +386,12 @@ def _run_serial(model: Model, grid: Grid, plan: StudyPlan, mode: str, options: L
             pending = {c.number for c in chain if not store.finished(mode, c.number)}
             run_rolling(model, grid, plan, chain, mode, options, state, pending, batch,
                         finished)
+            continue
+        if (mode != "cold" and start == "neighbour" and options.backend == "numpy"
+                and from_the_middle(plan)):  # the waves' starts, as the rolling batch's
+            pending = {c.number for c in chain if not store.finished(mode, c.number)}
+            run_line_tasks(model, grid, plan, chain, mode, options, pending, batch, state,
+                           start, finished)
             continue
         for cases in _pending_batches(plan, chain, mode, store, batch, start,
                                       options.backend):

@@ -14,7 +14,9 @@ the grid's half-widths. Lines at the same depth run side by side. Each line is c
 pieces of its inner parameter's range (batches of ``solve_latin_batch``), as many as keep
 the workers busy at its depth; a piece waits only for the pieces of its parent line that
 hold its neighbours, so that the lines run as a pipeline. Which neighbour a case starts
-from does not depend on the number of workers.
+from does not depend on the number of workers, and a serial study of one geometry over two
+or more parameters starts its cases by the same rule (``from_the_middle``: its rolling
+batch, ``study.rolling``, or these tasks one after the other, ``run_line_tasks``).
 
 Cold mode has no dependencies: each piece is a task of its own.
 """
@@ -23,6 +25,7 @@ from __future__ import annotations
 
 import math
 from collections import OrderedDict
+from collections.abc import Callable
 from dataclasses import dataclass
 from typing import Any
 
@@ -32,7 +35,8 @@ from ..parameters import Grid
 from .plan import Case, ChainState, StudyPlan, _retained_capacity, run_batch
 from .store import StudyStore
 
-__all__ = ["LineTask", "line_tasks", "run_line_task", "submit_line_tasks"]
+__all__ = ["LineGraph", "LineTask", "from_the_middle", "line_graph", "line_tasks",
+           "run_line_tasks", "run_line_task", "submit_line_tasks"]
 
 
 @dataclass(frozen=True)
@@ -45,18 +49,33 @@ class LineTask:
     depth: int
 
 
-def line_tasks(plan: StudyPlan, chain: tuple[Case, ...], workers: int, batch: int
-               ) -> list[LineTask]:
-    """The chain's grid lines as a task graph (module docstring), every task after its
-    parents; pieces of at most ``batch`` cases."""
+@dataclass(frozen=True)
+class LineGraph:
+    """A chain's grid lines (``StudyPlan.batches(..., "line")``) as a tree: the ``root``
+    line nearest the middle of the grid, and every other line's ``parent``, a line one grid
+    step nearer the root (along the innermost outer parameter where there is one: a line of
+    the same geometry rather than a neighbouring geometry's); ``order``: breadth first from
+    the root, ``depth``: grid steps from it."""
+
+    lines: list[tuple[Case, ...]]
+    root: int
+    order: list[int]
+    depth: dict[int, int]
+    parent: dict[int, int | None]
+    inner: int | None
+
+    def along(self, case: Case) -> int:
+        """The case's index along the lines."""
+        return case.index[self.inner] if self.inner is not None else 0
+
+
+def line_graph(plan: StudyPlan, chain: tuple[Case, ...]) -> LineGraph:
+    """The chain's lines as a tree (``LineGraph``)."""
     lines = plan.batches(chain, len(chain), "line")
     inner = plan.inner
 
     def outer(case: Case) -> tuple[int, ...]:
         return tuple(i for d, i in enumerate(case.index) if d != inner)
-
-    def along(case: Case) -> int:
-        return case.index[inner] if inner is not None else 0
 
     keys = [outer(line[0]) for line in lines]
     number_of = {key: n for n, key in enumerate(keys)}
@@ -85,11 +104,19 @@ def line_tasks(plan: StudyPlan, chain: tuple[Case, ...], workers: int, batch: in
                     following.append(m)
         order += following
         frontier = following
-    # a parent one step nearer the first line, along the innermost outer parameter where
-    # there is one: a line of the same geometry rather than a neighbouring geometry's
     parent_line: dict[int, int | None] = {root: None}
     for n in order[1:]:
         parent_line[n] = next(m for m in neighbours(n) if depth_of[m] == depth_of[n] - 1)
+    return LineGraph(lines, root, order, depth_of, parent_line, inner)
+
+
+def line_tasks(plan: StudyPlan, chain: tuple[Case, ...], workers: int, batch: int
+               ) -> list[LineTask]:
+    """The chain's grid lines as a task graph (module docstring), every task after its
+    parents; pieces of at most ``batch`` cases."""
+    graph = line_graph(plan, chain)
+    lines, order, depth_of, parent_line = graph.lines, graph.order, graph.depth, graph.parent
+    along = graph.along
     load: dict[int, int] = {}  # cases per depth
     for n, depth in depth_of.items():
         load[depth] = load.get(depth, 0) + len(lines[n])
@@ -172,6 +199,46 @@ def run_line_task(model: Model, grid: Grid, cases: tuple[Case, ...], mode: str,
     kept = OrderedDict((index, fields) for index, fields in state.retained.items()
                        if index in own)
     return records, ChainState(state.capacity, kept)
+
+
+def from_the_middle(plan: StudyPlan) -> bool:
+    """Whether a serial multiresolution study starts its cases by the waves' rule (its
+    middle line from its middle case outward, every other line from its parent line; the
+    chain of starts half as deep as from a corner): studies of one geometry over two or more
+    parameters, in one chain. A line alone goes from its first value onward (the paper's
+    table 1); studies over geometries in the traversal's order (each geometry's operators
+    built once, in turn); several chains as Dask's ``"chains"`` schedule runs them."""
+    varying = sum(len(plan.grid[name]) > 1 for name in plan.grid)
+    return not plan.geometric and varying >= 2 and len(plan.chains) == 1
+
+
+def run_line_tasks(model: Model, grid: Grid, plan: StudyPlan, chain: tuple[Case, ...],
+                   mode: str, options: LatinOptions, pending: set[int], batch: int,
+                   resumed: ChainState | None, start: str,
+                   on_records: Callable[[list[dict[str, Any]], ChainState | None], None]
+                   ) -> None:
+    """The chain's line tasks (``line_tasks`` for one worker) one after the other in this
+    process: the same starts as Dask's waves. A task's converged cases are kept until the
+    tasks that start from them have run."""
+    tasks = line_tasks(plan, chain, 1, batch)
+    children = [0] * len(tasks)
+    for task in tasks:
+        for p in task.parents:
+            children[p] += 1
+    outputs: dict[int, tuple[list[dict[str, Any]], ChainState | None]] = {}
+    for number, task in enumerate(tasks):
+        cases = tuple(c for c in task.cases if c.number in pending)
+        if cases:
+            parents = [outputs[p] for p in task.parents if p in outputs]
+            records, state = run_line_task(model, grid, cases, mode, options, parents,
+                                           resumed, start)
+            on_records(records, state)
+            if children[number]:
+                outputs[number] = ([], state)
+        for p in task.parents:
+            children[p] -= 1
+            if not children[p]:
+                outputs.pop(p, None)
 
 
 #: grid steps from a task's cases within which its parents' converged cases are kept
