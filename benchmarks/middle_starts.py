@@ -3,14 +3,18 @@ grid line from the line before it) against from the middle (Dask's waves' rule, 
 session 19 the serial default for studies of one geometry over two or more parameters),
 side by side in one process, alternately.
 
-    python benchmarks/middle_starts.py [--models b1 b1-4] [--repeat 3] [--no-tight]
+    python benchmarks/middle_starts.py [--studies b1 b1-4 b3-positions] [--repeat 3]
+                                       [--no-tight]
 
-On the 13 × 13 grid (μ1, μ2 ∈ {0, 0.05, …, 0.6}; the studies' default options, QoI stopping
-at 1e-3; the rolling batch of 16): per model and rule, the multiresolution study's wall
+Studies: b1, b1-4: the 13 × 13 grid μ1, μ2 ∈ {0, 0.05, …, 0.6}; b3-positions: B3's 5 × 5
+hole positions, rc = 3 (paper table 2). The studies' default options (QoI stopping at 1e-3,
+the rolling batch of 16). Per study and rule, the multiresolution study's wall
 time (median of ``--repeat`` runs, with the runs), the process's CPU time (median), the
 iterations, the rolling batch's iterations and its mean width (case-iterations per batch
 iteration), the longest chain of starts (cases from the one started from zero), and
-R_stop's worst error against tight solves (η < 1e-10) with the cases within 0.1 %.
+R_stop's worst error against tight solves (η < 1e-10) with the cases within 0.1 %. Then
+the iterations per case by how it started (from zero, solved again from zero, from a
+neighbour along each parameter) and per value of the grid's first parameter.
 """
 
 from __future__ import annotations
@@ -30,7 +34,11 @@ from multilatin.parameters import Grid
 from multilatin.study import rolling
 from multilatin.study.plan import clear_operator_cache
 
-GRID = ["mu1=0:0.6:13", "mu2=0:0.6:13"]
+STUDIES = {
+    "b1": ("b1", ["mu1=0:0.6:13", "mu2=0:0.6:13"]),
+    "b1-4": ("b1-4", ["mu1=0:0.6:13", "mu2=0:0.6:13"]),
+    "b3-positions": ("b3", ["xc=23:27:5", "yc=73:77:5", "rc=3"]),
+}
 
 
 def _run(model: ml.Model, grid: Grid, middle: bool, folder: Path) -> dict[str, Any]:
@@ -62,7 +70,20 @@ def _run(model: ml.Model, grid: Grid, middle: bool, folder: Path) -> dict[str, A
         while not current["start"].startswith("zero"):
             current, steps = by_label[current["start"]], steps + 1
         depth = max(depth, steps)
-    return {"time": result.elapsed_s["multiresolution"], "cpu": cpu,
+    kinds: dict[str, list[int]] = {}  # iterations per case by how it started
+    for record in records:
+        if record["start"].startswith("zero"):
+            kind = "from zero" if record["start"] == "zero" else "again from zero"
+        else:
+            start = by_label[record["start"]]["index"]
+            kind = "along " + next(n for n, a, b in zip(grid, start, record["index"],
+                                                        strict=True) if a != b)
+        kinds.setdefault(kind, []).append(record["iterations"])
+    first = next(iter(grid))
+    rows = [float(np.mean([r["iterations"] for r in records if r["index"][0] == i]))
+            for i in range(len(grid[first]))]
+    return {"time": result.elapsed_s["multiresolution"], "cpu": cpu, "kinds": kinds,
+            "rows": rows,
             "iterations": sum(r["iterations"] for r in records),
             "steps": counts["steps"], "depth": depth,
             "width": counts["case_iterations"] / max(counts["steps"], 1),
@@ -71,19 +92,21 @@ def _run(model: ml.Model, grid: Grid, middle: bool, folder: Path) -> dict[str, A
 
 def main() -> None:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
-    parser.add_argument("--models", nargs="+", default=["b1"])
+    parser.add_argument("--studies", nargs="+", default=["b1", "b3-positions"],
+                        choices=list(STUDIES))
     parser.add_argument("--repeat", type=int, default=3)
     parser.add_argument("--no-tight", action="store_true",
                         help="skip the tight solves (R_stop's error not measured)")
     args = parser.parse_args()
-    grid = Grid.parse(GRID)
-    print("| model | starts | multiresolution s (median; runs) | process CPU s (median) | "
+    print("| study | starts | multiresolution s (median; runs) | process CPU s (median) | "
           "iterations | batch iterations | cases together (mean) | longest chain of starts "
           "| R_stop within 0.1 % | worst R_stop error |")
     print("|---|---|---|---|---|---|---|---|---|---|")
+    breakdown: dict[tuple[str, bool], dict[str, Any]] = {}
     with tempfile.TemporaryDirectory() as tmp:
-        for name in args.models:
-            model = ml.load_model(name)
+        for name in args.studies:
+            model_name, items = STUDIES[name]
+            model, grid = ml.load_model(model_name), Grid.parse(items)
             tight: dict[tuple[int, ...], float] = {}
             if not args.no_tight:
                 options = ml.LatinOptions(tol=1e-10, max_iter=10000)
@@ -110,6 +133,14 @@ def main() -> None:
                       f" | {statistics.median(run['cpu'] for run in runs[middle]):.2f} | "
                       f"{last['iterations']} | {last['steps']} | {last['width']:.1f} | "
                       f"{last['depth']} | {accuracy} |")
+                breakdown[(name, middle)] = last
+    print("\nIterations per case by start (cases × mean), and per value of the first "
+          "parameter (mean), in the last run of each:")
+    for (name, middle), run in breakdown.items():
+        kinds = "; ".join(f"{kind} {len(its)} × {np.mean(its):.1f}"
+                          for kind, its in sorted(run["kinds"].items()))
+        print(f"- {name}, {'middle' if middle else 'corner'}: {kinds}; per value: "
+              + " ".join(f"{r:.1f}" for r in run["rows"]))
 
 
 if __name__ == "__main__":

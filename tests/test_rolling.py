@@ -165,8 +165,9 @@ def test_start_neighbours_follow_the_line_rule(b1: ml.Model) -> None:
 def test_middle_starts_halve_the_chain_of_starts(b1: ml.Model) -> None:
     """A study of one geometry over two parameters starts its middle line's middle case
     from zero, every other case from a case one grid step nearer it: the deepest case of a
-    5 × 5 grid is 4 starts from zero (8 from a corner). A line alone, several chains and
-    studies over geometries keep the traversal's rule."""
+    5 × 5 grid is 4 starts from zero (8 from a corner). So do hole positions alone; a line
+    alone, several chains and studies over geometries and frictions keep the traversal's
+    rule."""
     from multilatin.study.plan import plan_study
 
     plan = plan_study(b1, Grid({"mu1": [0.0, 0.1, 0.2, 0.3, 0.4],
@@ -188,8 +189,10 @@ def test_middle_starts_halve_the_chain_of_starts(b1: ml.Model) -> None:
                                           OPTIONS, 1))
     assert not from_the_middle(plan_study(b1, Grid({"mu1": [0.0, 0.3], "mu2": [0.0, 0.3]}),
                                           OPTIONS, 2))
-    assert not from_the_middle(plan_study(ml.load_model("b3"),
-                                          Grid.parse(["xc=24:26:2", "mu1=0:0.3:2"]), OPTIONS, 1))
+    b3 = ml.load_model("b3")
+    assert not from_the_middle(plan_study(b3, Grid.parse(["xc=24:26:2", "mu1=0:0.3:2"]),
+                                          OPTIONS, 1))
+    assert from_the_middle(plan_study(b3, Grid.parse(["xc=24:26:2", "yc=74:76:2"]), OPTIONS, 1))
 
 
 def test_hole_positions_join_a_rolling_batch_with_their_own_operators(

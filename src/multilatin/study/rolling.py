@@ -2,8 +2,9 @@
 running iteration as soon as the neighbour it starts from has converged, and leaves it —
 recorded in the study's journal — as soon as it converges itself.
 
-Which neighbour a case starts from is fixed before the chain runs. A study of one geometry
-over two or more parameters (``waves.from_the_middle``) starts by the rule of Dask's waves
+Which neighbour a case starts from is fixed before the chain runs. A study over two or
+more parameters, all geometric or none (``waves.from_the_middle``), starts by the rule of
+Dask's waves
 (``middle_starts``): the line nearest the middle of the grid from its middle case outward,
 every other line's case from its parent line's, one grid step nearer the middle — the
 chain of starts half as deep as from a corner (B1 13 × 13: 12 cases after the one from zero,

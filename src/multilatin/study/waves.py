@@ -14,8 +14,8 @@ the grid's half-widths. Lines at the same depth run side by side. Each line is c
 pieces of its inner parameter's range (batches of ``solve_latin_batch``), as many as keep
 the workers busy at its depth; a piece waits only for the pieces of its parent line that
 hold its neighbours, so that the lines run as a pipeline. Which neighbour a case starts
-from does not depend on the number of workers, and a serial study of one geometry over two
-or more parameters starts its cases by the same rule (``from_the_middle``: its rolling
+from does not depend on the number of workers, and a serial study over two or more
+parameters, all geometric or none, starts its cases by the same rule (``from_the_middle``: its rolling
 batch, ``study.rolling``, or these tasks one after the other, ``run_line_tasks``).
 
 Cold mode has no dependencies: each piece is a task of its own.
@@ -204,12 +204,15 @@ def run_line_task(model: Model, grid: Grid, cases: tuple[Case, ...], mode: str,
 def from_the_middle(plan: StudyPlan) -> bool:
     """Whether a serial multiresolution study starts its cases by the waves' rule (its
     middle line from its middle case outward, every other line from its parent line; the
-    chain of starts half as deep as from a corner): studies of one geometry over two or more
-    parameters, in one chain. A line alone goes from its first value onward (the paper's
-    table 1); studies over geometries in the traversal's order (each geometry's operators
-    built once, in turn); several chains as Dask's ``"chains"`` schedule runs them."""
-    varying = sum(len(plan.grid[name]) > 1 for name in plan.grid)
-    return not plan.geometric and varying >= 2 and len(plan.chains) == 1
+    chain of starts half as deep as from a corner): studies over two or more parameters,
+    in one chain, that are all geometric (B3's hole positions: every case has operators of
+    its own) or none is. A line alone goes from its first value onward (the paper's table
+    1); studies over geometries and other parameters in the traversal's order (each
+    geometry's operators built once, its cases together); several chains as Dask's
+    ``"chains"`` schedule runs them."""
+    varying = [name for name in plan.grid if len(plan.grid[name]) > 1]
+    one_kind = not plan.geometric or set(varying) <= set(plan.geometric)
+    return one_kind and len(varying) >= 2 and len(plan.chains) == 1
 
 
 def run_line_tasks(model: Model, grid: Grid, plan: StudyPlan, chain: tuple[Case, ...],
