@@ -1,12 +1,12 @@
 """Where a serial multiresolution study starts: from a corner (the traversal's rule, each
 grid line from the line before it) against from the middle (Dask's waves' rule, since
-session 19 the serial default for studies of one geometry over two or more parameters),
-side by side in one process, alternately.
+session 19 the serial default for studies over two or more parameters, all geometric or
+none), side by side in one process, alternately.
 
-    python benchmarks/middle_starts.py [--studies b1 b1-4 b3-positions] [--repeat 3]
+    python benchmarks/middle_starts.py [--studies b1 b1-4 b1-9 b3-positions] [--repeat 3]
                                        [--no-tight]
 
-Studies: b1, b1-4: the 13 × 13 grid μ1, μ2 ∈ {0, 0.05, …, 0.6}; b3-positions: B3's 5 × 5
+Studies: b1, b1-4, b1-9: the 13 × 13 grid μ1, μ2 ∈ {0, 0.05, …, 0.6}; b3-positions: B3's 5 × 5
 hole positions, rc = 3 (paper table 2). The studies' default options (QoI stopping at 1e-3,
 the rolling batch of 16). Per study and rule, the multiresolution study's wall
 time (median of ``--repeat`` runs, with the runs), the process's CPU time (median), the
@@ -37,6 +37,7 @@ from multilatin.study.plan import clear_operator_cache
 STUDIES = {
     "b1": ("b1", ["mu1=0:0.6:13", "mu2=0:0.6:13"]),
     "b1-4": ("b1-4", ["mu1=0:0.6:13", "mu2=0:0.6:13"]),
+    "b1-9": ("b1-9", ["mu1=0:0.6:13", "mu2=0:0.6:13"]),
     "b3-positions": ("b3", ["xc=23:27:5", "yc=73:77:5", "rc=3"]),
 }
 

@@ -21,14 +21,16 @@ class AffineIterates:
         self.shape = (1, n_steps, n_points, 2)
         size = 2 * int(np.prod(self.shape))  # W and F, flat
         basis, _ = np.linalg.qr(rng.normal(size=(size, modes)))
-        eigenvalues = np.linspace(0.5, 0.99, modes)
-        self.matrix = basis @ np.diag(eigenvalues) @ basis.T
+        # A = V diag(λ) Vᵀ, applied through its factors (as a dense matrix, 48 000 values
+        # would need 18 GB)
+        self.basis, self.eigenvalues = basis, np.linspace(0.5, 0.99, modes)
         self.solution = rng.normal(size=size)
         self.x = self.solution + basis @ rng.normal(size=modes)  # error in the modes
         self.local_stages = 0
 
     def step(self) -> None:
-        self.x = self.solution + self.matrix @ (self.x - self.solution)
+        error = self.x - self.solution
+        self.x = self.solution + self.basis @ (self.eigenvalues * (self.basis.T @ error))
 
     def fields(self, cases: object = None) -> tuple[np.ndarray, ...]:
         half = self.x.size // 2
