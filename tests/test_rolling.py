@@ -195,6 +195,42 @@ def test_middle_starts_halve_the_chain_of_starts(b1: ml.Model) -> None:
     assert from_the_middle(plan_study(b3, Grid.parse(["xc=24:26:2", "yc=74:76:2"]), OPTIONS, 1))
 
 
+def test_an_interrupted_rolling_study_resumes_with_the_same_starts(
+        b1: ml.Model, tmp_path: Path, monkeypatch: pytest.MonkeyPatch) -> None:
+    """The chain's stored state holds, beyond its latest converged cases, those that cases
+    still to start from them need: a study interrupted after four cases (the state's
+    capacity cut to one case here, its records stored case by case) resumes with every
+    case started from the same neighbour as an uninterrupted run, and the same answers."""
+    from multilatin.study import rolling
+
+    monkeypatch.setattr(rolling, "_retained_capacity", lambda grid: 1)
+    monkeypatch.setattr(rolling, "STATE_EVERY", 1)
+    grid = Grid({"mu1": [0.25, 0.33, 0.41], "mu2": [0.0, 0.1, 0.2]})  # all unique
+    clear_operator_cache()
+    straight = sorted(run_study(b1, grid, out=tmp_path / "straight", progress=False).records,
+                      key=lambda r: r["number"])
+
+    class Interrupted(Exception):
+        pass
+
+    seen: list[dict[str, object]] = []
+
+    def interrupt(record: dict[str, object]) -> None:
+        seen.append(record)
+        if len(seen) == 4:
+            raise Interrupted
+
+    with pytest.raises(Interrupted):
+        run_study(b1, grid, out=tmp_path / "cut", progress=False, on_case=interrupt)
+    resumed = sorted(run_study(b1, grid, out=tmp_path / "cut", progress=False).records,
+                     key=lambda r: r["number"])
+    assert [r["start"] for r in resumed] == [r["start"] for r in straight]
+    assert [r["iterations"] for r in resumed] == [r["iterations"] for r in straight]
+    for got, expected in zip(resumed, straight, strict=True):
+        assert got["unique"]
+        assert got["qoi"]["R_stop"] == pytest.approx(expected["qoi"]["R_stop"], rel=1e-9)
+
+
 def test_hole_positions_join_a_rolling_batch_with_their_own_operators(
         tmp_path: Path, monkeypatch: pytest.MonkeyPatch) -> None:
     """B3's hole positions: every case has its own holed substructure (operators sharing

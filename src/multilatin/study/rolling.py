@@ -4,11 +4,10 @@ recorded in the study's journal — as soon as it converges itself.
 
 Which neighbour a case starts from is fixed before the chain runs. A study over two or
 more parameters, all geometric or none (``waves.from_the_middle``), starts by the rule of
-Dask's waves
-(``middle_starts``): the line nearest the middle of the grid from its middle case outward,
-every other line's case from its parent line's, one grid step nearer the middle — the
-chain of starts half as deep as from a corner (B1 13 × 13: 12 cases after the one from zero,
-24 before), so the batch fills sooner. Other studies start by the traversal's rule of the
+Dask's waves (``middle_starts``): the line nearest the middle of the grid from its middle
+case outward, every other line's case from its parent line's, one grid step nearer the
+middle — the chain of starts half as deep as from a corner (B1 13 × 13: 12 cases after the
+one from zero, 24 before), so the batch fills sooner. Other studies start by the traversal's rule of the
 line-by-line batches (``start_neighbours``, ``plan.run_batch``): a grid line whose every case
 has a finished neighbour one grid step away starts each case from the nearest finished case
 of the earlier lines (ties: the most recent); another line (a chain's first) goes case by
@@ -27,6 +26,7 @@ from __future__ import annotations
 import heapq
 import logging
 import time
+from collections import OrderedDict
 from collections.abc import Callable, Hashable
 from typing import Any
 
@@ -153,10 +153,14 @@ class ChainFeed:
         self.state = state if state is not None else ChainState(_retained_capacity(grid))
         #: the fields of finished cases that cases still to start from them need
         self.fields: dict[Index, tuple[FloatArray, FloatArray]] = {}
-        self.children: dict[Index, int] = {}
-        for index in self.parent.values():
+        self.children: dict[Index, int] = {}  # pending cases per start neighbour
+        for number in pending:
+            index = self.parent[number]
             if index is not None:
                 self.children[index] = self.children.get(index, 0) + 1
+        for index in self.children:  # a resumed chain's: its state stored them
+            if index in self.state.retained:
+                self.fields[index] = self.state.retained[index]
         self.running: dict[Hashable, tuple[Case, Index | None, float, bool, int, float]] = {}
         #: not unique from a warm start, solved again from zero: (case, its warm
         #: iterations, their wall time)
@@ -181,7 +185,6 @@ class ChainFeed:
         if index is None:
             return None, None
         fields = self.fields.get(index) or self.state.retained.get(index)
-        self._release(index)
         if fields is not None:
             return index, fields
         return self.state.nearest(case.index)
@@ -215,6 +218,9 @@ class ChainFeed:
             self.again.append((case, result.iterations, wall_s + setup_s))
             return
         self.done_numbers.add(case.number)
+        start = self.parent[case.number]
+        if start is not None and start in self.children:  # kept until now for the store
+            self._release(start)
         if result.converged:
             assert result.interface is not None
             if self.children.get(case.index):
@@ -235,7 +241,18 @@ class ChainFeed:
         """The finished cases not yet handed on go to ``on_records``, with the state."""
         if self.unsaved:
             records, self.unsaved = self.unsaved, []
-            self.on_records(records, self.state)
+            self.on_records(records, self._stored_state())
+
+    def _stored_state(self) -> ChainState:
+        """The chain's state for the store: its latest converged cases, and those that
+        cases still to start from them need (older ones first), so that a resumed chain
+        starts every case from its own neighbour, as an uninterrupted one."""
+        needed = [index for index in self.fields if index not in self.state.retained]
+        if not needed:
+            return self.state
+        retained = OrderedDict((index, self.fields[index]) for index in needed)
+        retained.update(self.state.retained)
+        return ChainState(self.state.capacity, retained)
 
     def finished(self) -> bool:
         return not self.n_waiting and not self.again and not self.running

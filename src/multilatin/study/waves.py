@@ -15,8 +15,9 @@ pieces of its inner parameter's range (batches of ``solve_latin_batch``), as man
 the workers busy at its depth; a piece waits only for the pieces of its parent line that
 hold its neighbours, so that the lines run as a pipeline. Which neighbour a case starts
 from does not depend on the number of workers, and a serial study over two or more
-parameters, all geometric or none, starts its cases by the same rule (``from_the_middle``: its rolling
-batch, ``study.rolling``, or these tasks one after the other, ``run_line_tasks``).
+parameters, all geometric or none, starts its cases by the same rule
+(``from_the_middle``: its rolling batch, ``study.rolling``, or these tasks one after the
+other, ``run_line_tasks``).
 
 Cold mode has no dependencies: each piece is a task of its own.
 """
@@ -221,8 +222,8 @@ def run_line_tasks(model: Model, grid: Grid, plan: StudyPlan, chain: tuple[Case,
                    on_records: Callable[[list[dict[str, Any]], ChainState | None], None]
                    ) -> None:
     """The chain's line tasks (``line_tasks`` for one worker) one after the other in this
-    process: the same starts as Dask's waves. A task's converged cases are kept until the
-    tasks that start from them have run."""
+    process: the same starts as Dask's waves. A task's converged cases are kept, and
+    stored with the chain's state, until the tasks that start from them have run."""
     tasks = line_tasks(plan, chain, 1, batch)
     children = [0] * len(tasks)
     for task in tasks:
@@ -235,9 +236,17 @@ def run_line_tasks(model: Model, grid: Grid, plan: StudyPlan, chain: tuple[Case,
             parents = [outputs[p] for p in task.parents if p in outputs]
             records, state = run_line_task(model, grid, cases, mode, options, parents,
                                            resumed, start)
-            on_records(records, state)
             if children[number]:
                 outputs[number] = ([], state)
+            stored = state
+            if state is not None:  # with the cases that tasks still to run start from
+                kept: OrderedDict[tuple[int, ...], Any] = OrderedDict()
+                for _, output in outputs.values():
+                    if output is not None:
+                        kept.update(output.retained)
+                kept.update(state.retained)
+                stored = ChainState(state.capacity, kept)
+            on_records(records, stored)
         for p in task.parents:
             children[p] -= 1
             if not children[p]:
