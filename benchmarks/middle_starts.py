@@ -27,11 +27,11 @@ from pathlib import Path
 from typing import Any
 
 import numpy as np
+from rolling import _Widths as Widths  # benchmarks/rolling.py (this script's folder)
 
 import multilatin as ml
-from multilatin.latin import iteration
 from multilatin.parameters import Grid
-from multilatin.study import rolling
+from multilatin.study import rolling as study_rolling
 from multilatin.study.plan import clear_operator_cache
 
 STUDIES = {
@@ -44,24 +44,15 @@ STUDIES = {
 
 def _run(model: ml.Model, grid: Grid, middle: bool, folder: Path) -> dict[str, Any]:
     clear_operator_cache()
-    original_rule = rolling.from_the_middle
-    original_step = iteration.BatchIterations.step
-    counts = {"steps": 0, "case_iterations": 0}
-
-    def step(batch: iteration.BatchIterations) -> Any:
-        counts["steps"] += 1
-        counts["case_iterations"] += int(batch.active.size)
-        return original_step(batch)
-
-    rolling.from_the_middle = original_rule if middle else lambda plan: False
-    iteration.BatchIterations.step = step
+    original_rule = study_rolling.from_the_middle
+    study_rolling.from_the_middle = original_rule if middle else lambda plan: False
     try:
         cpu = time.process_time()
-        result = ml.run_study(model, grid, out=folder, progress=False)
+        with Widths() as widths:  # benchmarks/rolling.py's counter of batch iterations
+            result = ml.run_study(model, grid, out=folder, progress=False)
         cpu = time.process_time() - cpu
     finally:
-        rolling.from_the_middle = original_rule
-        iteration.BatchIterations.step = original_step
+        study_rolling.from_the_middle = original_rule
     records = sorted(result.records, key=lambda r: r["number"])
     by_label = {", ".join(f"{n}={grid[n][i]:g}" for n, i in zip(grid, r["index"], strict=True)):
                 r for r in records}  # as a record names its start
@@ -86,8 +77,8 @@ def _run(model: ml.Model, grid: Grid, middle: bool, folder: Path) -> dict[str, A
     return {"time": result.elapsed_s["multiresolution"], "cpu": cpu, "kinds": kinds,
             "rows": rows,
             "iterations": sum(r["iterations"] for r in records),
-            "steps": counts["steps"], "depth": depth,
-            "width": counts["case_iterations"] / max(counts["steps"], 1),
+            "steps": widths.steps, "depth": depth,
+            "width": widths.case_iterations / max(widths.steps, 1),
             "R_stop": {tuple(r["index"]): r["qoi"]["R_stop"] for r in records}}
 
 

@@ -7,14 +7,15 @@ more parameters, all geometric or none (``waves.from_the_middle``), starts by th
 Dask's waves (``middle_starts``): the line nearest the middle of the grid from its middle
 case outward, every other line's case from its parent line's, one grid step nearer the
 middle — the chain of starts half as deep as from a corner (B1 13 × 13: 12 cases after the
-one from zero, 24 before), so the batch fills sooner. Other studies start by the traversal's rule of the
-line-by-line batches (``start_neighbours``, ``plan.run_batch``): a grid line whose every case
-has a finished neighbour one grid step away starts each case from the nearest finished case
-of the earlier lines (ties: the most recent); another line (a chain's first) goes case by
-case, each from the nearest finished case before it. Either way every case starts from the
-same neighbour as in the line-by-line study (``rolling=False``), whatever the batch's width:
-the answers are the same, and only the grouping of the products changes. Ready cases join
-nearest the case from zero first (their dependants are the most).
+one from zero, 24 before), so the batch fills sooner. Other studies start by the
+traversal's rule of the line-by-line batches (``start_neighbours``, ``plan.run_batch``): a
+grid line whose every case has a finished neighbour one grid step away starts each case
+from the nearest finished case of the earlier lines (ties: the most recent); another line
+(a chain's first) goes case by case, each from the nearest finished case before it.
+Either way every case starts from the same neighbour as in the line-by-line study
+(``rolling=False``), whatever the batch's width: the answers are the same, and only the
+grouping of the products changes. Ready cases join nearest the case from zero first (their
+dependants are the most).
 
 A warm-started case whose answer the discrete problem does not determine is solved again
 from zero (``plan.solve_again``, the line batches' rule) inside the same rolling batch; the cases

@@ -236,21 +236,22 @@ def run_line_tasks(model: Model, grid: Grid, plan: StudyPlan, chain: tuple[Case,
             parents = [outputs[p] for p in task.parents if p in outputs]
             records, state = run_line_task(model, grid, cases, mode, options, parents,
                                            resumed, start)
-            if children[number]:
-                outputs[number] = ([], state)
-            stored = state
-            if state is not None:  # with the cases that tasks still to run start from
-                kept: OrderedDict[tuple[int, ...], Any] = OrderedDict()
-                for _, output in outputs.values():
-                    if output is not None:
-                        kept.update(output.retained)
-                kept.update(state.retained)
-                stored = ChainState(state.capacity, kept)
-            on_records(records, stored)
         for p in task.parents:
             children[p] -= 1
             if not children[p]:
                 outputs.pop(p, None)
+        if not cases:
+            continue
+        if children[number]:
+            outputs[number] = ([], state)
+        stored = state
+        if state is not None:  # with the cases that tasks still to run start from
+            kept: OrderedDict[tuple[int, ...], Any] = OrderedDict()
+            for _, output in outputs.values():
+                kept.update(output.retained if output is not None else {})
+            kept.update(state.retained)
+            stored = ChainState(state.capacity, kept)
+        on_records(records, stored)
 
 
 #: grid steps from a task's cases within which its parents' converged cases are kept
