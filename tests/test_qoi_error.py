@@ -207,3 +207,34 @@ def test_a_study_does_not_stop_on_eta_before_its_qois_settle() -> None:
     assert on_eta.qoi_error["R_stop"] > 1e-3 * exact  # type: ignore[operator]
     assert on_qoi.converged and on_qoi.iterations > on_eta.iterations
     assert float(on_qoi.qoi["R_stop"]) == pytest.approx(exact, rel=1e-3)  # type: ignore[arg-type]
+
+
+def _b1_watching_r_stop_alone() -> ml.Model:
+    """B1 as a user might write it for R_stop's response: R_stop its only QoI."""
+    text = (Path(ml.__file__).parent / "models" / "b1.toml").read_text(encoding="utf-8")
+    head, *blocks = text.split("[[qoi]]")
+    kept = [b for b in blocks if 'name = "R_stop"' in b]
+    assert len(kept) == 1 and len(blocks) == 3
+    return ml.Model(ml.ModelSpec.from_string(head + "[[qoi]]" + kept[0], name="b1-r"))
+
+
+def test_qoi_stopping_waits_for_the_state_when_its_qois_stall(monkeypatch) -> None:
+    """With R_stop its only QoI, B1 (0.1, 0.3) sees R_stop (step 15) stall while the
+    centre block still slides: on the QoI's estimate alone the case stopped after 35
+    iterations with R_stop 2.9 % off and an estimate of 0.085 %, η = 1.4e-3. The
+    state's own remaining change (``iteration.state_settled``: η / (1 − ρ) < qoi_rtol)
+    must settle too; then R_stop ends within 0.1 %, as with every QoI watched."""
+    from multilatin.latin import iteration
+
+    model = _b1_watching_r_stop_alone()
+    mu = {"mu1": 0.1, "mu2": 0.3}
+    options = ml.LatinOptions(qoi_rtol=1e-3)
+    exact = float(model.solve(mu, options=TIGHT).qoi["R_stop"])  # type: ignore[arg-type]
+    guarded = model.solve(mu, options=options)
+    assert guarded.converged and guarded.stopped_on_qoi
+    assert float(guarded.qoi["R_stop"]) == pytest.approx(exact, rel=1e-3)  # type: ignore[arg-type]
+    monkeypatch.setattr(iteration, "state_settled",
+                        lambda state, active, counts, rtol: np.ones(active.size, dtype=bool))
+    unguarded = model.solve(mu, options=options)
+    assert unguarded.iterations < guarded.iterations
+    assert abs(float(unguarded.qoi["R_stop"]) - exact) > 1e-2 * exact  # type: ignore[arg-type]

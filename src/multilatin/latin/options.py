@@ -102,7 +102,10 @@ class LatinOptions:
         of interest at every step it reports (a QoI with ``step``: that step alone;
         ``multilatin.latin.tracking``) is below ``qoi_rtol``
         times its value, or times 1 % of the largest magnitude it took during the iteration
-        for a QoI near zero; looked at after ``tracking.WINDOW`` + 5 iterations. From then
+        for a QoI near zero, and the state's own remaining change η / (1 − ρ) (ρ: η's rate)
+        is below ``qoi_rtol`` too (``iteration.state_settled``: a QoI that stalls while the
+        state still moves stops nothing); looked at after ``tracking.WINDOW`` + 5
+        iterations. From then
         on η < tol alone no longer stops a case whose estimates have not settled, only η <
         tol / 10 does (``solver.ETA_STOP_UNDER``). None: η alone. Such a case is converged
         on its QoIs (``SolveResult.stopped_on_qoi``).

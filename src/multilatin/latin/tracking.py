@@ -58,6 +58,8 @@ class QoiFunctionals:
     steps: tuple[int | None, ...] = ()
     #: per field (W, F, F̂): the flat (point, component) columns read and their coefficients
     parts: tuple[tuple[IntArray, FloatArray], ...] = field(init=False, repr=False)
+    #: the same columns as a slice where they are a run (a view: no gather per iteration)
+    selectors: tuple[IntArray | slice, ...] = field(init=False, repr=False)
 
     def __post_init__(self) -> None:
         parts = []
@@ -67,6 +69,7 @@ class QoiFunctionals:
             used = np.flatnonzero(np.any(flat != 0.0, axis=0))
             parts.append((used, np.ascontiguousarray(flat[:, used].T)))
         object.__setattr__(self, "parts", tuple(parts))
+        object.__setattr__(self, "selectors", tuple(_as_slice(used) for used, _ in parts))
 
     def reported(self, n_steps: int) -> npt.NDArray[np.bool_]:
         """(n_qoi, n_steps): the steps each QoI reports — the values its error and its
@@ -82,11 +85,19 @@ class QoiFunctionals:
         """(n_cases, n_qoi, n_steps) from fields shaped (n_cases, n_steps, n_points, 2)."""
         n_cases, n_steps = w.shape[:2]
         total = np.zeros((n_cases * n_steps, len(self.names)))
-        for (used, coefficients), values in zip(self.parts, (w, f, f_hat), strict=True):
+        for (used, coefficients), columns, values in zip(self.parts, self.selectors,
+                                                        (w, f, f_hat), strict=True):
             if used.size:
-                total += values.reshape(n_cases * n_steps, -1)[:, used] @ coefficients
+                total += values.reshape(n_cases * n_steps, -1)[:, columns] @ coefficients
         return np.asarray(total.reshape(n_cases, n_steps, len(self.names)).transpose(0, 2, 1),
                           dtype=np.float64)
+
+
+def _as_slice(used: IntArray) -> IntArray | slice:
+    """A run of consecutive columns as a slice (a view: no gather per iteration)."""
+    if used.size and used[-1] - used[0] == used.size - 1:
+        return slice(int(used[0]), int(used[-1]) + 1)
+    return used
 
 
 def qoi_functionals(ops: LatinOperators, assembly: Assembly,
