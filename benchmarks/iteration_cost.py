@@ -1,5 +1,6 @@
 """What one LATIN iteration costs: a single case (a line study's cases, a cold solve) and a
-batch of cases (a grid study's rolling batch), the operators built beforehand.
+batch of cases (a grid study's rolling batch), the operators built beforehand; and what
+building the operators costs (a cold solve's setup, a new geometry's in a study).
 
     python benchmarks/iteration_cost.py                          # this checkout
     python benchmarks/iteration_cost.py --baseline /tmp/old/src  # side by side with another
@@ -7,10 +8,11 @@ batch of cases (a grid study's rolling batch), the operators built beforehand.
 For each model: cold solves at the four friction pairs of ``benchmarks/convergence.py``,
 one at a time (per iteration: the solve's wall time over its iterations, the operators
 given), then the same four cases together as one batch (``solve_latin_batch``) twice over
-(eight cases). Each measurement is the median of ``--repeat`` runs. With ``--baseline``, the
-script runs itself alternately with ``PYTHONPATH`` set to that source tree and to this one,
-``--rounds`` times, in fresh processes, and prints both medians and their ratio; the
-iterations and R_stop must agree (the same algorithm, only faster), else it says so.
+(eight cases); the operators of each of the four cases built anew (``LatinOperators``, the
+model's assembly included). Each measurement is the median of ``--repeat`` runs. With
+``--baseline``, the script runs itself alternately with ``PYTHONPATH`` set to that source
+tree and to this one, ``--rounds`` times, in fresh processes, and prints both medians and
+their ratio; the iterations and R_stop must agree (the same algorithm, only faster), else it says so.
 """
 
 from __future__ import annotations
@@ -43,7 +45,7 @@ def measure(models: list[str], repeat: int) -> dict[str, dict[str, float | list[
         assemblies = [model.assemble({"mu1": a, "mu2": b}) for a, b in PAIRS]
         ops = LatinOperators(assemblies[0], options)
         solve_latin(assemblies[0], options, ops)  # warm-up: kernels loaded, caches filled
-        single, batch = [], []
+        single, batch, setup = [], [], []
         iterations: list[float] = []
         r_stop: list[float] = []
         for _ in range(repeat):
@@ -57,6 +59,10 @@ def measure(models: list[str], repeat: int) -> dict[str, dict[str, float | list[
                 iterations.append(result.iterations)
                 r_stop.append(float(np.asarray(result.qoi["R_stop"])))
             single.append(1e3 * wall / its)
+            for a, b in PAIRS:
+                t0 = time.perf_counter()
+                LatinOperators(model.assemble({"mu1": a, "mu2": b}), options)
+                setup.append(1e3 * (time.perf_counter() - t0))
             t0 = time.perf_counter()
             results = solve_latin_batch(assemblies * 2, options, ops)
             wall = time.perf_counter() - t0
@@ -64,6 +70,7 @@ def measure(models: list[str], repeat: int) -> dict[str, dict[str, float | list[
             batch.append(1e3 * wall / sum(r.iterations for r in results))
         out[name] = {"single_ms": statistics.median(single),
                      "batch_ms": statistics.median(batch),
+                     "setup_ms": statistics.median(setup),
                      "iterations": iterations, "R_stop": r_stop}
     return out
 
@@ -83,7 +90,8 @@ def main() -> None:
     if not args.baseline:
         for name, row in measure(args.models, args.repeat).items():
             print(f"{name}: {row['single_ms']:.3f} ms per iteration alone, "
-                  f"{row['batch_ms']:.3f} per case-iteration in a batch of 8; "
+                  f"{row['batch_ms']:.3f} per case-iteration in a batch of 8, "
+                  f"{row['setup_ms']:.1f} per operators' build; "
                   f"iterations {row['iterations']}")
         return
     here = str(Path(__file__).resolve().parents[1] / "src")
@@ -101,7 +109,8 @@ def main() -> None:
     print("|---|---|---|---|---|")
     for name in args.models:
         for key, what in (("single_ms", "per iteration, one case"),
-                          ("batch_ms", "per case-iteration, batch of 8")):
+                          ("batch_ms", "per case-iteration, batch of 8"),
+                          ("setup_ms", "operators' build (assembly included)")):
             old = statistics.median(float(r[name][key]) for r in runs["baseline"])  # type: ignore[arg-type]
             new = statistics.median(float(r[name][key]) for r in runs["this"])  # type: ignore[arg-type]
             print(f"| {name} | {what} | {old:.3f} | {new:.3f} | {new / old:.2f} |")

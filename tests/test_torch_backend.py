@@ -83,8 +83,11 @@ def test_a_warm_batch_equals_the_numpy_one(acceleration: str) -> None:
         assert abs(one.iterations - other.iterations) <= 2
         assert one.stopped_on_qoi == other.stopped_on_qoi
         # Anderson's least squares on top of the coupled local stage's inner passes carry
-        # the backends' rounding further (5.6e-8 measured; η < 1e-6 leaves ~1e-6)
-        limit = 1e-6 if acceleration == "anderson" else 1e-9
+        # the backends' rounding further (5.6e-8 measured; η < 1e-6 leaves ~1e-6); where
+        # that moves a stop by an iteration, the answers differ by what η < 1e-6 leaves:
+        # R_stop within 1.8e-5 relative on B1 (docs/tolerance.md; u_A 1.8e-6 seen here)
+        limit = (1e-9 if acceleration != "anderson" else
+                 1e-6 if one.iterations == other.iterations else 2e-5)
         assert _relative(one.qoi["R_stop"], other.qoi["R_stop"]) < limit
         assert _relative(one.qoi["u_A"], other.qoi["u_A"]) < limit
 
