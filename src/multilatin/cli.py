@@ -80,7 +80,8 @@ def _add_latin_arguments(parser: argparse.ArgumentParser, qoi_rtol: float | None
                         help="tolerance on the indicator η (default: %(default)s)")
     parser.add_argument("--qoi-rtol", type=_optional_rtol, default=qoi_rtol, metavar="RTOL",
                         help="also stop a case once every QoI's estimated error is below RTOL "
-                        "times its value; 'none': on η alone (default: %(default)s)")
+                        "times its value, and the state's remaining change η/(1-ρ) below RTOL; "
+                        "'none': on η alone (default: %(default)s)")
     parser.add_argument("--max-iter", type=int, default=d.max_iter,
                         help="iteration cap (default: %(default)s)")
     parser.add_argument("--relaxation", type=float, default=d.relaxation,
