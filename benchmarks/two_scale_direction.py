@@ -109,7 +109,8 @@ def two_scale(ops: LatinOperators, gamma: float, norm_k: np.ndarray) -> None:
         flat = field.reshape(field.shape[0], -1)
         return np.asarray((h @ flat.T).T).reshape(field.shape)
 
-    def micro_stage(w_hat: np.ndarray, f_hat: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    def micro_stage(w_hat: np.ndarray, f_hat: np.ndarray, geometries: object = None
+                    ) -> tuple[np.ndarray, np.ndarray]:  # one geometry
         shape = w_hat.shape
         rhs = (f_hat + apply_h(w_hat)).reshape(shape[0], -1)
         flat = np.empty_like(rhs)
@@ -118,14 +119,15 @@ def two_scale(ops: LatinOperators, gamma: float, norm_k: np.ndarray) -> None:
         w = flat.reshape(shape)
         return w, f_hat + apply_h(w_hat - w)
 
-    def macro_correction(w: np.ndarray, f: np.ndarray, data: np.ndarray) -> None:
+    def macro_correction(w: np.ndarray, f: np.ndarray, data: np.ndarray,
+                         geometries: object = None) -> None:
         shape = w.shape
         residual = data - (ops.project @ f.reshape(shape[0], -1).T).T
         macro = residual @ ops.homogenised_inverse
         correction = np.empty((shape[0], shape[1] * 2))
         for (lo, hi), block in zip(ops.flat_ranges, ops.substructure_operators, strict=True):
             correction[:, lo:hi] = macro[:, block.macro_columns] @ block.macro_response_transposed
-        extension = np.asarray((ops.basis_transposed.T @ macro.T).T).reshape(shape)
+        extension = np.asarray((ops.macro_basis @ macro.T).T).reshape(shape)
         field = correction.reshape(shape)
         w += field
         f += apply_h(extension - field)

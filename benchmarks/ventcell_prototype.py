@@ -97,8 +97,8 @@ def apply(ops: LatinOperators, x: np.ndarray) -> np.ndarray:
     return np.asarray((ops.h_op @ flat.T).T).reshape(x.shape)  # type: ignore[attr-defined]
 
 
-def micro_stage(self: LatinOperators, w_hat: np.ndarray, f_hat: np.ndarray
-                ) -> tuple[np.ndarray, np.ndarray]:
+def micro_stage(self: LatinOperators, w_hat: np.ndarray, f_hat: np.ndarray,
+                geometries: object = None) -> tuple[np.ndarray, np.ndarray]:  # one geometry
     rhs = (f_hat + apply(self, w_hat)).reshape(w_hat.shape[0], -1)
     out = np.empty_like(rhs)
     for (lo, hi), block in zip(self.flat_ranges, self.substructure_operators, strict=True):
@@ -108,13 +108,13 @@ def micro_stage(self: LatinOperators, w_hat: np.ndarray, f_hat: np.ndarray
 
 
 def macro_correction(self: LatinOperators, w: np.ndarray, f: np.ndarray,
-                     data: np.ndarray) -> None:
+                     data: np.ndarray, geometries: object = None) -> None:
     residual = data - (self.project @ f.reshape(w.shape[0], -1).T).T
     macro = residual @ self.homogenised_inverse
     correction = np.empty((w.shape[0], w.shape[1] * 2))
     for (lo, hi), block in zip(self.flat_ranges, self.substructure_operators, strict=True):
         correction[:, lo:hi] = macro[:, block.macro_columns] @ block.macro_response_transposed
-    extension = np.asarray((self.basis_transposed.T @ macro.T).T).reshape(w.shape)
+    extension = np.asarray((self.macro_basis @ macro.T).T).reshape(w.shape)
     w += correction.reshape(w.shape)
     f += apply(self, extension - correction.reshape(w.shape))
 

@@ -194,10 +194,6 @@ class LatinOperators:
             # L⁻¹, dense (n_macro² is small): W̃ᴹ = L⁻¹ (F_dᴹ − Π F) (eq. [15])
             self.homogenised_inverse = sla.cho_solve(factor, np.eye(homogenised.shape[0]))
             self.project = (basis.T @ sp.diags(self.m0)).tocsr()  # Π = Ẽᵀ M0
-            self.basis_transposed = sp.csr_matrix(basis.T)
-            #: Ẽ itself, kept: a transpose per iteration (a new SciPy matrix) cost ~70 µs,
-            #: 5 % of a single case's iteration
-            self.basis_rows = sp.csr_matrix(basis)
 
     def _build_interfaces(self, assembly: Assembly, options: LatinOptions
                           ) -> sp.csr_matrix | None:
@@ -435,8 +431,9 @@ class LatinOperators:
                 else:
                     correction[columns, lo:hi] = (macro[columns][:, block.macro_columns]
                                                   @ block.macro_response_transposed)
-        # C-ordered, so that the compiled ``direction_update`` takes it
-        extension = np.ascontiguousarray((self.basis_rows @ macro.T).T).reshape(shape)
+        # Ẽ as built (a transpose per iteration, a new SciPy matrix, cost ~70 µs), the
+        # product C-ordered, so that the compiled ``direction_update`` takes it
+        extension = np.ascontiguousarray((self.macro_basis @ macro.T).T).reshape(shape)
         correction_field = correction.reshape(shape)
         displacement += correction_field
         self.direction_update(extension, correction_field, base=force, out=force)
