@@ -9,7 +9,9 @@ For each model: cold solves at the four friction pairs of ``benchmarks/convergen
 one at a time (per iteration: the solve's wall time over its iterations, the operators
 given), then the same four cases together as one batch (``solve_latin_batch``) twice over
 (eight cases); the operators of each of the four cases built anew (``LatinOperators``, the
-model's assembly included). Each measurement is the median of ``--repeat`` runs. With
+model's assembly included), and for a model with a hole (xc, yc) its operators after the hole
+moved to four positions, the other substructures' reused (a positions study). Each
+measurement is the median of ``--repeat`` runs. With
 ``--baseline``, the script runs itself alternately with ``PYTHONPATH`` set to that source
 tree and to this one, ``--rounds`` times, in fresh processes, and prints both medians and
 their ratio; the iterations and R_stop must agree (the same algorithm, only faster), else it says so.
@@ -29,6 +31,8 @@ from pathlib import Path
 import numpy as np
 
 PAIRS = [(0.3, 0.0), (0.1, 0.3), (0.35, 0.25), (0.3, 0.15)]
+#: hole positions (B3's 5 × 5 positions grid's corners): a new geometry in a study
+HOLES = [(23.0, 73.0), (27.0, 77.0), (23.0, 77.0), (27.0, 73.0)]
 
 
 def measure(models: list[str], repeat: int) -> dict[str, dict[str, float | list[float]]]:
@@ -45,7 +49,8 @@ def measure(models: list[str], repeat: int) -> dict[str, dict[str, float | list[
         assemblies = [model.assemble({"mu1": a, "mu2": b}) for a, b in PAIRS]
         ops = LatinOperators(assemblies[0], options)
         solve_latin(assemblies[0], options, ops)  # warm-up: kernels loaded, caches filled
-        single, batch, setup = [], [], []
+        single, batch, setup, rebuild = [], [], [], []
+        moves = "xc" in model.parameters and "yc" in model.parameters
         iterations: list[float] = []
         r_stop: list[float] = []
         for _ in range(repeat):
@@ -63,6 +68,11 @@ def measure(models: list[str], repeat: int) -> dict[str, dict[str, float | list[
                 t0 = time.perf_counter()
                 LatinOperators(model.assemble({"mu1": a, "mu2": b}), options)
                 setup.append(1e3 * (time.perf_counter() - t0))
+            for xc, yc in HOLES if moves else ():
+                # a hole moved: only its substructure built anew, as in a positions study
+                t0 = time.perf_counter()
+                LatinOperators(model.assemble({"xc": xc, "yc": yc}), options, reuse=ops)
+                rebuild.append(1e3 * (time.perf_counter() - t0))
             t0 = time.perf_counter()
             results = solve_latin_batch(assemblies * 2, options, ops)
             wall = time.perf_counter() - t0
@@ -71,6 +81,7 @@ def measure(models: list[str], repeat: int) -> dict[str, dict[str, float | list[
         out[name] = {"single_ms": statistics.median(single),
                      "batch_ms": statistics.median(batch),
                      "setup_ms": statistics.median(setup),
+                     **({"rebuild_ms": statistics.median(rebuild)} if rebuild else {}),
                      "iterations": iterations, "R_stop": r_stop}
     return out
 
@@ -91,7 +102,9 @@ def main() -> None:
         for name, row in measure(args.models, args.repeat).items():
             print(f"{name}: {row['single_ms']:.3f} ms per iteration alone, "
                   f"{row['batch_ms']:.3f} per case-iteration in a batch of 8, "
-                  f"{row['setup_ms']:.1f} per operators' build; "
+                  f"{row['setup_ms']:.1f} per operators' build"
+                  + (f", {row['rebuild_ms']:.1f} per moved hole's" if "rebuild_ms" in row
+                     else "") + "; "
                   f"iterations {row['iterations']}")
         return
     here = str(Path(__file__).resolve().parents[1] / "src")
@@ -110,7 +123,10 @@ def main() -> None:
     for name in args.models:
         for key, what in (("single_ms", "per iteration, one case"),
                           ("batch_ms", "per case-iteration, batch of 8"),
-                          ("setup_ms", "operators' build (assembly included)")):
+                          ("setup_ms", "operators' build (assembly included)"),
+                          ("rebuild_ms", "a moved hole's operators (others reused)")):
+            if key not in runs["this"][0][name] or key not in runs["baseline"][0][name]:
+                continue
             old = statistics.median(float(r[name][key]) for r in runs["baseline"])  # type: ignore[arg-type]
             new = statistics.median(float(r[name][key]) for r in runs["this"])  # type: ignore[arg-type]
             print(f"| {name} | {what} | {old:.3f} | {new:.3f} | {new / old:.2f} |")

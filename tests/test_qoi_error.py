@@ -238,3 +238,36 @@ def test_qoi_stopping_waits_for_the_state_when_its_qois_stall(monkeypatch) -> No
     unguarded = model.solve(mu, options=options)
     assert unguarded.iterations < guarded.iterations
     assert abs(float(unguarded.qoi["R_stop"]) - exact) > 1e-2 * exact  # type: ignore[arg-type]
+
+
+def test_estimates_are_withheld_while_the_state_still_changes(monkeypatch) -> None:
+    """B1 (0.1, 0.3) stopped at a loose tol (η < 1.5e-3) while the centre block still
+    slides: R_stop is ~3 % off, and the estimate its own increments give is several times
+    smaller than that. The state's remaining change η / (1 − ρ) (~1 %) says so: the result
+    reports that change and withholds the estimates (None), in JSON and in a study's summary
+    too. At the default tol the state has settled and the estimates are given."""
+    from multilatin.latin.tracking import SETTLED
+    from multilatin.study.report import summary_lines
+
+    model = ml.load_model("b1")
+    mu = {"mu1": 0.1, "mu2": 0.3}
+    loose = ml.LatinOptions(tol=1.5e-3)
+    exact = float(model.solve(mu, options=TIGHT).qoi["R_stop"])  # type: ignore[arg-type]
+    result = model.solve(mu, options=loose)
+    true = abs(float(result.qoi["R_stop"]) - exact)  # type: ignore[arg-type]
+    assert result.converged and true > 1e-2 * exact
+    assert result.state_change > SETTLED
+    assert all(error is None for error in result.qoi_error.values())
+    assert result.to_json_dict()["state_change"] == pytest.approx(result.state_change)
+    # the estimate it withholds would have been wrong
+    monkeypatch.setattr(solver, "SETTLED", np.inf)
+    unguarded = model.solve(mu, options=loose)
+    assert unguarded.qoi_error["R_stop"] is not None
+    assert unguarded.qoi_error["R_stop"] < true / 2  # type: ignore[operator]
+    monkeypatch.undo()
+    settled = model.solve(mu)
+    assert settled.state_change <= SETTLED and settled.qoi_error["R_stop"] is not None
+    study = ml.run_study(model, ml.Grid({"mu1": [0.1], "mu2": [0.3]}), options=loose,
+                         progress=False)
+    assert any("1 case(s) not estimated: their state still changed" in line
+               for line in summary_lines(study))

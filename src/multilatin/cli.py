@@ -227,9 +227,14 @@ def _report(result: SolveResult, args: argparse.Namespace,
     if not result.converged:
         print("  (quantities of interest withheld: the iteration did not converge)")
         return
+    from .latin.tracking import SETTLED  # the solver's modules are loaded by now
+
+    unsettled = result.state_change > SETTLED
     for motion in result.free_motions:
         if motion.reaches_last_step:
-            print(f"  NOT UNIQUE: {motion.describe()}")
+            print(f"  NOT UNIQUE: {motion.describe()}"
+                  + (f" (read on a state still changing by ~{result.state_change:.1e}: "
+                     "check with a tighter --tol)" if unsettled else ""))
     units = {q.name: q.unit for q in result.assembly.qois}
     for which, res in [("", result)] + ([("reference ", reference)] if reference else []):
         for name, value in res.qoi.items():
@@ -243,6 +248,9 @@ def _report(result: SolveResult, args: argparse.Namespace,
                         f"{' at most' if isinstance(error, list) else ''})")
             elif res.converged and acceleration != "relaxation":  # LATIN, not estimated
                 note = f"  (error not estimated: acceleration {acceleration})"
+            elif res.converged and res.state_change > SETTLED:  # not settled enough
+                note = (f"  (error not estimated: the state still changes by "
+                        f"~{res.state_change:.1e}; a tighter --tol gives one)")
             else:
                 note = ""
             if isinstance(value, list):

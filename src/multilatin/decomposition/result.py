@@ -61,6 +61,10 @@ class SolveResult:
     #: the contact pressure at the nodes of the contact interfaces between bodies, per step
     #: (None without contact between bodies)
     contact: ContactPressures | None = None
+    #: LATIN: the state's estimated remaining relative change η / (1 − ρ), ρ the
+    #: indicator's rate over the last iterations (``multilatin.latin.tracking``); the QoI
+    #: estimates are withheld where it exceeds ``tracking.SETTLED`` (NaN: not measured)
+    state_change: float = float("nan")
 
     @property
     def wall_s(self) -> float:
@@ -90,6 +94,7 @@ class SolveResult:
             "qoi": self.qoi if self.converged else withheld(self.qoi),
             "qoi_error": self.qoi_error if self.converged else withheld(self.qoi_error),
             "stopped_on_qoi": self.stopped_on_qoi,
+            "state_change": _finite_or_none(self.state_change),
             "n_steps": self.assembly.n_steps,
             "n_substructures": len(self.assembly.substructures),
             "n_dofs": self.assembly.n_dofs,

@@ -25,7 +25,7 @@ from .local_stage import LocalStage
 from .operators import LatinOperators
 from .options import LatinOptions
 from .sliding import SlidingExtrapolation
-from .tracking import MAX_RATE, WINDOW, QoiFunctionals, error_estimates
+from .tracking import WINDOW, QoiFunctionals, error_estimates, remaining_change
 
 log = logging.getLogger(__name__)
 
@@ -105,11 +105,7 @@ def state_settled(state: IterationState, active: IntArray, counts: IntArray, rto
     1.4e-3 (docs/tolerance.md). With every B1 QoI watched, cases stop at η ≤ 1.4e-4."""
     eta = state.eta_recent[active, (counts - 1) % RECENT]
     before = state.eta_recent[active, (counts - 1 - WINDOW) % RECENT]
-    with np.errstate(divide="ignore", invalid="ignore", over="ignore"):
-        rate = np.where(before > 0.0, eta / np.where(before > 0.0, before, 1.0), 1.0
-                        ) ** (1.0 / WINDOW)
-    rate = np.clip(np.nan_to_num(rate, nan=MAX_RATE), 0.0, MAX_RATE)
-    return np.asarray(eta <= rtol * (1.0 - rate), dtype=bool)
+    return np.asarray(remaining_change(eta, before, WINDOW) <= rtol, dtype=bool)
 
 
 def qoi_settled(state: IterationState, active: IntArray, counts: IntArray, rtol: float

@@ -31,7 +31,7 @@ from .iteration import IterationObserver, IterationState, iterate
 from .local_stage import LocalStage
 from .operators import LatinOperators
 from .options import LatinOptions
-from .tracking import QoiFunctionals, error_estimates, qoi_functionals
+from .tracking import SETTLED, QoiFunctionals, error_estimates, qoi_functionals, state_change
 
 __all__ = ["IterationObserver", "solve_latin", "solve_latin_batch"]
 
@@ -251,9 +251,11 @@ def _result(c: int, assembly: Assembly, pts: InterfacePoints, state: IterationSt
             f"{DRIFT_WINDOW} iterations (eta = {history[-1]:.2e}, falling only because "
             "they grow): a body slides without end, the load exceeding what friction, "
             "contact and stops can hold (or the iteration is too slow to finish)")
-    # Anderson's and RRE's steps break the contraction the estimate reads: NaN (None)
+    # Anderson's and RRE's steps break the contraction the estimate reads, and a state
+    # still changing by more than SETTLED may hold changes its QoIs have not begun: NaN (None)
+    change = state_change(history)
     estimates = (error_estimates(state.recent_qoi(c, history.size), history)
-                 if options.acceleration == "relaxation"
+                 if options.acceleration == "relaxation" and not change > SETTLED
                  else np.full(state.qoi_recent.shape[2:], np.nan))
     motions = (tuple(free_motions(assembly, pts, w_hat, f_hat))
                if converged else ())
@@ -276,6 +278,7 @@ def _result(c: int, assembly: Assembly, pts: InterfacePoints, state: IterationSt
         contact=pressures if a.size else None,
         qoi_error=_per_qoi(assembly, estimates),
         stopped_on_qoi=bool(state.stopped_on_qoi[c]),
+        state_change=change,
     )
 
 

@@ -470,6 +470,8 @@ def _record(grid: Grid, case: Case, mode: str, result: SolveResult, wall_s: floa
         "qoi": result.qoi,
         "qoi_error": result.qoi_error,
         "stopped_on_qoi": bool(result.stopped_on_qoi),
+        "state_change": (float(result.state_change) if np.isfinite(result.state_change)
+                         else None),
         "log": (f"{mode} #{case.number + 1} ({text}): {status} in "
                 f"{iterations} iterations, eta={result.indicator:.2e}, "
                 f"{wall_s:.3f} s{f' (share of a batch of {batch})' if batch > 1 else ''}, "

@@ -16,6 +16,7 @@ import matplotlib.pyplot as plt  # noqa: E402
 import numpy as np  # noqa: E402
 import xarray as xr  # noqa: E402
 
+from ..latin.tracking import SETTLED  # noqa: E402
 from ..parameters import label  # noqa: E402
 from .runner import StudyResult  # noqa: E402
 
@@ -97,10 +98,19 @@ def summary_lines(result: StudyResult) -> list[str]:
             "determine the answer (a body at the friction limit; solved from zero so that "
             "the answer does not depend on the study's order): "
             + ", ".join("(" + ", ".join(f"{k}={v:g}" for k, v in r["params"].items()) + ")"
-                        for r in not_unique[:8]) + (", ..." if len(not_unique) > 8 else ""))
+                        for r in not_unique[:8]) + (", ..." if len(not_unique) > 8 else "")
+            + _unsettled_note(not_unique))
     for repair in result.repairs:
         lines.append(f"repaired on resume: {repair}")
     return lines
+
+
+def _unsettled_note(records: list[dict[str, Any]]) -> str:
+    """Cases whose uniqueness check read a state still changing (a body still sliding in
+    the iteration looks free at the friction limit)."""
+    unsettled = sum((r.get("state_change") or 0.0) > SETTLED for r in records)
+    return (f" ({unsettled} of them read on a state still changing by more than {SETTLED:g}:"
+            " a tighter tol checks them)" if unsettled else "")
 
 
 def _error_lines(result: StudyResult, records: list[dict[str, Any]]) -> list[str]:
@@ -120,11 +130,16 @@ def _error_lines(result: StudyResult, records: list[dict[str, Any]]) -> list[str
             unit = units.get(name, "")
             shown = "" if unit in ("", "1", "-") else f" {unit}"
             parts.append(f"{name} ≤ {max(known):.3g}{shown}")
-    if not parts:
+    unsettled = sum((r.get("state_change") or 0.0) > SETTLED for r in converged)
+    if not parts and not unsettled:
         return []
-    return ["estimated errors (largest over the converged cases): " + ", ".join(parts)
-            + (f"; {missing} case(s) converged in too few iterations to estimate"
-               if missing else "")]
+    few = missing - unsettled
+    return [("estimated errors (largest over the converged cases): " + ", ".join(parts)
+             if parts else "estimated errors: none")
+            + (f"; {few} case(s) converged in too few iterations to estimate"
+               if few > 0 else "")
+            + (f"; {unsettled} case(s) not estimated: their state still changed by more "
+               f"than {SETTLED:g} (a tighter tol gives an estimate)" if unsettled else "")]
 
 
 def format_table(header: list[str], rows: list[list[Any]], max_rows: int = 40) -> str:
