@@ -11,7 +11,7 @@ everything as it is and once with each of these switched back, one at a time:
   now the interfaces are taken over when only a hole moved, ``operators.interface_signature``);
 - ``recovery by factorisation``: the interior displacements from a solve with each
   substructure's sparse factorisation (now one dense product with S⁻¹ Tᵀ M0, kept from the
-  operators' construction: ``operators.RECOVERY_ENTRIES``);
+  operators' construction: ``condensation.RECOVERY_ENTRIES``);
 - ``positions case by case`` (B3 only): ``batch=1`` (now the lines along the innermost hole
   coordinate are solved as batches of several geometries on NumPy).
 
@@ -29,7 +29,7 @@ from contextlib import contextmanager
 from typing import Any
 
 import multilatin as ml
-from multilatin.latin import operators
+from multilatin.latin import condensation, operators
 from multilatin.parameters import Grid
 from multilatin.study.plan import clear_operator_cache
 from multilatin.study.runner import run_study
@@ -55,12 +55,12 @@ def interfaces_rebuilt() -> Iterator[None]:
 
 @contextmanager
 def recovery_by_factorisation() -> Iterator[None]:
-    saved = operators.RECOVERY_ENTRIES
-    operators.RECOVERY_ENTRIES = 0
+    saved = condensation.RECOVERY_ENTRIES
+    condensation.RECOVERY_ENTRIES = 0
     try:
         yield
     finally:
-        operators.RECOVERY_ENTRIES = saved
+        condensation.RECOVERY_ENTRIES = saved
 
 
 @contextmanager

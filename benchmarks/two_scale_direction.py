@@ -92,7 +92,9 @@ def two_scale(ops: LatinOperators, gamma: float, norm_k: np.ndarray) -> None:
         mh_basis = ops.m0[lo:hi, None] * h_basis
         homogenised = own_basis.T @ mh_basis - mh_basis.T @ response
         blocks.append(SubstructureOperators(old.key + "-two-scale", factor, condensed, columns,
-                                            response, np.asarray(homogenised)))
+                                            response, np.asarray(homogenised),
+                                            trace_rhs=sp.csc_matrix(
+                                                trace.T @ sp.diags(ops.m0[lo:hi]))))
     ops.substructure_operators = blocks
     ops.factors = [b.factor for b in blocks]
     homogenised = np.zeros((ops.macro_basis.shape[1],) * 2)

@@ -77,7 +77,8 @@ def patched_init(self: LatinOperators, assembly, options, reuse=None) -> None:  
         response = condensed @ h_basis
         mh_basis = m0[:, None] * h_basis
         blocks.append(SubstructureOperators("prototype", factor, condensed, columns, response,
-                                            np.asarray(own.T @ mh_basis - mh_basis.T @ response)))
+                                            np.asarray(own.T @ mh_basis - mh_basis.T @ response),
+                                            trace_rhs=sp.csc_matrix(trace.T @ sp.diags(m0))))
     self.substructure_operators = blocks
     self.factors = [b.factor for b in blocks]
     homogenised = np.zeros((self.macro_basis.shape[1],) * 2)

@@ -1,5 +1,6 @@
 """The LATIN solver (paper §2.3–4; method.md §4): options (``options``), the
-geometry-dependent linear-stage operators and the macro problem (``operators``), the local
+geometry-dependent linear-stage operators and the macro problem (``operators``; each
+substructure's condensed operator from ``condensation``), the local
 stage's closed-form interface behaviours (``local_stage``), their compiled point-wise kernels
 (``kernels``, Numba when installed), Anderson mixing (``acceleration``) and the iteration
 itself (``solver``).

@@ -9,14 +9,11 @@ from __future__ import annotations
 import functools
 import hashlib
 from collections.abc import Sequence
-from dataclasses import dataclass
 from typing import TYPE_CHECKING
 
 import numpy as np
-import numpy.typing as npt
 import scipy.linalg as sla
 import scipy.sparse as sp
-import scipy.sparse.linalg as spla
 
 from ..decomposition.assembly import DISPLACEMENT, Assembly
 from ..decomposition.interfaces import (
@@ -29,7 +26,8 @@ from ..decomposition.interfaces import (
 from ..errors import ModelError
 from ..fem.elasticity import FloatArray, IntArray
 from ..fem.mesh import SIDES, normal_axis
-from . import kernels
+from . import condensation, kernels
+from .condensation import SubstructureOperators, condense
 from .local_stage import MacroOnlyMap, macro_only_map
 from .two_scale import TwoScaleDirection, stiffened_points, two_scale_direction
 
@@ -68,40 +66,9 @@ def _with_substructures(interfaces: str, assembly: Assembly) -> str:
     return hashlib.sha1(text.encode()).hexdigest()
 
 
-#: the largest S⁻¹ Tᵀ M0 kept per substructure for the recovery (entries: 16 MiB)
-RECOVERY_ENTRIES = 2**21
-
 #: a batch of several geometries: per geometry, its operators and the columns (case ×
 #: step) of its cases
 Geometries = Sequence[tuple["LatinOperators", "slice | IntArray"]]
-
-
-@dataclass(frozen=True)
-class SubstructureOperators:
-    """What one substructure contributes to the linear stage: the factorised
-    S_E = K_E + T_Eᵀ M0 k T_E (eq. [13]), the condensed C_E = T_E S_E⁻¹ T_Eᵀ M0, and its
-    share of the macro problem: the response Q_E = C_E k Ẽ_E to unit macro unknowns and the
-    homogenised operator L_E = Ẽ_Eᵀ M0 k Ẽ_E − (M0 k Ẽ_E)ᵀ Q_E (eq. [14]); k stands for
-    the search direction H, diagonal or two-scale (``two_scale``)."""
-
-    key: str
-    factor: spla.SuperLU
-    condensed: FloatArray
-    macro_columns: npt.NDArray[np.int64]  # the macro unknowns of E's interfaces
-    macro_response: FloatArray  # Q_E on those columns (2 P_E × n_E)
-    homogenised: FloatArray  # L_E on those columns (n_E × n_E)
-    #: S_E⁻¹ T_Eᵀ M0, dense (n_dofs × 2 P_E), where it holds at most ``RECOVERY_ENTRIES``
-    #: (a by-product of C_E): the interior displacements of many columns as one product
-    recovery: FloatArray | None = None
-
-    @functools.cached_property
-    def condensed_transposed(self) -> FloatArray:
-        """C_Eᵀ, contiguous: the linear stage multiplies rows of right-hand sides by it."""
-        return np.ascontiguousarray(self.condensed.T)
-
-    @functools.cached_property
-    def macro_response_transposed(self) -> FloatArray:
-        return np.ascontiguousarray(self.macro_response.T)
 
 
 def _digest(*parts: object) -> str:
@@ -242,16 +209,16 @@ class LatinOperators:
         H's part beyond its diagonal D = k."""
         m0_h = sp.diags(m0 * k) + (sp.csr_matrix(coupling) if coupling is not None else 0)
         operator = (stiffness + trace.T @ m0_h @ trace).tocsc()
-        factor = spla.splu(operator)
-        # Fortran-ordered: SuperLU solves column by column, C order costs it 10-50 % more
-        rhs = (trace.T @ sp.diags(m0)).toarray(order="F")
-        interior = factor.solve(rhs)  # S⁻¹ Tᵀ M0
-        condensed = trace @ interior  # C_E = T S⁻¹ Tᵀ M0, dense
-        recovery = interior if interior.size <= RECOVERY_ENTRIES else None
+        # C_E = T S⁻¹ Tᵀ M0, dense, from the factorisation's last block (``condensation``)
+        factor, condensed, interior = condense(operator, trace, m0)
+        fits = interior is not None and interior.size <= condensation.RECOVERY_ENTRIES
+        recovery = interior if fits else None
+        trace_rhs = sp.csc_matrix(trace.T @ sp.diags(m0))
         if basis_rows is None:
             empty = np.zeros((0, 0))
             return SubstructureOperators(key, factor, condensed, np.zeros(0, dtype=np.int64),
-                                         np.zeros((condensed.shape[0], 0)), empty, recovery)
+                                         np.zeros((condensed.shape[0], 0)), empty, recovery,
+                                         trace_rhs)
         columns = np.unique(basis_rows.indices).astype(np.int64)  # E's own macro unknowns
         own_basis = basis_rows[:, columns]
         mk_basis = (sp.diags(m0 * k) @ own_basis).toarray()  # M0 H Ẽ_E
@@ -260,7 +227,7 @@ class LatinOperators:
         response = condensed @ (mk_basis / m0[:, None])  # Q_E = C_E H Ẽ_E
         homogenised = (own_basis.T @ mk_basis) - mk_basis.T @ response
         return SubstructureOperators(key, factor, condensed, columns, response,
-                                     np.asarray(homogenised), recovery)
+                                     np.asarray(homogenised), recovery, trace_rhs)
 
     def _search_direction(self) -> FloatArray:
         """k per interface point and component: κ E / L, with E and L per side as
@@ -441,19 +408,13 @@ class LatinOperators:
 
     def recover(self, displacement: FloatArray, force: FloatArray) -> dict[str, FloatArray]:
         """Interior displacements u_E = S_E⁻¹ T_Eᵀ M0 (F + k W) of every substructure, for
-        fields (n_columns, n_points, 2): one dense product where ``recovery`` is kept, else
-        a solve with the factorisation."""
+        fields (n_columns, n_points, 2) (``SubstructureOperators.interior``)."""
         n_columns = displacement.shape[0]
         x = (force + self.apply_direction(displacement)).reshape(n_columns, -1)
         out = {}
         for s, sub in enumerate(self.assembly.substructures):
             lo, hi = self.flat_ranges[s]
-            block = self.substructure_operators[s]
-            if block.recovery is not None:
-                u_t = x[:, lo:hi] @ block.recovery.T
-            else:
-                g = self.points.traces[s].T @ (x[:, lo:hi].T * self.m0[lo:hi, None])
-                u_t = self.factors[s].solve(np.asfortranarray(g)).T
+            u_t = self.substructure_operators[s].interior(x[:, lo:hi])
             out[sub.name] = u_t.reshape(n_columns, -1, 2)
         return out
 
