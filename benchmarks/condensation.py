@@ -6,7 +6,8 @@ block of a factorisation with the trace's unknowns last (``condensation.condense
     python benchmarks/condensation.py                       # b1, b3 at refine 1 and 2
     python benchmarks/condensation.py --refine 1 2 4        # b1 at 4: 18 818 unknowns
 
-One BLAS thread (as the iterations run; ``--threads`` to change it). Prints a Markdown
+One BLAS thread (as the iterations and ``condense`` run; ``--threads`` sets it for the
+solves' way). Prints a Markdown
 table: unknowns, interface unknowns, the best of ``--repeat`` times each way, their ratio
 and the largest difference of the two C_E relative to its largest entry.
 """

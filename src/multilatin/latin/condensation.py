@@ -28,6 +28,7 @@ import scipy.sparse as sp
 import scipy.sparse.linalg as spla
 
 from ..fem.elasticity import FloatArray, IntArray
+from .threads import one_blas_thread
 
 #: the largest S⁻¹ Tᵀ M0 kept per substructure for the recovery (entries: 16 MiB)
 RECOVERY_ENTRIES = 2**21
@@ -64,7 +65,14 @@ def condense(operator: sp.spmatrix, trace: sp.csr_matrix, m0: FloatArray,
              schur: bool | None = None) -> tuple[Factorisation, FloatArray, FloatArray | None]:
     """The factorised S_E, C_E = T S_E⁻¹ Tᵀ M0 (dense, n_t × n_t) and, where it came as a
     by-product of the solves, S_E⁻¹ Tᵀ M0 (else None). ``schur``: the Schur complement's
-    way (True), the solves (False), or by size (None: from ``SCHUR_MIN_DOFS`` unknowns)."""
+    way (True), the solves (False), or by size (None: from ``SCHUR_MIN_DOFS`` unknowns).
+    BLAS on one thread (``threads.one_blas_thread``): small dense blocks."""
+    with one_blas_thread():
+        return _condense(operator, trace, m0, schur)
+
+
+def _condense(operator: sp.spmatrix, trace: sp.csr_matrix, m0: FloatArray,
+              schur: bool | None) -> tuple[Factorisation, FloatArray, FloatArray | None]:
     operator = sp.csc_matrix(operator)
     n = operator.shape[0]
     trace = sp.csr_matrix(trace)

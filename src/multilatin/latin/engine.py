@@ -13,12 +13,10 @@ leave the batch.
 
 from __future__ import annotations
 
-import functools
 import time
-from typing import Any, Protocol
+from typing import Protocol
 
 import numpy as np
-from threadpoolctl import ThreadpoolController
 
 from ..fem.elasticity import FloatArray, IntArray
 from . import kernels
@@ -26,24 +24,11 @@ from .acceleration import Anderson
 from .local_stage import LocalStage
 from .operators import LatinOperators
 from .options import LatinOptions
+from .threads import one_blas_thread
 from .tracking import QoiFunctionals
 from .two_scale import compiled_local_stage, coupled_local_stage
 
 __all__ = ["FieldEngine", "NumpyFields", "indicator_weights", "norms", "one_blas_thread"]
-
-
-@functools.cache
-def _blas_controller() -> ThreadpoolController:
-    """One inspection of the loaded BLAS libraries per process (``threadpool_limits``
-    repeated it on every solve: 1.4 % of a B1 study)."""
-    return ThreadpoolController()
-
-
-def one_blas_thread() -> Any:
-    """A context in which BLAS runs on one thread: the iteration is many small dense
-    products, where BLAS threads cost more than they give (measured 3 × slower per
-    iteration with 2 OpenBLAS threads on b1-9)."""
-    return _blas_controller().limit(limits=1, user_api="blas")
 
 
 class FieldEngine(Protocol):
