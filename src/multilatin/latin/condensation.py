@@ -64,7 +64,8 @@ class ReorderedFactor:
 def condense(operator: sp.spmatrix, trace: sp.csr_matrix, m0: FloatArray,
              schur: bool | None = None) -> tuple[Factorisation, FloatArray, FloatArray | None]:
     """The factorised S_E, C_E = T S_E⁻¹ Tᵀ M0 (dense, n_t × n_t) and, where it came as a
-    by-product of the solves, S_E⁻¹ Tᵀ M0 (else None). ``schur``: the Schur complement's
+    by-product of the solves and holds at most ``RECOVERY_ENTRIES``, S_E⁻¹ Tᵀ M0 (else
+    None). ``schur``: the Schur complement's
     way (True), the solves (False), or by size (None: from ``SCHUR_MIN_DOFS`` unknowns).
     BLAS on one thread (``threads.one_blas_thread``): small dense blocks."""
     with one_blas_thread():
@@ -86,9 +87,8 @@ def _condense(operator: sp.spmatrix, trace: sp.csr_matrix, m0: FloatArray,
         lu = spla.splu(operator[order][:, order].tocsc(), permc_spec="NATURAL",
                        diag_pivot_thresh=0.0, options={"SymmetricMode": True})
         last = np.arange(n - support.size, n)
-        if (np.array_equal(lu.perm_r[last], last) and np.array_equal(lu.perm_c[last], last)
-                and np.array_equal(np.sort(lu.perm_r[:-support.size]),
-                                   np.arange(n - support.size))):
+        # the trace's unknowns still last, in order, on both sides: no pivot moved them
+        if np.array_equal(lu.perm_r[last], last) and np.array_equal(lu.perm_c[last], last):
             tail = slice(n - support.size, n)
             lower = sp.csc_matrix(lu.L)[tail, tail].toarray()
             upper = sp.csc_matrix(lu.U)[tail, tail].toarray()
@@ -101,7 +101,8 @@ def _condense(operator: sp.spmatrix, trace: sp.csr_matrix, m0: FloatArray,
     # unknown (Fortran-ordered right-hand sides: SuperLU solves column by column)
     factor = spla.splu(operator)
     interior_response = factor.solve((trace.T @ sp.diags(m0)).toarray(order="F"))
-    return factor, np.asarray(trace @ interior_response), interior_response  # S⁻¹ Tᵀ M0
+    kept = interior_response if interior_response.size <= RECOVERY_ENTRIES else None
+    return factor, np.asarray(trace @ interior_response), kept  # S⁻¹ Tᵀ M0
 
 
 @dataclass(frozen=True)

@@ -26,7 +26,7 @@ from ..decomposition.interfaces import (
 from ..errors import ModelError
 from ..fem.elasticity import FloatArray, IntArray
 from ..fem.mesh import SIDES, normal_axis
-from . import condensation, kernels
+from . import kernels
 from .condensation import SubstructureOperators, condense
 from .local_stage import MacroOnlyMap, macro_only_map
 from .two_scale import TwoScaleDirection, stiffened_points, two_scale_direction
@@ -210,9 +210,7 @@ class LatinOperators:
         m0_h = sp.diags(m0 * k) + (sp.csr_matrix(coupling) if coupling is not None else 0)
         operator = (stiffness + trace.T @ m0_h @ trace).tocsc()
         # C_E = T S⁻¹ Tᵀ M0, dense, from the factorisation's last block (``condensation``)
-        factor, condensed, interior = condense(operator, trace, m0)
-        fits = interior is not None and interior.size <= condensation.RECOVERY_ENTRIES
-        recovery = interior if fits else None
+        factor, condensed, recovery = condense(operator, trace, m0)
         trace_rhs = sp.csc_matrix(trace.T @ sp.diags(m0))
         if basis_rows is None:
             empty = np.zeros((0, 0))

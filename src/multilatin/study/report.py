@@ -105,10 +105,15 @@ def summary_lines(result: StudyResult) -> list[str]:
     return lines
 
 
+def _unsettled(records: list[dict[str, Any]]) -> int:
+    """How many of ``records`` ended on a state still changing by more than ``SETTLED``."""
+    return sum((r.get("state_change") or 0.0) > SETTLED for r in records)
+
+
 def _unsettled_note(records: list[dict[str, Any]]) -> str:
     """Cases whose uniqueness check read a state still changing (a body still sliding in
     the iteration looks free at the friction limit)."""
-    unsettled = sum((r.get("state_change") or 0.0) > SETTLED for r in records)
+    unsettled = _unsettled(records)
     return (f" ({unsettled} of them read on a state still changing by more than {SETTLED:g}:"
             " a tighter tol checks them)" if unsettled else "")
 
@@ -130,7 +135,7 @@ def _error_lines(result: StudyResult, records: list[dict[str, Any]]) -> list[str
             unit = units.get(name, "")
             shown = "" if unit in ("", "1", "-") else f" {unit}"
             parts.append(f"{name} ≤ {max(known):.3g}{shown}")
-    unsettled = sum((r.get("state_change") or 0.0) > SETTLED for r in converged)
+    unsettled = _unsettled(converged)
     if not parts and not unsettled:
         return []
     few = missing - unsettled
