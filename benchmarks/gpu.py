@@ -100,11 +100,17 @@ def main() -> None:
                         help="PyTorch's CPU threads (with --device cpu)")
     parser.add_argument("--full", action="store_true", help="also the 21 125-case study")
     parser.add_argument("--full-batch", type=int, default=4225)
+    parser.add_argument("--full-rc", default="1:5:5",
+                        help="the hole radii of the --full study (e.g. 3: one fifth of it, "
+                             "4 225 cases)")
+    parser.add_argument("--full-start", default="zero,neighbour",
+                        help="the --full study's starts, in this order")
     parser.add_argument("--fuse", action="store_true",
                         help="torch rows with the compiled local stage (LatinOptions.fuse); "
                              "its compilation happens in the warm-up solves, not the rows")
     parser.add_argument("--only", help="the study workloads whose name starts so "
-                                           "(e.g. 'B3 3'); the b3 solve always runs")
+                                           "(e.g. 'B3 3', or 'B1,B3 5'); the b3 solve "
+                                           "always runs")
     parser.add_argument("--no-tight", action="store_true",
                         help="skip the tight reference solves (the last column)")
     args = parser.parse_args()
@@ -157,7 +163,8 @@ def main() -> None:
              [("neighbour (torch: wavefront), batch 1000", {"batch": 1000}),
               ("zero, batch 1000", {"batch": 1000, "start": "zero"})])]
     if args.only:
-        runs = [run for run in runs if run[0].startswith(args.only)]
+        runs = [run for run in runs if any(run[0].startswith(prefix)
+                                           for prefix in args.only.split(","))]
     for workload, model, grid, variants in runs:
         cases = int(np.prod([len(v) for v in ml.Grid.parse(grid).values()]))
         tight = None if args.no_tight else tight_values(model, grid)
@@ -176,12 +183,16 @@ def main() -> None:
                 values)
 
     if args.full:
-        for label, kwargs in (("zero", {"start": "zero"}), ("neighbour (wavefront)", {})):
+        full = [*B3_FULL[:-1], f"rc={args.full_rc}"]
+        n_full = int(np.prod([len(v) for v in ml.Grid.parse(full).values()]))
+        starts = {"zero": ("zero", {"start": "zero"}),
+                  "neighbour": ("neighbour (wavefront)", {})}
+        for label, kwargs in (starts[name] for name in args.full_start.split(",")):
             if args.device.startswith("cuda"):
                 torch.cuda.reset_peak_memory_stats()
-            wall, values, iterations = study(b3, B3_FULL, device_options,
+            wall, values, iterations = study(b3, full, device_options,
                                              batch=args.full_batch, **kwargs)
-            row("B3 21 125 cases", f"torch {args.device}, {label}, batch {args.full_batch}",
+            row(f"B3 {n_full} cases", f"torch {args.device}, {label}, batch {args.full_batch}",
                 wall, values.size, iterations, peak_memory(torch, args.device), None, None,
                 None)
 

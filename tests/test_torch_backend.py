@@ -1,8 +1,10 @@
 """The PyTorch backend (issue 19) gives the NumPy backend's answers: same iterations, same
-fields to rounding, on the CPU here (a GPU runs the same code; ``benchmarks/gpu.py``)."""
+fields to rounding, on the CPU here; on a GPU with ``MULTILATIN_TEST_DEVICE=cuda``
+(``benchmarks/gpu.py`` measures it there)."""
 
 from __future__ import annotations
 
+import os
 import re
 from collections.abc import Callable
 from importlib.resources import files
@@ -20,6 +22,8 @@ from multilatin.latin import LatinOptions, solve_latin, solve_latin_batch
 torch = pytest.importorskip("torch", reason="the torch backend needs the extra 'gpu'")
 
 TIGHT = LatinOptions(tol=1e-9, max_iter=3000)
+#: where the torch side runs: PyTorch's CPU build in CI, ``cuda`` on a GPU machine
+DEVICE = os.environ.get("MULTILATIN_TEST_DEVICE", "cpu")
 
 
 def _relative(expected: object, got: object) -> float:
@@ -35,16 +39,18 @@ def test_the_local_stage_equals_the_numpy_one(
 
     _, _, _, stage, w, f = random_local_stage_input(name, 5)
     expected = stage(w, f)
-    device_stage = TorchLocalStage(stage, torch, torch.device("cpu"))
-    got = device_stage(torch.as_tensor(w), torch.as_tensor(f))
+    device_stage = TorchLocalStage(stage, torch, torch.device(DEVICE))
+    got = [g.cpu().numpy() for g in device_stage(torch.as_tensor(w, device=DEVICE),
+                                                 torch.as_tensor(f, device=DEVICE))]
     for e, g in zip(expected, got, strict=True):
-        np.testing.assert_allclose(g.numpy(), e, rtol=1e-12, atol=1e-12 * np.abs(e).max())
-    assert np.abs(got[1].numpy()[:, :, stage.contact_pairs[0]]).max() > 0
+        np.testing.assert_allclose(g, e, rtol=1e-12, atol=1e-12 * np.abs(e).max())
+    assert np.abs(got[1][:, :, stage.contact_pairs[0]]).max() > 0
     # cases leave: the subset keeps its cases' data
     keep = np.array([3, 1])
     device_stage.subset(keep)
-    part = device_stage(torch.as_tensor(w[keep]), torch.as_tensor(f[keep]))
-    np.testing.assert_allclose(part[1].numpy(), expected[1][keep], rtol=1e-12,
+    part = device_stage(torch.as_tensor(w[keep], device=DEVICE),
+                        torch.as_tensor(f[keep], device=DEVICE))
+    np.testing.assert_allclose(part[1].cpu().numpy(), expected[1][keep], rtol=1e-12,
                                atol=1e-12 * np.abs(expected[1]).max())
 
 
@@ -55,7 +61,8 @@ def test_a_tight_solve_equals_the_numpy_one(name: str, mu: dict[str, float]) -> 
     """To 1e-9 relative at tight tolerance, iterations within ±2 (they are equal here)."""
     assembly = ml.load_model(name).assemble(mu)
     reference = solve_latin(assembly, TIGHT)
-    got = solve_latin(assembly, TIGHT.__class__(**{**TIGHT.__dict__, "backend": "torch"}))
+    got = solve_latin(assembly, TIGHT.__class__(**{**TIGHT.__dict__, "backend": "torch",
+                                                       "device": DEVICE}))
     assert abs(got.iterations - reference.iterations) <= 2
     for qoi, value in reference.qoi.items():
         assert _relative(value, got.qoi[qoi]) < 1e-9, qoi
@@ -65,20 +72,29 @@ def test_a_tight_solve_equals_the_numpy_one(name: str, mu: dict[str, float]) -> 
         assert _relative(u, got.displacements[body]) < 1e-9
 
 
-@pytest.mark.parametrize("acceleration", ["relaxation", "anderson", "rre"])
-def test_a_warm_batch_equals_the_numpy_one(acceleration: str) -> None:
+@pytest.mark.parametrize(("acceleration", "padded"), [("relaxation", False), ("anderson", False),
+                                                     ("rre", False), ("relaxation", True),
+                                                     ("rre", True)])
+def test_a_warm_batch_equals_the_numpy_one(acceleration: str, padded: bool,
+                                          monkeypatch: pytest.MonkeyPatch) -> None:
     """Cold and warm starts mixed in one batch, cases leaving at different iterations, the
     QoI stopping rule on (η alone with Anderson or RRE, which give no QoI estimates),
-    relaxation, Anderson mixing or RRE: the same stops and answers."""
+    relaxation, Anderson mixing or RRE: the same stops and answers. ``padded``: the rows of
+    the cases that left stay in the batch until at most half are active (as on a GPU,
+    where the local stage is one CUDA graph per width; no graph on the CPU)."""
+    from multilatin.latin import torch_engine
+
+    if padded:
+        monkeypatch.setattr(torch_engine, "PADDED_DEVICES", ("cuda", "cpu"))
     options = LatinOptions(qoi_rtol=1e-3 if acceleration == "relaxation" else None,
                            acceleration=acceleration, anderson_depth=5)
     assemblies, ops, starts = warm_b1_4_batch(options)
     reference = solve_latin_batch(assemblies, options, operators=ops, initial=starts)
     from dataclasses import replace
 
-    got = solve_latin_batch(assemblies, replace(options, backend="torch"), operators=ops,
+    got = solve_latin_batch(assemblies, replace(options, backend="torch", device=DEVICE), operators=ops,
                             initial=starts)
-    assert len({r.iterations for r in reference}) > 1
+    assert len({r.iterations for r in reference}) > 2  # padded: kept rows, then compacted
     for one, other in zip(reference, got, strict=True):
         assert abs(one.iterations - other.iterations) <= 2
         assert one.stopped_on_qoi == other.stopped_on_qoi
@@ -106,6 +122,19 @@ def test_a_small_study_equals_the_numpy_one(tmp_path: object) -> None:
     iterations = {r["number"]: r["iterations"] for r in reference.records}
     for record in got.records:
         assert abs(record["iterations"] - iterations[record["number"]]) <= 2
+
+
+def test_a_study_on_a_gpu_starts_from_zero_in_wide_batches() -> None:
+    """Measured on an H200 (docs/gpu.md), every case from zero beat the wavefront 4 to 7 ×:
+    a study's default there; given values and other devices keep theirs."""
+    from multilatin.study.runner import GPU_BATCH, study_defaults
+
+    gpu = LatinOptions(backend="torch", device="cuda:0")
+    assert study_defaults(gpu, None, None) == (GPU_BATCH, "zero")
+    assert study_defaults(gpu, 13, None) == (13, "zero")
+    assert study_defaults(gpu, None, "neighbour") == (16, "neighbour")
+    for options in (LatinOptions(backend="torch"), LatinOptions()):
+        assert study_defaults(options, None, None) == (16, "neighbour")
 
 
 def test_options_say_what_is_wrong() -> None:
@@ -169,7 +198,8 @@ def test_the_fused_local_stage_gives_the_numpy_answers(tmp_path: Path) -> None:
     # converge together (84 iterations), and cases leaving the batch is what this checks
     options = LatinOptions(tol=1e-8, micro_stiffening=1.0)
     reference = solve_latin_batch(assemblies, options)
-    got = solve_latin_batch(assemblies, replace(options, backend="torch", fuse=True))
+    got = solve_latin_batch(assemblies, replace(options, backend="torch", device=DEVICE,
+                                                     fuse=True))
     assert len({r.iterations for r in reference}) == 3
     for one, other in zip(reference, got, strict=True):
         assert abs(one.iterations - other.iterations) <= 2
@@ -189,7 +219,7 @@ def test_a_batch_larger_than_the_memory_is_solved_in_chunks(
 
     model = ml.load_model("b1")
     assemblies = [model.assemble({"mu1": mu}) for mu in (0.1, 0.2, 0.3)]
-    options = LatinOptions(backend="torch")
+    options = LatinOptions(backend="torch", device=DEVICE)
     whole = solve_latin_batch(assemblies, options)
     per_case = FIELDS_PER_CASE * assemblies[0].n_steps * whole[0].interface.coords.shape[0] * 16
     monkeypatch.setenv("MULTILATIN_MAX_MEMORY_GB", str(1.5 * per_case / MEMORY_SHARE / 1e9))
@@ -234,7 +264,8 @@ def _on_both_backends(model: ml.Model, grid: ml.Grid, options: LatinOptions, **k
     """The same study on the NumPy and the torch backend (each in a folder of its own)."""
     from dataclasses import replace
 
-    on_numpy, on_torch = (ml.run_study(model, grid, options=replace(options, backend=backend),
+    on_numpy, on_torch = (ml.run_study(model, grid, options=replace(options, backend=backend,
+                                                                   device=device),
                                        progress=False, **kwargs)
-                          for backend in ("numpy", "torch"))
+                          for backend, device in (("numpy", "cpu"), ("torch", DEVICE)))
     return on_numpy, on_torch

@@ -34,6 +34,9 @@ log = logging.getLogger(__name__)
 
 #: seconds to reach a Dask scheduler given by address before giving up
 SCHEDULER_TIMEOUT_S = 10.0
+#: a study's default batch from zero on a GPU: 25 B3 geometries × 169 frictions, one fifth
+#: of the 21 125-case study, 15 GiB of an H200 (docs/gpu.md)
+GPU_BATCH = 4225
 
 
 @dataclass(frozen=True)
@@ -122,6 +125,16 @@ def _case_json(record: dict[str, Any]) -> dict[str, Any]:
     return out
 
 
+def study_defaults(options: LatinOptions, batch: int | None, start: str | None
+                   ) -> tuple[int, str]:
+    """``run_study``'s batch and start where not given: on a GPU (the torch backend on a
+    CUDA device) every case from zero in batches of ``GPU_BATCH`` (measured 4 to 7 × faster
+    there than the multiresolution wavefront, docs/gpu.md); else from the neighbour, 16."""
+    on_gpu = options.backend == "torch" and options.device.startswith("cuda")
+    start = start or ("zero" if on_gpu else "neighbour")
+    return batch or (GPU_BATCH if on_gpu and start == "zero" else 16), start
+
+
 def run_study(
     model: Model,
     grid: Grid,
@@ -130,8 +143,8 @@ def run_study(
     modes: Sequence[str] = ("multiresolution",),
     out: str | Path | None = None,
     chains: int | None = None,
-    batch: int = 16,
-    start: str = "neighbour",
+    batch: int | None = None,
+    start: str | None = None,
     workers: int = 0,
     schedule: str = "waves",
     scheduler: str | None = None,
@@ -150,11 +163,13 @@ def run_study(
         the number of workers).
     batch: multiresolution solves up to ``batch`` cases of a grid line (one geometry)
         together, each from its nearest converged neighbour (``study.run_batch``); 1 solves
-        case after case.
+        case after case. Default: 16; ``GPU_BATCH`` on a GPU from zero.
     start: how the multiresolution mode starts a case (``plan.START_FROM``): ``"neighbour"``
         (the paper's multiresolution), or ``"zero"``: every case of a geometry from zero, in
         batches of up to ``batch`` cases sharing the operators (for the torch backend on a
-        GPU: a wide batch there costs little more than a narrow one).
+        GPU: a wide batch there costs little more than a narrow one). Default:
+        ``"neighbour"``; ``"zero"`` for the torch backend on a CUDA device, where it was
+        measured faster (docs/gpu.md).
     workers / scheduler: run the study's cases as tasks on a local Dask cluster of
         ``workers`` processes, or on the cluster at ``scheduler``; 0 and None: serial.
     schedule: how a Dask run shares out multiresolution work (``SCHEDULES``):
@@ -178,6 +193,7 @@ def run_study(
         ``"ignore"``.
     """
     options = options or LatinOptions(qoi_rtol=STUDY_QOI_RTOL)
+    batch, start = study_defaults(options, batch, start)
     for mode in modes:
         if mode not in MODES:
             raise ModelError(f"mode: expected one of {MODES}, got {mode!r}")
