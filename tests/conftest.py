@@ -17,25 +17,28 @@ def b0() -> ml.Model:
 
 @pytest.fixture
 def random_local_stage_input() -> Callable[[str, int], tuple[Any, ...]]:
-    """``make(model, seed)``: the local stage of ``FRICTIONS``'s cases of a bundled model
-    (NumPy, uncompiled) and random fields (W, F) of the sizes of a solve, whose contact
-    points open, close, stick and slip."""
+    """``make(model, seed)``: ``local_stage_input``."""
+    return local_stage_input
+
+
+def local_stage_input(name: str, seed: int) -> tuple[Any, ...]:
+    """The local stage of ``FRICTIONS``'s cases of a bundled model (NumPy, uncompiled) and
+    random fields (W, F) of the sizes of a solve, whose contact points open, close, stick
+    and slip: (assemblies, points, operators, local stage, W, F)."""
     from multilatin.decomposition.interfaces import build_points
     from multilatin.latin import LatinOperators, LatinOptions
     from multilatin.latin.local_stage import LocalStage
 
-    def make(name: str, seed: int) -> tuple[Any, ...]:
-        model = ml.load_model(name)
-        assemblies = [model.assemble({"mu1": a, "mu2": b}) for a, b in FRICTIONS]
-        ops = LatinOperators(assemblies[0], LatinOptions())
-        points = [build_points(a) for a in assemblies]
-        rng = np.random.default_rng(seed)
-        shape = (len(assemblies), assemblies[0].n_steps, points[0].n_points, 2)
-        w, f = 1e-2 * rng.normal(size=shape), 1e3 * rng.normal(size=shape)
-        stage = LocalStage(assemblies, points, ops.search_direction, compiled=False,
-                           macro_only=ops.macro_only)
-        return assemblies, points, ops, stage, w, f
-    return make
+    model = ml.load_model(name)
+    assemblies = [model.assemble({"mu1": a, "mu2": b}) for a, b in FRICTIONS]
+    ops = LatinOperators(assemblies[0], LatinOptions())
+    points = [build_points(a) for a in assemblies]
+    rng = np.random.default_rng(seed)
+    shape = (len(assemblies), assemblies[0].n_steps, points[0].n_points, 2)
+    w, f = 1e-2 * rng.normal(size=shape), 1e3 * rng.normal(size=shape)
+    stage = LocalStage(assemblies, points, ops.search_direction, compiled=False,
+                       macro_only=ops.macro_only)
+    return assemblies, points, ops, stage, w, f
 
 
 def warm_b1_4_batch(options: Any) -> tuple[Any, ...]:

@@ -22,6 +22,7 @@ from __future__ import annotations
 
 import importlib
 import logging
+import math
 from collections.abc import Callable
 from typing import Any
 
@@ -37,7 +38,7 @@ def _in_cone(source_x: float, source_y: float, normal_force: float, nx: float, n
     """N n plus the tangential part of the source, limited to μ |N|."""
     along = source_x * nx + source_y * ny
     tx, ty = source_x - along * nx, source_y - along * ny
-    size = np.sqrt(tx * tx + ty * ty)
+    size = math.sqrt(tx * tx + ty * ty)  # math: also compiled for CUDA (``cuda_local``)
     limit = friction * abs(normal_force)
     scale = limit / max(size, 1e-300) if size > limit else 1.0
     return normal_force * nx + scale * tx, normal_force * ny + scale * ty

@@ -23,7 +23,7 @@ from .acceleration import Anderson, ArrayOps
 from .local_stage import LocalStage
 from .operators import LatinOperators
 from .options import LatinOptions
-from .torch_local import Tensor, TorchLocalStage
+from .torch_local import Tensor, TorchLocalStage, contact_kernels_available
 from .torch_operators import DeviceOperators, Rows
 from .tracking import QoiFunctionals
 from .two_scale import coupled_local_stage
@@ -106,6 +106,8 @@ class TorchFields:
         self.options = options
         self.operators = _device_operators(operators, self.device, torch)
         self.local = TorchLocalStage(local, torch, self.device)
+        if self.cuda and not options.fuse and contact_kernels_available():
+            self.local.use_kernels(local)
         self.local_call = _fused(torch) if options.fuse else TorchLocalStage.__call__
         self.w_hat, self.f_hat = self._tensor(w_hat), self._tensor(f_hat)
         self.w: Tensor | None = None

@@ -9,6 +9,8 @@ gives the same values.
 
 from __future__ import annotations
 
+import importlib
+import logging
 from typing import TYPE_CHECKING, Any
 
 import numpy as np
@@ -20,6 +22,20 @@ if TYPE_CHECKING:
     import torch
 
 Tensor = Any  # torch.Tensor, kept out of the annotations' imports (PyTorch is optional)
+
+log = logging.getLogger(__name__)
+#: the contact kernels' first answer is checked against the torch operations' to this
+#: relative difference (``TorchLocalStage.use_kernels``)
+KERNEL_CHECK_RTOL = 1e-9
+
+
+def contact_kernels_available() -> bool:
+    """Numba's CUDA target and a GPU it can use (``cuda_local``)."""
+    try:
+        cuda: Any = importlib.import_module("numba.cuda")
+        return bool(cuda.is_available())
+    except Exception:  # noqa: BLE001 - no Numba (an extra), or no driver it can use
+        return False
 
 
 class TorchLocalStage:
@@ -80,6 +96,16 @@ class TorchLocalStage:
         self.mu_corner = self.mu_contact[:, self.corner]
         #: per case, step and held pair: its holder's prescribed tangential value
         self.held_prescribed = self.prescribed[:, :, self.held_boundary, self.held[1]]
+        self.contact_kernels: Any = None
+        self.kernels_checked = False
+
+    def use_kernels(self, local: LocalStage) -> None:
+        """Contact and stops by the CUDA kernels of ``cuda_local`` (two launches instead of
+        thousands of operations); their first answer is checked against these operations'
+        (a warning and the operations from then on where they differ)."""
+        from .cuda_local import ContactKernels
+
+        self.contact_kernels = ContactKernels(self, local)
 
     def subset(self, cases: IntArray) -> None:
         """Keep the cases at positions ``cases`` (in place)."""
@@ -101,8 +127,33 @@ class TorchLocalStage:
             w_hat[:, :, m] = w_m
             f_hat[:, :, m] = force[:, :, m] + k * (w_m - displacement[:, :, m])
         if self.n_pairs or self.n_stops:
-            self._contact_and_stops(displacement, force, w_hat, f_hat)
+            if self.contact_kernels is None:
+                self._contact_and_stops(displacement, force, w_hat, f_hat)
+            elif not self.kernels_checked:
+                self._check_kernels(displacement, force, w_hat, f_hat)
+            else:
+                self.contact_kernels(self, displacement, force, w_hat, f_hat)
         return w_hat, f_hat
+
+    def _check_kernels(self, displacement: Tensor, force: Tensor, w_hat: Tensor,
+                       f_hat: Tensor) -> None:
+        """The operations' answer in (``w_hat``, ``f_hat``), compared with the kernels'."""
+        kernel_w, kernel_f = w_hat.clone(), f_hat.clone()
+        self._contact_and_stops(displacement, force, w_hat, f_hat)
+        self.kernels_checked = True
+        try:  # a first compilation for this GPU, and its launch
+            self.contact_kernels(self, displacement, force, kernel_w, kernel_f)
+        except Exception as exc:  # noqa: BLE001 - any failure: the operations go on
+            log.warning("the CUDA contact kernels failed (%s); the torch operations run "
+                        "instead", exc)
+            self.contact_kernels = None
+            return
+        worst = max(float((x - y).abs().max() / y.abs().max().clamp(min=1e-300))
+                    for x, y in ((kernel_w, w_hat), (kernel_f, f_hat)))
+        if not worst <= KERNEL_CHECK_RTOL:
+            log.warning("the CUDA contact kernels differ from the torch operations by %.1e "
+                        "(relative); the operations run instead", worst)
+            self.contact_kernels = None
 
     def _perfect_and_boundary(self, displacement: Tensor, force: Tensor, w_hat: Tensor,
                               f_hat: Tensor) -> None:

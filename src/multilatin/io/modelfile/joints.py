@@ -3,7 +3,6 @@ substructures, declared or found where sides face each other."""
 
 from __future__ import annotations
 
-import itertools
 import math
 from typing import Any
 
@@ -54,50 +53,45 @@ class InterfaceSections(SectionReader):
         scale = 1e-9 * max(max(s.mesh.x1 - s.mesh.x0, s.mesh.y1 - s.mesh.y0) for s in subs)
         found: list[Interface] = []
         used_declarations: set[frozenset[str]] = set()
-        for i, j in itertools.combinations(range(len(subs)), 2):
-            for side in SIDES:
-                other = OPPOSITE[side]
-                axis, level, lo, hi = subs[i].mesh.side_line(side)
-                axis_b, level_b, lo_b, hi_b = subs[j].mesh.side_line(other)
-                if abs(level - level_b) > scale:
-                    continue
-                if min(hi, hi_b) - max(lo, lo_b) <= scale:
-                    continue  # touching at a corner at most
-                a, b = subs[i], subs[j]
-                where = f"interface between {a.name!r} ({side} side) and {b.name!r} ({other} side)"
-                start, end = max(lo, lo_b), min(hi, hi_b)  # the part both sides share
-                ref_a = SideRef(i, side, None if abs(start - lo) + abs(end - hi) <= 2 * scale
-                                else (start, end))
-                ref_b = SideRef(j, other, None if abs(start - lo_b) + abs(end - hi_b)
-                                <= 2 * scale else (start, end))
-                kind, law, reach = "perfect", None, 0.0
-                # the most specific declaration wins: body-body, then with one name, then names
-                for key in (frozenset((a.body, b.body)), frozenset((a.name, b.body)),
-                            frozenset((a.body, b.name)), frozenset((a.name, b.name))):
-                    if key in declared:
-                        kind, law, _, reach = declared[key]
-                        used_declarations.add(key)
-                if reach > 0.0:  # a curved face: the shared part is where the faces' nodes are
-                    ref_a, ref_b, start, end = _curved_faces(a, b, side, other, reach, where,
-                                                             (i, j))
-                na, nb = ref_a.nodes(a.mesh), ref_b.nodes(b.mesh)
-                covers = []  # the sides with nodes where the shared part begins and ends
-                for mesh, nodes in ((a.mesh, na), (b.mesh, nb)):
-                    ends = mesh.nodes[nodes[[0, -1]], 1 - axis] if nodes.size else np.zeros(2)
-                    covers.append(nodes.size >= 2 and np.abs(ends - [start, end]).max() <= scale)
-                if not any(covers):
-                    raise ModelError(
-                        f"{where}: the shared part [{start:g}, {end:g}] along "
-                        f"{'yx'[axis]} does not start and end on nodes of {a.name!r} or of "
-                        f"{b.name!r}; place nodes of one of the meshes where the interface "
-                        "ends")
-                if (ref_a.segment is not None or ref_b.segment is not None) and kind == "macro":
-                    raise ModelError(f"{where}: a macro interface must be a whole side of both "
-                                     "substructures")
-                # non-matching perfect and contact interfaces are joined by mortar projection
-                # (``decomposition.mortar``); macro ones transmit macro quantities only
-                found.append(Interface(f"{a.name}|{b.name}", kind,
-                                       (ref_a, ref_b), contact=law))
+        for i, j, side in _facing_sides(subs, scale):
+            other = OPPOSITE[side]
+            axis, _, lo, hi = subs[i].mesh.side_line(side)
+            _, _, lo_b, hi_b = subs[j].mesh.side_line(other)
+            a, b = subs[i], subs[j]
+            where = f"interface between {a.name!r} ({side} side) and {b.name!r} ({other} side)"
+            start, end = max(lo, lo_b), min(hi, hi_b)  # the part both sides share
+            ref_a = SideRef(i, side, None if abs(start - lo) + abs(end - hi) <= 2 * scale
+                            else (start, end))
+            ref_b = SideRef(j, other, None if abs(start - lo_b) + abs(end - hi_b)
+                            <= 2 * scale else (start, end))
+            kind, law, reach = "perfect", None, 0.0
+            # the most specific declaration wins: body-body, then with one name, then names
+            for key in (frozenset((a.body, b.body)), frozenset((a.name, b.body)),
+                        frozenset((a.body, b.name)), frozenset((a.name, b.name))):
+                if key in declared:
+                    kind, law, _, reach = declared[key]
+                    used_declarations.add(key)
+            if reach > 0.0:  # a curved face: the shared part is where the faces' nodes are
+                ref_a, ref_b, start, end = _curved_faces(a, b, side, other, reach, where,
+                                                         (i, j))
+            na, nb = ref_a.nodes(a.mesh), ref_b.nodes(b.mesh)
+            covers = []  # the sides with nodes where the shared part begins and ends
+            for mesh, nodes in ((a.mesh, na), (b.mesh, nb)):
+                ends = mesh.nodes[nodes[[0, -1]], 1 - axis] if nodes.size else np.zeros(2)
+                covers.append(nodes.size >= 2 and np.abs(ends - [start, end]).max() <= scale)
+            if not any(covers):
+                raise ModelError(
+                    f"{where}: the shared part [{start:g}, {end:g}] along "
+                    f"{'yx'[axis]} does not start and end on nodes of {a.name!r} or of "
+                    f"{b.name!r}; place nodes of one of the meshes where the interface "
+                    "ends")
+            if (ref_a.segment is not None or ref_b.segment is not None) and kind == "macro":
+                raise ModelError(f"{where}: a macro interface must be a whole side of both "
+                                 "substructures")
+            # non-matching perfect and contact interfaces are joined by mortar projection
+            # (``decomposition.mortar``); macro ones transmit macro quantities only
+            found.append(Interface(f"{a.name}|{b.name}", kind,
+                                   (ref_a, ref_b), contact=law))
         for key, (_, _, where, _) in declared.items():
             if key not in used_declarations:
                 a, b = sorted(key)
@@ -176,3 +170,19 @@ def _curved_faces(a: Substructure, b: Substructure, side: str, other: str, reach
                          <= 1e-9 * (end - start) else (start, end), reach)
                  for index, name, span in zip(indices, (side, other), spans, strict=True))
     return refs[0], refs[1], start, end
+
+
+def _facing_sides(subs: list[Substructure], scale: float) -> list[tuple[int, int, str]]:
+    """(i, j, side) for the sides of substructure i < j's that face side ``OPPOSITE[side]``
+    of substructure j (the same line, to ``scale``) over more than ``scale``: where
+    interfaces may be, in the order of the pairs and then of ``SIDES``; all pairs compared
+    at once (a Python loop over pairs was most of a B3 case's assembly)."""
+    lines = np.array([[s.mesh.side_line(side) for side in SIDES] for s in subs], dtype=float)
+    opposite = [SIDES.index(OPPOSITE[side]) for side in SIDES]
+    own, facing = lines[:, None, :, :], lines[None, :, opposite, :]  # (i, j, side, line)
+    same_line = np.abs(own[..., 1] - facing[..., 1]) <= scale
+    shared = (np.minimum(own[..., 3], facing[..., 3])
+              - np.maximum(own[..., 2], facing[..., 2])) > scale  # more than a corner
+    pairs = np.triu(np.ones((len(subs), len(subs)), dtype=bool), k=1)[:, :, None]
+    i, j, side = np.nonzero(same_line & shared & pairs)
+    return [(int(a), int(b), SIDES[c]) for a, b, c in zip(i, j, side, strict=True)]
