@@ -156,7 +156,7 @@ def test_several_geometries_in_one_batch_give_each_geometrys_answers() -> None:
     mus = [{"rc": 2.0, "mu1": 0.3}, {"rc": 4.0, "mu1": 0.35, "mu2": 0.25},
            {"rc": 2.0, "xc": 24.0, "mu1": 0.1, "mu2": 0.3}]
     assemblies = [b3.assemble(mu) for mu in mus]
-    got = solve_latin_batch(assemblies, LatinOptions(backend="torch"))
+    got = solve_latin_batch(assemblies, LatinOptions(backend="torch", device=DEVICE))
     assert got[0].timings["batch_size"] == 3  # one batch
     for assembly, result in zip(assemblies, got, strict=True):
         alone = solve_latin(assembly)
@@ -172,7 +172,7 @@ def test_a_study_from_zero_batches_geometries_on_torch(tmp_path: object) -> None
 
     model = ml.load_model("b3")
     grid = ml.Grid({"xc": [23.0, 26.0], "mu1": [0.1, 0.3]})
-    options = LatinOptions(tol=1e-7)
+    options = LatinOptions()  # the same stops on both backends: equal to rounding anyway
     reference, got = _on_both_backends(model, grid, options, batch=8, start="zero")
     assert {r["batch"] for r in reference.records} == {2}
     assert {r["batch"] for r in got.records} == {4}
@@ -219,7 +219,7 @@ def test_a_batch_larger_than_the_memory_is_solved_in_chunks(
 
     model = ml.load_model("b1")
     assemblies = [model.assemble({"mu1": mu}) for mu in (0.1, 0.2, 0.3)]
-    options = LatinOptions(backend="torch", device=DEVICE)
+    options = LatinOptions(backend="torch", device=DEVICE, tol=1e-4)  # equal stops: any tol
     whole = solve_latin_batch(assemblies, options)
     per_case = FIELDS_PER_CASE * assemblies[0].n_steps * whole[0].interface.coords.shape[0] * 16
     monkeypatch.setenv("MULTILATIN_MAX_MEMORY_GB", str(1.5 * per_case / MEMORY_SHARE / 1e9))

@@ -189,6 +189,14 @@ def _launch(kernel: Any, n_threads: int, torch: Any, *tensors: Any) -> None:
     if numba.config.ENABLE_CUDASIM:
         kernel[blocks, THREADS](*(x.numpy() for x in tensors))
         return
-    stream = cuda.external_stream(torch.cuda.current_stream().cuda_stream)
-    kernel[blocks, THREADS, stream](*(cuda.as_cuda_array(x.detach(), sync=False)
-                                      for x in tensors))
+    index = tensors[0].device.index or 0
+    if index:  # Numba works on GPU 0 unless told
+        with cuda.gpus[index]:
+            _launch_on(kernel, blocks, torch.cuda.current_stream(index), tensors)
+    else:
+        _launch_on(kernel, blocks, torch.cuda.current_stream(), tensors)
+
+
+def _launch_on(kernel: Any, blocks: int, stream: Any, tensors: tuple[Any, ...]) -> None:
+    kernel[blocks, THREADS, cuda.external_stream(stream.cuda_stream)](
+        *(cuda.as_cuda_array(x.detach(), sync=False) for x in tensors))
