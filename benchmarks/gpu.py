@@ -47,6 +47,8 @@ B3_POSITIONS = ["xc=23:27:5", "yc=73:77:5", "rc=3"]
 B3_MIXED = ["xc=23:27:3", "mu1=0:0.6:4", "mu2=0:0.6:4"]
 B3_FULL = ["mu1=0:0.6:13", "mu2=0:0.6:13", "xc=23:27:5", "yc=73:77:5", "rc=1:5:5"]
 TIGHT = LatinOptions(tol=1e-9, max_iter=5000)
+#: the --full study's starts: row label and run_study's arguments
+FULL_STARTS = {"zero": ("zero", {"start": "zero"}), "neighbour": ("neighbour (wavefront)", {})}
 
 
 def peak_memory(torch: Any, device: str) -> str:
@@ -114,6 +116,8 @@ def main() -> None:
     parser.add_argument("--no-tight", action="store_true",
                         help="skip the tight reference solves (the last column)")
     args = parser.parse_args()
+    if not set(args.full_start.split(",")) <= set(FULL_STARTS):
+        parser.error(f"--full-start: expected zero and/or neighbour, got {args.full_start!r}")
     import torch
 
     torch.set_num_threads(args.threads)
@@ -185,9 +189,7 @@ def main() -> None:
     if args.full:
         full = [*B3_FULL[:-1], f"rc={args.full_rc}"]
         n_full = int(np.prod([len(v) for v in ml.Grid.parse(full).values()]))
-        starts = {"zero": ("zero", {"start": "zero"}),
-                  "neighbour": ("neighbour (wavefront)", {})}
-        for label, kwargs in (starts[name] for name in args.full_start.split(",")):
+        for label, kwargs in (FULL_STARTS[name] for name in args.full_start.split(",")):
             if args.device.startswith("cuda"):
                 torch.cuda.reset_peak_memory_stats()
             wall, values, iterations = study(b3, full, device_options,

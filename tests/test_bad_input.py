@@ -176,3 +176,11 @@ def test_solver_options_name_field_and_value(field, value):
 
     with pytest.raises(ModelError, match=rf"{field}: .*{value!r}"):
         LatinOptions(**{field: value})
+
+
+def test_a_study_batch_of_zero_is_refused(tmp_path):
+    """``batch=0`` is an error naming the option, not the default (``study_defaults`` fills
+    in only what was not given)."""
+    with pytest.raises(ml.ModelError, match="--batch: must be >= 1, got 0"):
+        ml.run_study(ml.load_model("b1"), ml.Grid({"mu1": [0.1]}), batch=0, out=tmp_path,
+                     progress=False)

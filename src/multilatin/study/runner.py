@@ -131,8 +131,11 @@ def study_defaults(options: LatinOptions, batch: int | None, start: str | None
     CUDA device) every case from zero in batches of ``GPU_BATCH`` (measured 4 to 7 × faster
     there than the multiresolution wavefront, docs/gpu.md); else from the neighbour, 16."""
     on_gpu = options.backend == "torch" and options.device.startswith("cuda")
-    start = start or ("zero" if on_gpu else "neighbour")
-    return batch or (GPU_BATCH if on_gpu and start == "zero" else 16), start
+    if start is None:
+        start = "zero" if on_gpu else "neighbour"
+    if batch is None:  # (a given 0 stays, for run_study's error)
+        batch = GPU_BATCH if on_gpu and start == "zero" else 16
+    return batch, start
 
 
 def run_study(
