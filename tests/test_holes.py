@@ -112,6 +112,17 @@ def test_a_friction_study_shares_its_geometry_and_a_new_hole_does_not():
     assert first.substructures[holed].signature() != moved.substructures[holed].signature()
     assert fresh.interfaces == moved.interfaces  # frictions from the case (0.4), not cached
     assert any(itf.contact is not None and itf.contact.friction == 0.4 for itf in moved.interfaces)
+    # the interfaces found once per geometry: the same sides, each case's own contact laws
+    joined = [(x, y) for x, y in zip(first.interfaces, again.interfaces, strict=True)
+              if len(x.sides) == 2]
+    assert len(joined) > 40 and all(x.sides[0] is y.sides[0] and x.sides[1] is y.sides[1]
+                                    for x, y in joined)
+    assert load_model("b3").assemble({"mu1": 0.4, "mu2": 0.2, "xc": 24.0}).interfaces \
+        == again.interfaces != first.interfaces
+    def frictions(assembly):
+        return {itf.contact.friction for itf in assembly.interfaces if itf.contact}
+
+    assert 0.1 in frictions(first) and 0.1 not in frictions(again) and 0.4 in frictions(again)
     assert len(model.spec.built) == 3  # the defaults (built when loaded), xc = 24 and 26
     assert len(pickle.loads(pickle.dumps(model)).spec.built) == 0  # not sent to workers
 

@@ -53,7 +53,17 @@ class Substructure:
     def signature(self) -> str:
         """A digest of everything the substructure's stiffness depends on (mesh, material,
         hole): equal signatures mean its operators can be reused."""
+        return self._stiffness_digest
+
+    @cached_property
+    def _stiffness_digest(self) -> str:  # once per substructure: a study's cases share it
         return hashlib.sha1(repr((self.mesh, self.material, self.hole)).encode()).hexdigest()
+
+    @cached_property
+    def description(self) -> str:
+        """What its interfaces' points depend on, as text: name, body, mesh and material
+        (``latin.operators.interface_signature``; once per substructure)."""
+        return repr((self.name, self.body, self.mesh, self.material))
 
     @cached_property
     def cut(self) -> CutCells | None:
@@ -176,6 +186,12 @@ class Assembly:
     history: History
     qois: tuple[QuantityOfInterest, ...]
     mu: Mu
+
+    @cached_property
+    def digests(self) -> dict[object, str]:
+        """Digests of this assembly computed once (``latin.operators.interface_signature``),
+        by what else they depend on."""
+        return {}
 
     @property
     def n_steps(self) -> int:

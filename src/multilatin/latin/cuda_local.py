@@ -14,8 +14,11 @@ is how the tests check them against the NumPy local stage.
 
 from __future__ import annotations
 
+import contextlib
 import importlib
 from typing import TYPE_CHECKING, Any
+
+import numpy as np
 
 from . import kernels
 
@@ -25,8 +28,21 @@ if TYPE_CHECKING:
 #: threads per block
 THREADS = 128
 
+if not hasattr(np, "row_stack"):
+    # numba-cuda (0.30 and before) registers np.row_stack, which NumPy 2.5 removed, when
+    # it first compiles: without the alias its CUDA target fails to start (seen on an H200
+    # with NumPy 2.5.2, docs/gpu.md). The alias is what NumPy 2.0-2.4 had.
+    numpy_module: Any = np
+    numpy_module.row_stack = np.vstack
+
 numba: Any = importlib.import_module("numba")
 cuda: Any = importlib.import_module("numba.cuda")
+for _config in ("numba.cuda.core.config", "numba.core.config"):
+    # a small batch (one case) is a small grid: Numba's low-occupancy warning says nothing
+    with contextlib.suppress(ImportError):
+        config: Any = importlib.import_module(_config)
+        config.CUDA_LOW_OCCUPANCY_WARNINGS = 0
+
 _in_cone = cuda.jit(device=True)(getattr(kernels._in_cone, "py_func", kernels._in_cone))
 _series_trial = cuda.jit(device=True)(getattr(kernels._series_trial, "py_func",
                                               kernels._series_trial))

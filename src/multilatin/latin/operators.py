@@ -41,15 +41,19 @@ def interface_signature(assembly: Assembly, options: LatinOptions) -> str:
     and kinds (with the components that carry free macro unknowns: a stop's depend on
     whether it has friction), and the discretisation choices. Holes (inside the
     substructures), friction coefficients, gaps and loads are not in it."""
-    interfaces = [(itf.kind, itf.sides, itf.condition.kinds if itf.condition else None,
-                   itf.contact is not None, free_macro_components(itf))
-                  for itf in assembly.interfaces]
     choices = (options.kappa, options.macro, options.interface_elements,
                options.dirichlet_stiffening, options.tangential_ratio, options.search_modulus,
                options.held_nodes, options.corner_stiffening, options.corner_reach,
                options.micro_stiffening)
-    substructures = [(s.name, s.body, s.mesh, s.material) for s in assembly.substructures]
-    return hashlib.sha1(repr((substructures, interfaces, choices)).encode()).hexdigest()
+    key = ("interfaces", choices)
+    if key not in assembly.digests:  # a study asks twice per case
+        interfaces = [(itf.kind, itf.sides, itf.condition.kinds if itf.condition else None,
+                       itf.contact is not None, free_macro_components(itf))
+                      for itf in assembly.interfaces]
+        substructures = [s.description for s in assembly.substructures]
+        assembly.digests[key] = hashlib.sha1(
+            repr((substructures, interfaces, choices)).encode()).hexdigest()
+    return assembly.digests[key]
 
 
 def operator_signature(assembly: Assembly, options: LatinOptions) -> str:

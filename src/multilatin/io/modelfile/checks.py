@@ -60,6 +60,8 @@ class BuildCache(list[Any]):
     def __init__(self) -> None:
         super().__init__()
         self.lock = threading.Lock()
+        #: interfaces found per geometry (``joints.InterfaceSections._found``)
+        self.interfaces: list[Any] = []
 
     def __reduce__(self) -> tuple[type[BuildCache], tuple[()]]:
         return BuildCache, ()

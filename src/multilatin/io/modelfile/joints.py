@@ -14,12 +14,20 @@ from ...errors import ModelError
 from ...fem.mesh import SIDES
 from .checks import OPPOSITE, SectionReader, check_keys, pair, require
 
+#: an interface found where sides face each other, without its contact law: name, kind,
+#: its two sides and the declaration whose law it takes (None: a perfect interface)
+Joint = tuple[str, str, SideRef, SideRef, "frozenset[str] | None"]
+#: a declared interface: kind, contact law, where declared, reach
+Declaration = tuple[str, "ContactLaw | None", str, float]
+#: geometries whose interfaces a model keeps found (``InterfaceSections._found``)
+INTERFACE_CACHE_SIZE = 8
+
 
 class InterfaceSections(SectionReader):
     """Interfaces between substructures."""
 
     def interfaces(self, subs: list[Substructure]) -> list[Interface]:
-        declared: dict[frozenset[str], tuple[str, ContactLaw | None, str, float]] = {}
+        declared: dict[frozenset[str], Declaration] = {}
         by_faces: list[Interface] = []  # between named groups of edges (mesh files)
         for d, table in enumerate(self.data.get("interfaces", [])):
             where = f"interfaces[{d}]"
@@ -50,9 +58,51 @@ class InterfaceSections(SectionReader):
                                  f"got {a!r} twice")
             law = self.contact_law(table, where) if kind == "contact" else None
             declared[frozenset((a, b))] = (kind, law, where, float(reach))
+        found, used_declarations = self._found(subs, declared)
+        for key, (_, _, where, _) in declared.items():
+            if key not in used_declarations:
+                a, b = sorted(key)
+                raise ModelError(
+                    f"{where}.between: {a!r} and {b!r} do not face each other (they share no side)"
+                )
+        return found + by_faces
+
+    def _found(self, subs: list[Substructure], declared: dict[frozenset[str], Declaration]
+               ) -> tuple[list[Interface], set[frozenset[str]]]:
+        """The interfaces where sides face each other, and the declarations they used.
+        Kept between builds (the model's ``cache``) for the same substructures (the same
+        objects, ``BodySections.substructures``) and the same declared kinds and reaches:
+        a study over frictions or gaps finds its geometry's interfaces once, and each case
+        only puts its contact laws on them."""
+        shape = frozenset((key, kind, reach) for key, (kind, _, _, reach) in declared.items())
+        kept = getattr(self.cache, "interfaces", None)
+        found = None
+        if kept is not None:
+            with self.cache.lock:  # type: ignore[union-attr]
+                for n, (known_subs, known_shape, joints, used) in enumerate(kept):
+                    if known_shape == shape and len(known_subs) == len(subs) and all(
+                            x is y for x, y in zip(known_subs, subs, strict=True)):
+                        kept.insert(0, kept.pop(n))
+                        found = joints, used
+                        break
+        if found is None:
+            found = self._joints(subs, declared)
+            if kept is not None:
+                with self.cache.lock:  # type: ignore[union-attr]
+                    kept.insert(0, (tuple(subs), shape, *found))
+                    del kept[INTERFACE_CACHE_SIZE:]
+        joints, used = found
+        return [Interface(name, kind, (ref_a, ref_b),
+                          contact=declared[key][1] if key is not None else None)
+                for name, kind, ref_a, ref_b, key in joints], set(used)
+
+    def _joints(self, subs: list[Substructure], declared: dict[frozenset[str], Declaration]
+                ) -> tuple[list[Joint], set[frozenset[str]]]:
+        """``_found``'s interfaces without their contact laws: (name, kind, sides, the
+        declaration whose law applies)."""
         scale = 1e-9 * max(max(s.mesh.x1 - s.mesh.x0, s.mesh.y1 - s.mesh.y0) for s in subs)
-        found: list[Interface] = []
-        used_declarations: set[frozenset[str]] = set()
+        joints: list[Joint] = []
+        used: set[frozenset[str]] = set()
         for i, j, side in _facing_sides(subs, scale):
             other = OPPOSITE[side]
             axis, _, lo, hi = subs[i].mesh.side_line(side)
@@ -64,13 +114,14 @@ class InterfaceSections(SectionReader):
                             else (start, end))
             ref_b = SideRef(j, other, None if abs(start - lo_b) + abs(end - hi_b)
                             <= 2 * scale else (start, end))
-            kind, law, reach = "perfect", None, 0.0
+            kind, law_key, reach = "perfect", None, 0.0
             # the most specific declaration wins: body-body, then with one name, then names
             for key in (frozenset((a.body, b.body)), frozenset((a.name, b.body)),
                         frozenset((a.body, b.name)), frozenset((a.name, b.name))):
                 if key in declared:
-                    kind, law, _, reach = declared[key]
-                    used_declarations.add(key)
+                    kind, _, _, reach = declared[key]
+                    law_key = key
+                    used.add(key)
             if reach > 0.0:  # a curved face: the shared part is where the faces' nodes are
                 ref_a, ref_b, start, end = _curved_faces(a, b, side, other, reach, where,
                                                          (i, j))
@@ -90,15 +141,8 @@ class InterfaceSections(SectionReader):
                                  "substructures")
             # non-matching perfect and contact interfaces are joined by mortar projection
             # (``decomposition.mortar``); macro ones transmit macro quantities only
-            found.append(Interface(f"{a.name}|{b.name}", kind,
-                                   (ref_a, ref_b), contact=law))
-        for key, (_, _, where, _) in declared.items():
-            if key not in used_declarations:
-                a, b = sorted(key)
-                raise ModelError(
-                    f"{where}.between: {a!r} and {b!r} do not face each other (they share no side)"
-                )
-        return found + by_faces
+            joints.append((f"{a.name}|{b.name}", kind, ref_a, ref_b, law_key))
+        return joints, used
 
     def _between_faces(self, table: Any, where: str, subs: list[Substructure], a: str, b: str,
                        kind: str) -> Interface:
