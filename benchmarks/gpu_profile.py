@@ -6,9 +6,11 @@
 For each batch — B1's 169 frictions, and B3's hole positions × 169 frictions (25 positions:
 4 225 cases, the batch of the 21 125-case study) — all from zero: ``--iterations``
 iterations timed (after a warm-up of 3), split into linear stage, macro problem and local
-stage; then the same iterations under ``torch.profiler``: the kernels (on a GPU) or ATen
-operations (on the CPU) per iteration, and the device's busy time per iteration against
-the wall time (a GPU busy a small share of the wall is waiting for Python's launches).
+stage (on a GPU, where the whole iteration is one graph, all but the first iteration's
+time is the local stage's: ``torch_engine.FUSED_DEVICES``); then the same iterations
+under ``torch.profiler``: the kernels (on a GPU) or ATen operations (on the CPU) per
+iteration, and the device's busy time per iteration against the wall time (a GPU busy a
+small share of the wall is waiting for Python's launches).
 """
 
 from __future__ import annotations

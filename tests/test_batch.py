@@ -95,3 +95,29 @@ def _has_torch() -> bool:
     except ImportError:
         return False
     return True
+
+
+@pytest.mark.parametrize("name", ["b1", "b3", "slide"])
+def test_without_recovery_the_qois_come_from_the_interface_fields(name: str) -> None:
+    """``recover_displacements=False`` (what studies use): no interior displacements and
+    no contact pressures, the same iterations, free motions and QoIs — the functionals
+    (``tracking.qoi_functionals``) are the recovery's linear maps, equal to rounding;
+    reactions, contact pressures and displacements all among the QoIs checked."""
+    from dataclasses import replace
+
+    model = ml.load_model(name)
+    frictions = [{"mu1": 0.1, "mu2": 0.2}, {"mu1": 0.2, "mu2": 0.1}] if name != "slide" else [{}]
+    assemblies = [model.assemble(mu) for mu in frictions]
+    options = LatinOptions(qoi_rtol=1e-3)
+    full = solve_latin_batch(assemblies, options)
+    lean = solve_latin_batch(assemblies, replace(options, recover_displacements=False))
+    kinds = {q.kind for q in assemblies[0].qois}
+    assert "displacement" in kinds and len(kinds) >= 2
+    for a, b in zip(full, lean, strict=True):
+        assert a.displacements and not b.displacements and b.contact is None
+        assert (a.iterations, a.free_motions) == (b.iterations, b.free_motions)
+        assert a.qoi.keys() == b.qoi.keys()
+        for key, value in a.qoi.items():
+            expected = np.atleast_1d(value)
+            assert np.max(np.abs(np.atleast_1d(b.qoi[key]) - expected)) <= (
+                1e-12 * np.max(np.abs(expected))), key

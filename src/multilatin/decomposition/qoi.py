@@ -3,8 +3,11 @@ pressures."""
 
 from __future__ import annotations
 
+import threading
+from collections import OrderedDict
 from collections.abc import Mapping
 from dataclasses import dataclass, field
+from typing import Any
 
 import numpy as np
 
@@ -46,19 +49,44 @@ class ContactPressures:
         """
         if recovery not in PRESSURE_RECOVERIES:
             raise ValueError(f"recovery: expected one of {PRESSURE_RECOVERIES}, got {recovery!r}")
-        chosen = np.array([b == bodies for b in self.bodies], dtype=bool)
-        extents, pressure = self.extents[chosen], self.pressure[:, chosen]
-        lo = np.maximum(extents[:, 0], segment[0])
-        hi = np.minimum(extents[:, 1], segment[1])
-        overlap = np.clip(hi - lo, 0.0, None)
-        if overlap.sum() <= 0.0:
-            raise ValueError(f"no contact interface between {sorted(bodies)} over {segment}")
-        if recovery == "lumped":
-            return np.asarray(pressure @ overlap / overlap.sum(), dtype=np.float64)
-        total = np.zeros(pressure.shape[0])
-        for nodes, forces in _lines(extents, pressure * (extents[:, 1] - extents[:, 0])):
-            total += _integral(nodes, _consistent(nodes, forces), segment)
-        return np.asarray(total / overlap.sum(), dtype=np.float64)
+        key = (self.extents.tobytes(), tuple(self.bodies), bodies, tuple(segment), recovery)
+        with _WEIGHTS_LOCK:
+            weights = _WEIGHTS.get(key)
+            if weights is not None:
+                _WEIGHTS.move_to_end(key)
+        if weights is None:  # linear in the pressures: their weights, once per geometry
+            chosen = np.array([b == bodies for b in self.bodies], dtype=bool)
+            weights = np.zeros(chosen.size)
+            weights[chosen] = _mean(self.extents[chosen], np.eye(int(chosen.sum())), bodies,
+                                    segment, recovery)
+            with _WEIGHTS_LOCK:
+                _WEIGHTS[key] = weights
+                while len(_WEIGHTS) > _WEIGHTS_CACHE_SIZE:
+                    _WEIGHTS.popitem(last=False)
+        return np.asarray(self.pressure @ weights, dtype=np.float64)
+
+
+#: per contact geometry, QoI segment and recovery, the weights of the nodal pressures in
+#: the mean (``ContactPressures.mean``); the cases of a study share them
+_WEIGHTS: OrderedDict[tuple[Any, ...], FloatArray] = OrderedDict()
+_WEIGHTS_CACHE_SIZE = 32
+_WEIGHTS_LOCK = threading.Lock()
+
+
+def _mean(extents: FloatArray, pressure: FloatArray, bodies: frozenset[str],
+          segment: tuple[float, float], recovery: str) -> FloatArray:
+    """``ContactPressures.mean`` of the nodes of ``extents`` (their ``pressure``, (n, n_nodes))."""
+    lo = np.maximum(extents[:, 0], segment[0])
+    hi = np.minimum(extents[:, 1], segment[1])
+    overlap = np.clip(hi - lo, 0.0, None)
+    if overlap.sum() <= 0.0:
+        raise ValueError(f"no contact interface between {sorted(bodies)} over {segment}")
+    if recovery == "lumped":
+        return np.asarray(pressure @ overlap / overlap.sum(), dtype=np.float64)
+    total = np.zeros(pressure.shape[0])
+    for nodes, forces in _lines(extents, pressure * (extents[:, 1] - extents[:, 0])):
+        total += _integral(nodes, _consistent(nodes, forces), segment)
+    return np.asarray(total / overlap.sum(), dtype=np.float64)
 
 
 def _lines(extents: FloatArray, forces: FloatArray
@@ -127,9 +155,10 @@ def latin_contact_pressures(assembly: Assembly, points: InterfacePoints,
     ``points``, with ``pressure`` (n, n_pairs) there (LATIN's fields, or unit columns for the
     mean's weights) and ``shear`` (zero when not given)."""
     first = points.contact_pairs[0]
-    bodies = [frozenset(assembly.substructures[ref.substructure].body
-                        for ref in assembly.interfaces[j].sides)
-              for j in points.interface[first]]
+    interfaces = points.interface[first].tolist()
+    joined = {j: frozenset(assembly.substructures[ref.substructure].body
+                           for ref in assembly.interfaces[j].sides) for j in set(interfaces)}
+    bodies = [joined[j] for j in interfaces]
     return ContactPressures(bodies, points.extents[first], pressure, points.coords[first],
                             np.zeros_like(pressure) if shear is None else shear)
 

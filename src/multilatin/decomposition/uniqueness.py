@@ -27,6 +27,7 @@ from __future__ import annotations
 import threading
 import weakref
 from collections import OrderedDict
+from collections.abc import Sequence
 from dataclasses import dataclass
 from typing import Any
 
@@ -160,61 +161,92 @@ def free_motions(assembly: Assembly, points: InterfacePoints, displacement_hat: 
     n_points, 2)`` (see the module's docstring). Vectorised over the load steps: per cluster,
     the constraints' Gram matrix on the three rigid modes for every step at once, its null
     space by a batched eigendecomposition."""
-    n_steps = force_hat.shape[0]
-    force_scale = float(np.abs(force_hat).max()) or 1.0
-    displacement_scale = float(np.abs(displacement_hat).max()) or 1.0
-    out: list[FreeMotion] = []
-    for cluster in _clusters_of(assembly, points):
+    return free_motions_batch([assembly], [points], [displacement_hat], [force_hat],
+                              reserve_tol)[0]
+
+
+def free_motions_batch(assemblies: Sequence[Assembly], points: Sequence[InterfacePoints],
+                       displacement_hats: Sequence[FloatArray], force_hats: Sequence[FloatArray],
+                       reserve_tol: float = RESERVE_TOL) -> list[list[FreeMotion]]:
+    """``free_motions`` of several converged states, computed together for the cases that
+    share their clusters (one geometry: a batch's cases), vectorised over cases and steps."""
+    out: list[list[FreeMotion]] = [[] for _ in assemblies]
+    groups: dict[int, tuple[list[_Cluster], list[int]]] = {}
+    for c, (assembly, pts) in enumerate(zip(assemblies, points, strict=True)):
+        clusters = _clusters_of(assembly, pts)
+        groups.setdefault(id(clusters), (clusters, []))[1].append(c)
+    for clusters, members in groups.values():
+        found = _motions_of(clusters, [points[c] for c in members],
+                            np.stack([displacement_hats[c] for c in members]),
+                            np.stack([force_hats[c] for c in members]), reserve_tol)
+        for c, motions in zip(members, found, strict=True):
+            out[c] = sorted(motions, key=lambda motion: motion.step)
+    return out
+
+
+def _motions_of(clusters: list[_Cluster], points: Sequence[InterfacePoints],
+                displacement_hat: FloatArray, force_hat: FloatArray, reserve_tol: float
+                ) -> list[list[FreeMotion]]:
+    """``free_motions_batch`` for cases of the same ``clusters``, their fields stacked
+    (n_cases, n_steps, n_points, 2)."""
+    n_cases, n_steps = force_hat.shape[:2]
+    out: list[list[FreeMotion]] = [[] for _ in range(n_cases)]
+    force_scale = np.abs(force_hat).reshape(n_cases, -1).max(axis=1)
+    force_scale[force_scale == 0.0] = 1.0
+    displacement_scale = np.abs(displacement_hat).reshape(n_cases, -1).max(axis=1)
+    displacement_scale[displacement_scale == 0.0] = 1.0
+    near = 1e-4 * displacement_scale[:, None, None]  # (C, 1, 1)
+    for cluster in clusters:
         p, partner, normal, modes = cluster.p, cluster.partner, cluster.normal, cluster.modes
         own_a, own_b, own_stops = cluster.own
-        friction = np.concatenate([points.contact_friction[own_a],
-                                   points.contact_friction[own_b],
-                                   points.stop_friction[own_stops]])
-        gap = np.concatenate([points.contact_gap[own_a], points.contact_gap[own_b],
-                              points.stop_gap[own_stops]])
-        force = force_hat[:, p]  # (T, n, 2): the force on the cluster
-        normal_force = np.einsum("tnc,nc->tn", force, normal)
+        friction = np.stack([np.concatenate([pts.contact_friction[own_a],
+                                             pts.contact_friction[own_b],
+                                             pts.stop_friction[own_stops]]) for pts in points])
+        gap = np.stack([np.concatenate([pts.contact_gap[own_a], pts.contact_gap[own_b],
+                                        pts.stop_gap[own_stops]]) for pts in points])
+        force = force_hat[:, :, p]  # (C, T, n, 2): the force on the cluster
+        normal_force = np.einsum("ctnd,nd->ctn", force, normal)
         # [Ŵ] = Ŵ_partner − Ŵ_own (a stop's side is fixed): opening and slip increments
-        jump = np.where(partner[None, :, None] >= 0,
-                        displacement_hat[:, np.maximum(partner, 0)], 0.0) - displacement_hat[:, p]
-        opening = gap + np.einsum("nc,tnc->tn", normal, jump)
-        increment = np.diff(jump, axis=0, prepend=np.zeros((1, *jump.shape[1:])))
-        slip = increment - np.einsum("tnc,nc->tn", increment, normal)[..., None] * normal
-        moving = np.linalg.norm(slip, axis=2) > 1e-4 * displacement_scale  # (T, n)
-        pressed = normal_force < -1e-9 * force_scale  # two-sided: no motion along n
-        touching = ~pressed & (opening <= 1e-4 * displacement_scale)  # may only separate
-        gram = cluster.held + np.einsum("tn,nk,nl->tkl", pressed.astype(float),
+        jump = np.where(partner[:, None] >= 0, displacement_hat[:, :, np.maximum(partner, 0)],
+                        0.0) - displacement_hat[:, :, p]
+        opening = gap[:, None, :] + np.einsum("nd,ctnd->ctn", normal, jump)
+        increment = np.diff(jump, axis=1, prepend=np.zeros((n_cases, 1, *jump.shape[2:])))
+        slip = increment - np.einsum("ctnd,nd->ctn", increment, normal)[..., None] * normal
+        moving = np.linalg.norm(slip, axis=3) > near  # (C, T, n)
+        pressed = normal_force < -1e-9 * force_scale[:, None, None]  # no motion along n
+        touching = ~pressed & (opening <= near)  # may only separate
+        gram = cluster.held + np.einsum("ctn,nk,nl->ctkl", pressed.astype(float),
                                         cluster.along_normal, cluster.along_normal)
         values, vectors = np.linalg.eigh(gram)  # ascending
-        free = values <= 1e-10 * np.maximum(values[:, -1:], 1e-300)
+        free = values <= 1e-10 * np.maximum(values[..., -1:], 1e-300)
         if not free.any():
             continue
         tangential_force = force - normal_force[..., None] * normal
-        limit = friction * np.abs(normal_force)  # (T, n): μ|N|
-        with_friction = bool(np.any(friction > 0))
-        # every free direction of every step at once, each with both signs
-        steps, columns = np.nonzero(free)
-        directions = vectors[steps, :, columns]  # (P, 3)
+        limit = friction[:, None, :] * np.abs(normal_force)  # (C, T, n): μ|N|
+        with_friction = np.any(friction > 0, axis=1)
+        # every free direction of every case and step at once, each with both signs
+        cases, steps, columns = np.nonzero(free)
+        directions = vectors[cases, steps, :, columns]  # (P, 3)
         admissible = []
         for sign in (1.0, -1.0):
             velocity = np.einsum("nck,pk->pnc", modes, sign * directions)  # (P, n, 2)
             into = np.einsum("pnc,nc->pn", velocity, normal)  # along n: into the partner
-            pushes = np.any(touching[steps] & (into > 1e-9), axis=1)  # into a touching one
-            reserve = _friction_reserve(velocity, normal, tangential_force[steps],
-                                        limit[steps], moving[steps], cluster.weights)
+            pushes = np.any(touching[cases, steps] & (into > 1e-9), axis=1)
+            reserve = _friction_reserve(velocity, normal, tangential_force[cases, steps],
+                                        limit[cases, steps], moving[cases, steps],
+                                        cluster.weights)
             admissible.append((~pushes & (reserve <= reserve_tol), reserve))
         centre = (float(cluster.centre[0]), float(cluster.centre[1]))
-        for i, t in enumerate(steps.tolist()):
+        for i, (c, t) in enumerate(zip(cases.tolist(), steps.tolist(), strict=True)):
             for sign, (free_along, reserve) in zip((1.0, -1.0), admissible, strict=True):
                 if free_along[i]:  # one sign of a direction is enough to say it is free
                     mode = sign * directions[i]
-                    out.append(FreeMotion(t + 1, cluster.bodies,
-                                          (float(mode[0]), float(mode[1])),
-                                          float(mode[2] / cluster.size), centre,
-                                          max(float(reserve[i]), 0.0),
-                                          t + 1 == n_steps or with_friction))
+                    out[c].append(FreeMotion(t + 1, cluster.bodies,
+                                             (float(mode[0]), float(mode[1])),
+                                             float(mode[2] / cluster.size), centre,
+                                             max(float(reserve[i]), 0.0),
+                                             t + 1 == n_steps or bool(with_friction[c])))
                     break
-    out.sort(key=lambda motion: motion.step)
     return out
 
 

@@ -120,6 +120,12 @@ class LatinOptions:
         docs/gpu.md). Measured on the CPU build: 3.3 times faster on 64 b3 cases after a
         compilation of about 3 minutes (13 s from PyTorch's cache in a later process), and
         again for a batch of one case; not measured on a GPU.
+    recover_displacements: recover every substructure's interior displacements from the
+        converged interface fields (``SolveResult.displacements``; the QoIs evaluated on
+        them). False, what a study does (it keeps the QoIs alone): no interior recovery and
+        no contact pressures (``SolveResult.contact``); the QoIs from the interface fields
+        by their functionals (``tracking.qoi_functionals``: the same linear maps, equal to
+        rounding, tests/test_batch.py).
     """
 
     kappa: float = 0.5
@@ -145,6 +151,7 @@ class LatinOptions:
     backend: str = "numpy"
     device: str = "cpu"
     fuse: bool = False
+    recover_displacements: bool = True
 
     def __post_init__(self) -> None:
         if self.qoi_rtol is not None and not 0 < self.qoi_rtol < 1:

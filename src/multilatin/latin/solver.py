@@ -12,7 +12,7 @@ from __future__ import annotations
 import logging
 import time
 from collections.abc import Sequence
-from dataclasses import asdict
+from dataclasses import asdict, replace
 
 import numpy as np
 
@@ -20,7 +20,7 @@ from ..decomposition.assembly import Assembly
 from ..decomposition.interfaces import InterfacePoints, with_contact_data
 from ..decomposition.qoi import evaluate_qois, latin_contact_pressures
 from ..decomposition.result import InterfaceFields, SolveResult
-from ..decomposition.uniqueness import free_motions
+from ..decomposition.uniqueness import free_motions_batch
 from ..errors import ModelError, NotConvergedError
 from ..fem.elasticity import FloatArray, IntArray
 from ..limits import check_scale
@@ -156,9 +156,10 @@ def solve_latin_batch(
         t_iter = time.perf_counter() - t1
 
         t2 = time.perf_counter()
-        fields_of = _recovered(state, range(n_cases), ops_list, geometry)
-    results = [_result(c, assembly, pts, state, fields_of[c], options)
-               for c, (assembly, pts) in enumerate(zip(assemblies, points, strict=True))]
+        fields_of = (_recovered(state, range(n_cases), ops_list, geometry)
+                     if options.recover_displacements else [{} for _ in range(n_cases)])
+    results = results_of(range(n_cases), assemblies, points, state, fields_of, options,
+                         functionals)
     t_post = time.perf_counter() - t2
     timings = {
         "setup": t_setup,
@@ -231,19 +232,48 @@ def _recovered(state: IterationState, cases: Sequence[int],
     return fields_of
 
 
+def results_of(cases: Sequence[int], assemblies: Sequence[Assembly],
+               points: Sequence[InterfacePoints], state: IterationState,
+               fields: Sequence[dict[str, FloatArray]], options: LatinOptions,
+               functionals: Sequence[QoiFunctionals]) -> list[SolveResult]:
+    """Cases ``cases`` of ``state`` as results (``_result``; ``fields``: their recovered
+    displacements, empty where not recovered, then the QoIs come from ``functionals``), the
+    converged ones' free motions found together (``free_motions_batch``: vectorised over
+    the cases of a geometry)."""
+    results = [_result(c, assembly, pts, state, field, options, functional)
+               for c, assembly, pts, field, functional
+               in zip(cases, assemblies, points, fields, functionals, strict=True)]
+    converged = [n for n, result in enumerate(results) if result.converged]
+    if converged:
+        exits = [state.exits[cases[n]] for n in converged]
+        motions = free_motions_batch([assemblies[n] for n in converged],
+                                     [points[n] for n in converged],
+                                     [exit_fields[2] for exit_fields in exits],
+                                     [exit_fields[3] for exit_fields in exits])
+        for n, found in zip(converged, motions, strict=True):
+            results[n] = replace(results[n], free_motions=tuple(found))
+    return results
+
+
 def _result(c: int, assembly: Assembly, pts: InterfacePoints, state: IterationState,
-            fields: dict[str, FloatArray], options: LatinOptions) -> SolveResult:
+            fields: dict[str, FloatArray], options: LatinOptions,
+            functional: QoiFunctionals) -> SolveResult:
     """Case ``c`` of ``state`` as a result: reactions, contact pressures, QoIs, its
-    outcome, error estimates and free motions (timings filled in by the caller)."""
+    outcome and error estimates (timings filled in by the caller; its free motions by
+    ``results_of``)."""
     history = np.array(state.histories[c])
     w, f, w_hat, f_hat = state.exits[c]
     reactions = _reactions(assembly, pts, f_hat)
     a = pts.contact_pairs[0]
-    tangents = np.column_stack([-pts.normals[a, 1], pts.normals[a, 0]])
-    pressures = latin_contact_pressures(
-        assembly, pts, -np.sum(f_hat[:, a] * pts.normals[a], axis=2),
-        np.sum(f_hat[:, a] * tangents, axis=2))
-    qoi = evaluate_qois(assembly, fields, reactions, pressures)
+    pressures = None
+    if options.recover_displacements:
+        tangents = np.column_stack([-pts.normals[a, 1], pts.normals[a, 0]])
+        pressures = latin_contact_pressures(
+            assembly, pts, -np.sum(f_hat[:, a] * pts.normals[a], axis=2),
+            np.sum(f_hat[:, a] * tangents, axis=2))
+        qoi = evaluate_qois(assembly, fields, reactions, pressures)
+    else:
+        qoi = _functional_qois(functional, w, f, f_hat)
     converged, failure = _outcome(history, qoi, options, bool(state.stopped_on_qoi[c]))
     if state.drifting[c]:
         converged, failure = False, (
@@ -257,8 +287,6 @@ def _result(c: int, assembly: Assembly, pts: InterfacePoints, state: IterationSt
     estimates = (error_estimates(state.recent_qoi(c, history.size), history)
                  if options.acceleration == "relaxation" and not change > SETTLED
                  else np.full(state.qoi_recent.shape[2:], np.nan))
-    motions = (tuple(free_motions(assembly, pts, w_hat, f_hat))
-               if converged else ())
     return SolveResult(
         method="latin",
         assembly=assembly,
@@ -273,13 +301,24 @@ def _result(c: int, assembly: Assembly, pts: InterfacePoints, state: IterationSt
         interface=InterfaceFields(pts.coords, pts.weights, pts.interface, pts.substructure,
                                   w, f, w_hat, f_hat),
         options=asdict(options),
-        free_motions=motions,
         failure=failure,
         contact=pressures if a.size else None,
         qoi_error=_per_qoi(assembly, estimates),
         stopped_on_qoi=bool(state.stopped_on_qoi[c]),
         state_change=change,
     )
+
+
+def _functional_qois(functional: QoiFunctionals, w: FloatArray, f: FloatArray,
+                     f_hat: FloatArray) -> dict[str, float | list[float]]:
+    """The QoIs of a case from its interface fields by their functionals, in
+    ``evaluate_qois``' form (a number for a QoI of one step, else a list over the steps)."""
+    values = functional.values(w[None], f[None], f_hat[None])[0] + 0.0  # no "-0"
+    out: dict[str, float | list[float]] = {}
+    for name, step, row in zip(functional.names, functional.steps, values, strict=True):
+        chosen = row[step - 1:step] if step is not None else row
+        out[name] = float(chosen[0]) if chosen.size == 1 else [float(v) for v in chosen]
+    return out
 
 
 def _functionals(ops_list: list[LatinOperators], geometry: IntArray,

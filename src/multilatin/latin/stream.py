@@ -32,7 +32,7 @@ from .iteration import BatchIterations
 from .local_stage import LocalStage
 from .operators import LatinOperators
 from .options import LatinOptions
-from .solver import _functionals, _recovered, _result, log_result
+from .solver import _functionals, _recovered, log_result, results_of
 from .tracking import QoiFunctionals
 
 __all__ = ["CaseFeed", "StreamCase", "solve_latin_stream"]
@@ -79,6 +79,7 @@ class _Member:
     case: StreamCase
     points: InterfacePoints
     wall_s: float
+    functional: QoiFunctionals
 
 
 def solve_latin_stream(feed: CaseFeed, options: LatinOptions, width: int = 16) -> int:
@@ -172,8 +173,9 @@ def _join(batch: BatchIterations | None, members: dict[int, _Member],
         else:
             numbers = batch.join(local, w_hat, f_hat, functionals, ops)
         setup = (time.perf_counter() - t0) / len(group)
-        for number, c, pts in zip(numbers.tolist(), group, points, strict=True):
-            members[number] = _Member(c, pts, setup)
+        for number, c, pts, functional in zip(numbers.tolist(), group, points, functionals,
+                                              strict=True):
+            members[number] = _Member(c, pts, setup, functional)
     assert batch is not None
     return batch
 
@@ -181,6 +183,8 @@ def _join(batch: BatchIterations | None, members: dict[int, _Member],
 def _recover(batch: BatchIterations, leaving: list[_Member], left: IntArray
              ) -> list[dict[str, FloatArray]]:
     """The interior displacements of the cases that left, per operators."""
+    if not batch.options.recover_displacements:
+        return [{} for _ in leaving]
     distinct = list({id(m.case.operators): m.case.operators for m in leaving}.values())
     geometry = np.array([distinct.index(m.case.operators) for m in leaving])
     return _recovered(batch.state, left.tolist(), distinct, geometry)
@@ -194,8 +198,9 @@ def _leave(batch: BatchIterations, leaving: list[_Member], left: IntArray,
     t0 = time.perf_counter()
     numbers = left.tolist()
     state = batch.state
-    results = [_result(number, m.case.assembly, m.points, state, field, options)
-               for number, m, field in zip(numbers, leaving, fields, strict=True)]
+    results = results_of(numbers, [m.case.assembly for m in leaving],
+                         [m.points for m in leaving], state, fields, options,
+                         [m.functional for m in leaving])
     share = (time.perf_counter() - t0 + recovery_s) / len(leaving)
     for number, m, result in zip(numbers, leaving, results, strict=True):
         del state.exits[number]

@@ -23,12 +23,16 @@ from .acceleration import Anderson, ArrayOps
 from .local_stage import LocalStage
 from .operators import LatinOperators
 from .options import LatinOptions
+from .torch_graph import DeviceGraph
 from .torch_local import Tensor, TorchLocalStage, contact_kernels_available
 from .torch_operators import DeviceOperators, Rows
 from .tracking import QoiFunctionals
 from .two_scale import coupled_local_stage
 
 __all__ = ["DeviceOperators", "TorchFields", "cases_per_chunk", "load_torch"]
+
+#: kept for scripts written against session 22's name
+LocalStageGraph = DeviceGraph
 
 log = logging.getLogger(__name__)
 
@@ -66,6 +70,14 @@ MEMORY_SHARE = 0.7
 #: (``LocalStageGraph``), and a graph holds its shapes. (Tests add "cpu" to check the
 #: bookkeeping on PyTorch's CPU build, where no graph is captured.)
 PADDED_DEVICES = ("cuda",)
+#: the devices on which a padded batch's whole iteration — linear stage with the macro
+#: problem, relaxation, local stage, η's norms and the tracked QoIs — is one graph per
+#: width (``TorchFields._iteration``); its first replay is checked against the operations.
+#: (Tests add "cpu", where the same function runs eagerly, to check the bookkeeping.)
+FUSED_DEVICES = ("cuda",)
+#: largest relative difference between the iteration graph's first replay and the same
+#: operations run one by one (they are the same operations: any difference is a defect)
+GRAPH_CHECK_RTOL = 1e-12
 
 
 def cases_per_chunk(n_steps: int, n_points: int, device: str) -> int:
@@ -147,8 +159,16 @@ class TorchFields:
         self.slots = np.arange(w_hat.shape[0])
         self.padded = (self.device.type in PADDED_DEVICES and self.mixer is None
                        and not options.fuse)
-        self.graph = (LocalStageGraph(torch, self._local_fields)
+        self.graph = (DeviceGraph(torch, self._local_fields)
                       if self.padded and self.cuda else None)
+        #: the whole iteration as one graph (``FUSED_DEVICES``); ``_omega`` holds the
+        #: relaxation of a linear stage deferred to it, ``_results`` its norms and QoIs
+        self.iteration_graph = (DeviceGraph(torch, self._iteration, eager=not self.cuda)
+                                if self.padded and self.device.type in FUSED_DEVICES
+                                else None)
+        self.graph_checked = False
+        self._omega: Tensor | None = None
+        self._results: dict[str, Tensor] = {}
         two_scale = self.operators.two_scale
         #: Eᵀ M0 Ŵ per case and step, where the coupled local stage starts (``two_scale``)
         self.side_macro = (two_scale.project(self.w_hat.reshape(-1, 2 * w_hat.shape[2]))
@@ -184,19 +204,14 @@ class TorchFields:
         return time.perf_counter()
 
     def linear_stage(self, relaxation: FloatArray) -> None:
+        self._results = {}
+        if self.iteration_graph is not None and self.w is not None:
+            per_row = np.ones(self.w.shape[0])  # left rows: iterated along, unrelaxed
+            per_row[self.slots] = relaxation
+            self._omega = self._tensor(per_row)[:, None, None, None]
+            return  # with the local stage, as one graph (``local_stage``)
         ta = self._clock()
-        ops = self.operators
-        flat = (-1, ops.n_points, 2)
-        shape = self.w_hat.shape
-        w_new, f_new = ops.micro_stage(self.w_hat.reshape(flat), self.f_hat.reshape(flat),
-                                       self.rows)
-        tm = self._clock()
-        if self.macro_data is not None:
-            w_new, f_new = ops.macro_correction(
-                w_new, f_new, self.macro_data.reshape(-1, self.macro_data.shape[2]),
-                self.rows)
-        self.t_macro += self._clock() - tm
-        w_new, f_new = w_new.reshape(shape), f_new.reshape(shape)
+        w_new, f_new = self._linear(self.w_hat, self.f_hat, timed=True)
         if self.w is None or self.f is None or (self.options.relaxation == 1.0
                                                 and self.mixer is None):
             self.w, self.f = w_new, f_new
@@ -212,7 +227,84 @@ class TorchFields:
             self.f = omega * f_new + (1.0 - omega) * self.f
         self.t_linear += self._clock() - ta
 
+    def _linear(self, w_hat: Tensor, f_hat: Tensor, timed: bool = False
+                ) -> tuple[Tensor, Tensor]:
+        """W, F from Ŵ, F̂: the micro stage and the macro correction (eq. [13]–[15]);
+        ``timed``: the macro problem's time counted apart (never inside a graph's capture,
+        where the clock's synchronisation is not allowed)."""
+        ops = self.operators
+        flat = (-1, ops.n_points, 2)
+        w_new, f_new = ops.micro_stage(w_hat.reshape(flat), f_hat.reshape(flat), self.rows)
+        tm = self._clock() if timed else 0.0
+        if self.macro_data is not None:
+            w_new, f_new = ops.macro_correction(
+                w_new, f_new, self.macro_data.reshape(-1, self.macro_data.shape[2]),
+                self.rows)
+        if timed:
+            self.t_macro += self._clock() - tm
+        return w_new.reshape(w_hat.shape), f_new.reshape(f_hat.shape)
+
+    def _iteration(self, w_hat: Tensor, f_hat: Tensor, w: Tensor, f: Tensor, omega: Tensor,
+                   *side_macro: Tensor) -> tuple[Tensor, ...]:
+        """One whole iteration as a function of its inputs (what ``iteration_graph``
+        captures): the linear stage, relaxation by ``omega`` per row, the local stage,
+        then η's squared norms and the tracked QoIs. Returns (W, F, Ŵ, F̂[, Eᵀ M0 Ŵ],
+        norms, QoIs)."""
+        w_new, f_new = self._linear(w_hat, f_hat)
+        if self.options.relaxation != 1.0:
+            w_new = omega * w_new + (1.0 - omega) * w
+            f_new = omega * f_new + (1.0 - omega) * f
+        local = self._local_fields(w_new, f_new, *side_macro)
+        return (w_new, f_new, *local, self._norm_squares(w_new, f_new, local[0], local[1]),
+                self._qoi_total(w_new, f_new, local[1]))
+
+    def _settle(self) -> None:
+        """A linear stage deferred to the iteration graph, done now on its own (the fields
+        are asked for before the local stage)."""
+        if self._omega is None:
+            return
+        assert self.w is not None and self.f is not None
+        omega, self._omega = self._omega, None
+        w_new, f_new = self._linear(self.w_hat, self.f_hat)
+        if self.options.relaxation == 1.0:
+            self.w, self.f = w_new, f_new
+        else:
+            self.w = omega * w_new + (1.0 - omega) * self.w
+            self.f = omega * f_new + (1.0 - omega) * self.f
+
+    def _fused_step(self) -> None:
+        """The deferred linear stage and the local stage as one replay of the iteration
+        graph; its first replay is compared with the operations run one by one, and a
+        difference (or a failed capture) is a warning and the operations from then on."""
+        assert self.w is not None and self.f is not None and self._omega is not None
+        assert self.iteration_graph is not None
+        tb = self._clock()
+        inputs = (self.w_hat, self.f_hat, self.w, self.f, self._omega) + (
+            () if self.side_macro is None else (self.side_macro,))
+        outputs = self.iteration_graph(inputs)
+        if outputs is not None and not self.graph_checked:
+            self.graph_checked = True
+            expected = self._iteration(*inputs)
+            worst = max((_difference(x, y) for x, y in zip(outputs, expected, strict=True)),
+                        default=0.0)
+            if not worst <= GRAPH_CHECK_RTOL:
+                log.warning("the iteration graph's first replay differs from the operations "
+                            "by %.1e (relative); the operations run instead", worst)
+                self.iteration_graph, outputs = None, expected
+        if outputs is None:  # the capture failed (said so): operation by operation
+            self.iteration_graph = None
+            outputs = self._iteration(*inputs)
+        self._omega = None
+        self.w, self.f, self.w_hat, self.f_hat = outputs[:4]
+        if self.side_macro is not None:
+            self.side_macro = outputs[4]
+        self._results = {"norms": outputs[-2], "qoi": outputs[-1]}
+        self.t_local += self._clock() - tb
+
     def local_stage(self) -> None:
+        if self._omega is not None:
+            self._fused_step()
+            return
         tb = self._clock()
         assert self.w is not None and self.f is not None
         inputs = (self.w, self.f) + (() if self.side_macro is None else (self.side_macro,))
@@ -237,21 +329,27 @@ class TorchFields:
                                        self.operators.two_scale, w, f, side_macro[0])
         return tuple(self.local_call(self.local, w, f))
 
-    def qoi_values(self) -> FloatArray:
-        assert self.w is not None and self.f is not None
-        n_cases, n_steps = self.w.shape[:2]
+    def _qoi_total(self, w: Tensor, f: Tensor, f_hat: Tensor) -> Tensor:
+        """The tracked QoIs of every row, (rows, steps, QoIs), from W, F and F̂."""
+        n_cases, n_steps = w.shape[:2]
         total = self.torch.zeros((n_cases, n_steps, self.n_qoi), dtype=self.torch.float64,
                                  device=self.device)
-        for (used, coefficients), values in zip(self.qoi_parts, (self.w, self.f, self.f_hat),
-                                                strict=True):
+        for (used, coefficients), values in zip(self.qoi_parts, (w, f, f_hat), strict=True):
             if used.numel():  # (cases, steps, columns read) @ each case's coefficients
                 total = total + self.torch.bmm(values.reshape(n_cases, n_steps, -1)[:, :, used],
                                                coefficients)
-        values = np.asarray(total.transpose(1, 2).cpu().numpy(), dtype=np.float64)
-        return values if self.slots.size == n_cases else values[self.slots]
+        return total
 
-    def indicator(self) -> tuple[FloatArray, FloatArray]:
+    def qoi_values(self) -> FloatArray:
         assert self.w is not None and self.f is not None
+        total = self._results.get("qoi")
+        if total is None:
+            total = self._qoi_total(self.w, self.f, self.f_hat)
+        values = np.asarray(total.transpose(1, 2).cpu().numpy(), dtype=np.float64)
+        return values if self.slots.size == self.w.shape[0] else values[self.slots]
+
+    def _norm_squares(self, w: Tensor, f: Tensor, w_hat: Tensor, f_hat: Tensor) -> Tensor:
+        """‖s − ŝ‖², ‖s‖², ‖ŝ‖² of every row (§4.3), stacked (3, rows)."""
 
         def squares(w: Tensor, f: Tensor) -> Tensor:
             n_cases = w.shape[0]
@@ -259,14 +357,20 @@ class TorchFields:
             return ((w * w).reshape(n_cases, -1, dw.numel()).sum(dim=1) @ dw
                     + (f * f).reshape(n_cases, -1, fw.numel()).sum(dim=1) @ fw)
 
-        stacked = self.torch.stack([squares(self.w - self.w_hat, self.f - self.f_hat),
-                                    squares(self.w, self.f),
-                                    squares(self.w_hat, self.f_hat)])
+        return self.torch.stack([squares(w - w_hat, f - f_hat), squares(w, f),
+                                 squares(w_hat, f_hat)])
+
+    def indicator(self) -> tuple[FloatArray, FloatArray]:
+        assert self.w is not None and self.f is not None
+        stacked = self._results.pop("norms", None)
+        if stacked is None:
+            stacked = self._norm_squares(self.w, self.f, self.w_hat, self.f_hat)
         norms = np.sqrt(stacked.cpu().numpy())[:, self.slots]
         return norms[0], 0.5 * (norms[1] + norms[2])
 
     def fields(self, cases: IntArray | None = None
                ) -> tuple[FloatArray, FloatArray, FloatArray, FloatArray]:
+        self._settle()
         assert self.w is not None and self.f is not None
         rows = self.slots if cases is None else self.slots[cases]
         whole = rows.size == self.w.shape[0]  # then the rows are 0 … n − 1
@@ -277,6 +381,8 @@ class TorchFields:
         return out[0], out[1], out[2], out[3]
 
     def shift(self, cases: IntArray, dw: FloatArray, df: FloatArray) -> None:
+        self._settle()
+        self._results = {}
         assert self.w is not None and self.f is not None
         index = self._index(self.slots[cases])
         self.w = self.w.index_add(0, index, self._tensor(dw))
@@ -291,8 +397,9 @@ class TorchFields:
             self.slots = rows
             return
         self.slots = np.arange(rows.size)
-        if self.graph is not None:
-            self.graph.reset()
+        for graph in (self.graph, self.iteration_graph):
+            if graph is not None:
+                graph.reset()
         chosen = self._index(rows)
         cases = rows
         self.active = self.active[cases]
@@ -312,54 +419,16 @@ class TorchFields:
         return self.torch.as_tensor(np.asarray(cases, dtype=np.int64), device=self.device)
 
 
-class LocalStageGraph:
-    """The local stage (with the two-scale coupling's inner passes: thousands of small
-    kernels) captured once per batch width as one CUDA graph and replayed: one launch per
-    iteration instead of one per operation, which bound a GPU iteration (profiled on an
-    H200: B1's 169 cases, 6 303 kernels per iteration, the device busy 12.5 ms of 62).
-    Inputs are copied into the graph's own buffers and its outputs copied out; the shapes
-    and the local stage's per-case data must stay (``reset`` when they change). Where a
-    capture fails, it says so once and the caller goes on eagerly (None)."""
-
-    def __init__(self, torch: Any, compute: Any) -> None:
-        self.torch, self.compute = torch, compute
-        self.graph: Any = None
-        self.inputs: tuple[Tensor, ...] = ()
-        self.outputs: tuple[Tensor, ...] = ()
-
-    def reset(self) -> None:
-        self.graph, self.inputs, self.outputs = None, (), ()
-
-    def __call__(self, inputs: tuple[Tensor, ...]) -> tuple[Tensor, ...] | None:
-        if self.graph is None or any(x.shape != y.shape for x, y in
-                                     zip(inputs, self.inputs, strict=True)):
-            if not self._capture(inputs):
-                return None
-        for buffer, x in zip(self.inputs, inputs, strict=True):
-            buffer.copy_(x)
-        self.graph.replay()
-        return tuple(x.clone() for x in self.outputs)
-
-    def _capture(self, inputs: tuple[Tensor, ...]) -> bool:
-        torch = self.torch
-        self.inputs = tuple(x.clone() for x in inputs)
-        try:
-            stream = torch.cuda.Stream()
-            stream.wait_stream(torch.cuda.current_stream())
-            with torch.cuda.stream(stream):  # a warm-up outside the capture
-                self.compute(*self.inputs)
-            torch.cuda.current_stream().wait_stream(stream)
-            graph = torch.cuda.CUDAGraph()
-            with torch.cuda.graph(graph):
-                self.outputs = tuple(self.compute(*self.inputs))
-        except Exception as exc:  # noqa: BLE001  # pragma: no cover - needs a GPU
-            log.warning("the local stage could not be captured as a CUDA graph (%s); it "
-                        "runs operation by operation", exc)
-            torch.cuda.synchronize()
-            self.reset()
-            return False
-        self.graph = graph
-        return True
+def _difference(x: Tensor, y: Tensor) -> float:
+    """Largest |x − y| over max |y|, where y is finite (a case that left on an overflow
+    iterates along as NaN); inf where x and y are not finite at the same places."""
+    finite = y.isfinite()
+    if not bool((x.isfinite() == finite).all()):
+        return float("inf")
+    if not bool(finite.any()):
+        return 0.0
+    scale = float(y[finite].abs().max())
+    return float((x[finite] - y[finite]).abs().max()) / max(scale, 1e-300)
 
 
 _DEVICE_OPERATORS: dict[tuple[tuple[int, ...], str], tuple[list[LatinOperators],

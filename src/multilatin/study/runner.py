@@ -125,6 +125,10 @@ def _case_json(record: dict[str, Any]) -> dict[str, Any]:
     return out
 
 
+#: options that change what a solve returns besides its answers: not in a study's identity
+OUTPUT_CHOICES = ("recover_displacements",)
+
+
 def study_defaults(options: LatinOptions, batch: int | None, start: str | None
                    ) -> tuple[int, str]:
     """``run_study``'s batch and start where not given: on a GPU (the torch backend on a
@@ -196,6 +200,7 @@ def run_study(
         ``"ignore"``.
     """
     options = options or LatinOptions(qoi_rtol=STUDY_QOI_RTOL)
+    options = replace(options, recover_displacements=False)  # a study keeps the QoIs alone
     batch, start = study_defaults(options, batch, start)
     for mode in modes:
         if mode not in MODES:
@@ -222,7 +227,7 @@ def run_study(
                            .encode()).hexdigest(),
         "defaults": dict(model.parameters.defaults()),
         "grid": [[name, list(grid[name])] for name in grid],  # in order: it sets the traversal
-        "options": asdict(options),
+        "options": {k: v for k, v in asdict(options).items() if k not in OUTPUT_CHOICES},
         "chains": len(plan.chains),
     }
     if start != "neighbour":  # studies written before the option keep their identity
