@@ -76,8 +76,9 @@ PADDED_DEVICES = ("cuda",)
 #: (Tests add "cpu", where the same function runs eagerly, to check the bookkeeping.)
 FUSED_DEVICES = ("cuda",)
 #: largest relative difference between the iteration graph's first replay and the same
-#: operations run one by one (they are the same operations: any difference is a defect)
-GRAPH_CHECK_RTOL = 1e-12
+#: operations run one by one: the same operations, but CUDA's atomic sums (``index_add_``)
+#: round in any order; a defect (a value baked into the graph) differs by far more
+GRAPH_CHECK_RTOL = 1e-9
 
 
 def cases_per_chunk(n_steps: int, n_points: int, device: str) -> int:
