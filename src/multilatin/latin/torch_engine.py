@@ -31,9 +31,6 @@ from .two_scale import coupled_local_stage
 
 __all__ = ["DeviceOperators", "TorchFields", "cases_per_chunk", "load_torch"]
 
-#: kept for scripts written against session 22's name
-LocalStageGraph = DeviceGraph
-
 log = logging.getLogger(__name__)
 
 #: the extra that installs PyTorch
@@ -67,7 +64,7 @@ FIELDS_PER_CASE = 24
 MEMORY_SHARE = 0.7
 #: the devices on which a batch keeps the rows of cases that left it until at most half
 #: remain (then compacts): the local stage is replayed as one CUDA graph per batch width
-#: (``LocalStageGraph``), and a graph holds its shapes. (Tests add "cpu" to check the
+#: (``torch_graph.DeviceGraph``), and a graph holds its shapes. (Tests add "cpu" to check the
 #: bookkeeping on PyTorch's CPU build, where no graph is captured.)
 PADDED_DEVICES = ("cuda",)
 #: the devices on which a padded batch's whole iteration — linear stage with the macro
@@ -207,9 +204,7 @@ class TorchFields:
     def linear_stage(self, relaxation: FloatArray) -> None:
         self._results = {}
         if self.iteration_graph is not None and self.w is not None:
-            per_row = np.ones(self.w.shape[0])  # left rows: iterated along, unrelaxed
-            per_row[self.slots] = relaxation
-            self._omega = self._tensor(per_row)[:, None, None, None]
+            self._omega = self._per_row(relaxation)
             return  # with the local stage, as one graph (``local_stage``)
         ta = self._clock()
         w_new, f_new = self._linear(self.w_hat, self.f_hat, timed=True)
@@ -219,14 +214,18 @@ class TorchFields:
         elif self.mixer is not None:
             self.w, self.f = self.mixer(self.w, self.f, w_new, f_new)
         else:  # one ω for the batch unless some case's was lowered (no host copy then)
-            omega: Any = float(relaxation[0])
-            if not np.all(relaxation == relaxation[0]):
-                per_row = np.ones(self.w.shape[0])
-                per_row[self.slots] = relaxation
-                omega = self._tensor(per_row)[:, None, None, None]
-            self.w = omega * w_new + (1.0 - omega) * self.w
-            self.f = omega * f_new + (1.0 - omega) * self.f
+            omega: Any = (float(relaxation[0]) if np.all(relaxation == relaxation[0])
+                          else self._per_row(relaxation))
+            self.w, self.f = _relaxed(omega, w_new, self.w), _relaxed(omega, f_new, self.f)
         self.t_linear += self._clock() - ta
+
+    def _per_row(self, relaxation: FloatArray) -> Tensor:
+        """ω per row of the fields, (rows, 1, 1, 1): the active cases' own, 1 for the rows
+        of cases that left (iterated along, unrelaxed)."""
+        assert self.w is not None
+        per_row = np.ones(self.w.shape[0])
+        per_row[self.slots] = relaxation
+        return self._tensor(per_row)[:, None, None, None]
 
     def _linear(self, w_hat: Tensor, f_hat: Tensor, timed: bool = False
                 ) -> tuple[Tensor, Tensor]:
@@ -251,10 +250,7 @@ class TorchFields:
         captures): the linear stage, relaxation by ``omega`` per row, the local stage,
         then η's squared norms and the tracked QoIs. Returns (W, F, Ŵ, F̂[, Eᵀ M0 Ŵ],
         norms, QoIs)."""
-        w_new, f_new = self._linear(w_hat, f_hat)
-        if self.options.relaxation != 1.0:
-            w_new = omega * w_new + (1.0 - omega) * w
-            f_new = omega * f_new + (1.0 - omega) * f
+        w_new, f_new = self._relaxed_linear(w_hat, f_hat, w, f, omega)
         local = self._local_fields(w_new, f_new, *side_macro)
         return (w_new, f_new, *local, self._norm_squares(w_new, f_new, local[0], local[1]),
                 self._qoi_total(w_new, f_new, local[1]))
@@ -266,12 +262,16 @@ class TorchFields:
             return
         assert self.w is not None and self.f is not None
         omega, self._omega = self._omega, None
-        w_new, f_new = self._linear(self.w_hat, self.f_hat)
+        self.w, self.f = self._relaxed_linear(self.w_hat, self.f_hat, self.w, self.f, omega)
+
+    def _relaxed_linear(self, w_hat: Tensor, f_hat: Tensor, w: Tensor, f: Tensor,
+                        omega: Tensor) -> tuple[Tensor, Tensor]:
+        """The linear stage from ŝ, relaxed by ``omega`` per row against s = (W, F) (none
+        where the options' relaxation is 1, as ``linear_stage``)."""
+        w_new, f_new = self._linear(w_hat, f_hat)
         if self.options.relaxation == 1.0:
-            self.w, self.f = w_new, f_new
-        else:
-            self.w = omega * w_new + (1.0 - omega) * self.w
-            self.f = omega * f_new + (1.0 - omega) * self.f
+            return w_new, f_new
+        return _relaxed(omega, w_new, w), _relaxed(omega, f_new, f)
 
     def _fused_step(self) -> None:
         """The deferred linear stage and the local stage as one replay of the iteration
@@ -418,6 +418,11 @@ class TorchFields:
 
     def _index(self, cases: IntArray) -> Tensor:
         return self.torch.as_tensor(np.asarray(cases, dtype=np.int64), device=self.device)
+
+
+def _relaxed(omega: Any, new: Tensor, old: Tensor) -> Tensor:
+    """ω new + (1 − ω) old (ω a number or per row)."""
+    return omega * new + (1.0 - omega) * old
 
 
 def _difference(x: Tensor, y: Tensor) -> float:
