@@ -3,6 +3,7 @@ the wave schedule (``multilatin.study.waves``: grid lines as tasks, each from it
 
     python benchmarks/dask_waves.py --study b1 --workers 2 4 8 16 [--dask 2]
     python benchmarks/dask_waves.py --study b3 --workers 16
+    python benchmarks/dask_waves.py --study b3 --no-predict --dask 4 8 16   # 16 free cores
 
 Iterations are the solver's, whatever the machine. The times are *predicted* for a machine
 with as many free cores as workers, from costs measured here one task at a time (so that
@@ -12,8 +13,8 @@ graph solved in this process in order, then a list schedule of the graph on W wo
 (ready tasks to free workers, longest first). Speed-ups against the serial study (one
 chain, lines batched) of the same run: the sum of its cases' times. Not counted: Dask's
 per-task overhead and transfers, and each worker building the operators of its geometries
-(once per worker and geometry); ``--dask W`` also runs both schedules on a real local Dask
-cluster of W processes and prints their wall times and the time their cases took on the
+(once per worker and geometry); ``--dask W [W ...]`` also runs both schedules on a real
+local Dask cluster of W processes and prints their wall times and the time their cases took on the
 workers (meaningful only where W cores are free: on 2 shared cores the client, the
 scheduler and two workers compete).
 """
@@ -97,7 +98,11 @@ def main() -> None:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument("--study", choices=sorted(STUDIES), default="b1")
     parser.add_argument("--workers", type=int, nargs="+", default=[2, 4, 8, 16])
-    parser.add_argument("--dask", type=int, default=0, help="also run on W Dask workers")
+    parser.add_argument("--dask", type=int, nargs="*", default=[],
+                        help="also run on W Dask workers (several numbers: one cluster each)")
+    parser.add_argument("--no-predict", action="store_true",
+                        help="only the serial study and the Dask runs (no in-process "
+                             "chains or wave tasks: a short run on a lent machine)")
     args = parser.parse_args()
     name, spec, warm_up = STUDIES[args.study]
     model = ml.load_model(name)
@@ -107,18 +112,28 @@ def main() -> None:
     serial_wall, serial = study(model, grid, options)
     serial_s = sum(r["wall_s"] for r in serial)  # its cases' computing, as for the others
     serial_iterations = sum(r["iterations"] for r in serial)
+    print(f"{args.study}: {grid.size} cases; serial study (one chain) {serial_s:.1f} s "
+          f"computing ({serial_wall:.1f} s wall), {serial_iterations} iterations", flush=True)
+    if not args.no_predict:
+        predictions(model, grid, options, args.workers, serial_s)
+    for workers in args.dask:
+        on_dask(model, grid, options, workers, serial_s, serial_wall)
+
+
+def predictions(model: ml.Model, grid: ml.Grid, options: ml.LatinOptions, workers_list:
+                list[int], serial_s: float) -> None:
+    """Chains (each chain's cases solved here) and waves (a list schedule of the tasks'
+    times measured here) predicted for as many free cores as workers."""
     clear_operator_cache()
     durations, parents, wave_iterations = waves_in_process(model, grid, options,
-                                                           max(args.workers))
-    print(f"{args.study}: {grid.size} cases; serial study (one chain) {serial_s:.1f} s "
-          f"computing ({serial_wall:.1f} s wall), {serial_iterations} iterations; "
-          f"wave tasks in this process "
-          f"{sum(durations):.1f} s ({len(durations)} tasks for {max(args.workers)} workers), "
+                                                           max(workers_list))
+    print(f"wave tasks in this process "
+          f"{sum(durations):.1f} s ({len(durations)} tasks for {max(workers_list)} workers), "
           f"{wave_iterations} iterations\n")
     print("| workers | chains: iterations | chains: slowest chain (s) | chains: speed-up | "
           "waves: iterations | waves: predicted (s) | waves: speed-up |")
     print("|---|---|---|---|---|---|---|")
-    for workers in args.workers:
+    for workers in workers_list:
         _, records = study(model, grid, options, chains=workers)
         per_chain: dict[int, float] = {}
         for r in records:
@@ -128,24 +143,31 @@ def main() -> None:
         print(f"| {workers} | {sum(r['iterations'] for r in records)} | {slowest:.1f} | "
               f"{serial_s / slowest:.1f} | {wave_iterations} | {predicted:.1f} | "
               f"{serial_s / predicted:.1f} |")
-    if args.dask:
-        from dask.distributed import LocalCluster
 
-        start = time.perf_counter()
-        LocalCluster(n_workers=args.dask, threads_per_worker=1, processes=True,
-                     dashboard_address=None).close()
-        print(f"\nDask, {args.dask} workers (a local cluster alone starts and stops in "
-              f"{time.perf_counter() - start:.1f} s); the cases' time on the workers against "
-              f"the serial study's {serial_s:.1f} s:\n")
-        print("| schedule | wall (s) | first case done at (s) | cases' time on the workers (s) "
-              "| iterations | converged |")
-        print("|---|---|---|---|---|---|")
-        for schedule in ("chains", "waves"):
-            wall, records = study(model, grid, options, workers=args.dask, schedule=schedule)
-            print(f"| {schedule} | {wall:.1f} | {min(r['elapsed_s'] for r in records):.1f} | "
-                  f"{sum(r['wall_s'] for r in records):.1f} | "
-                  f"{sum(r['iterations'] for r in records)} | "
-                  f"{np.mean([r['converged'] for r in records]) * 100:.0f} % |")
+
+def on_dask(model: ml.Model, grid: ml.Grid, options: ml.LatinOptions, workers: int,
+            serial_s: float, serial_wall: float) -> None:
+    """Both schedules on a real local cluster of ``workers`` processes: wall times against
+    the serial study's."""
+    from dask.distributed import LocalCluster
+
+    start = time.perf_counter()
+    LocalCluster(n_workers=workers, threads_per_worker=1, processes=True,
+                 dashboard_address=None).close()
+    print(f"\nDask, {workers} workers (a local cluster alone starts and stops in "
+          f"{time.perf_counter() - start:.1f} s); the cases' time on the workers against "
+          f"the serial study's {serial_s:.1f} s ({serial_wall:.1f} s wall):\n")
+    print("| schedule | wall (s) | speed-up (serial wall / wall) | first case done at (s) "
+          "| cases' time on the workers (s) | iterations | converged |")
+    print("|---|---|---|---|---|---|---|")
+    for schedule in ("chains", "waves"):
+        wall, records = study(model, grid, options, workers=workers, schedule=schedule)
+        print(f"| {schedule} | {wall:.1f} | {serial_wall / wall:.1f} | "
+              f"{min(r['elapsed_s'] for r in records):.1f} | "
+              f"{sum(r['wall_s'] for r in records):.1f} | "
+              f"{sum(r['iterations'] for r in records)} | "
+              f"{np.mean([r['converged'] for r in records]) * 100:.0f} % |", flush=True)
+
 
 if __name__ == "__main__":
     main()

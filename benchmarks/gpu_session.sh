@@ -18,7 +18,7 @@ if [ -n "${WHEELS:-}" ]; then
 fi
 nvidia-smi --query-gpu=name,memory.total --format=csv,noheader | tee "$out/device.log"
 timeout 90 python3 benchmarks/gpu_check.py --device cuda 2>&1 | tee "$out/check.log" || exit 2
-timeout 60 python3 benchmarks/gpu_profile.py --device cuda --iterations 10 --b3-positions 5 \
+timeout 60 python3 benchmarks/gpu_profile.py --device cuda --iterations 40 --b3-positions 5 \
     2>&1 | grep -v "^---\|^ *Name\|elementwise\|^void\|Self C" | tee "$out/profile.log"
 timeout 100 python3 benchmarks/gpu.py --device cuda --no-tight --only "B1,B3 5" 2>&1 \
     | tee "$out/rows.log"

@@ -44,6 +44,7 @@ class DeviceGraph:
 
     def _capture(self, inputs: tuple[Tensor, ...]) -> bool:  # pragma: no cover - a GPU's
         torch = self.torch
+        self.reset()  # the previous width's graph and buffers go first (its memory pool)
         self.inputs = tuple(x.clone() for x in inputs)
         try:
             stream = torch.cuda.Stream()
