@@ -8,14 +8,7 @@
 #   WHEELS=.whl bash benchmarks/gpu_session.sh     # + wheels for what the machine lacks
 #                                                  #   (meshio, dask: docs/gpu.md)
 set -uo pipefail
-cd "$(dirname "$0")/.."
-out=${OUT:-gpu-session}
-mkdir -p "$out"
-export PYTHONUNBUFFERED=1 PYTHONPATH="$PWD/src:/tmp/site${PYTHONPATH:+:$PYTHONPATH}"
-if [ -n "${WHEELS:-}" ]; then
-    python3 -m pip install -q --no-index --no-deps --no-compile --no-cache-dir --upgrade \
-        --target /tmp/site "$WHEELS"/*.whl > "$out/pip.log" 2>&1 || { cat "$out/pip.log"; exit 1; }
-fi
+source "$(dirname "$0")/device_env.sh" gpu-session
 nvidia-smi --query-gpu=name,memory.total --format=csv,noheader | tee "$out/device.log"
 timeout 90 python3 benchmarks/gpu_check.py --device cuda 2>&1 | tee "$out/check.log" || exit 2
 timeout 60 python3 benchmarks/gpu_profile.py --device cuda --iterations 40 --b3-positions 5 \

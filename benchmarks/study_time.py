@@ -1,25 +1,26 @@
 """The B1 13 × 13 multiresolution study's wall time alone (``run_study``, no cold cases,
 no store), twice per process after a warm-up, optionally side by side with another source
 tree: whether a change made the study itself faster or slower, apart from the cold side
-of a gain. ``--model b3``: B3's 5 × 5 hole positions instead (rc = 3, the default frictions).
+of a gain. ``--model b3``: B3's 5 × 5 hole positions instead (rc = 3, the default frictions);
+``--model b3-lines``: B3's 5 positions xc = 23 … 27 × μ1 (13) × μ2 (``--count``, 4 by
+default), rc = 3 — batches that meet every position again at each line.
 
     python benchmarks/study_time.py
     python benchmarks/study_time.py --baseline /tmp/old/src --rounds 3
     python benchmarks/study_time.py --model b3 --baseline /tmp/old/src --rounds 3
+    python benchmarks/study_time.py --model b3-lines --baseline /tmp/old/src --rounds 3
 
 With ``--baseline``, fresh processes alternately with ``PYTHONPATH`` set to that tree and
-to this one, ``--rounds`` times; prints each process's two times.
+to this one, ``--rounds`` times; prints each process's two times (and their set-up).
 """
 
 from __future__ import annotations
 
 import argparse
 import json
-import os
-import subprocess
-import sys
 import time
-from pathlib import Path
+
+from side_by_side import add_arguments, alternate
 
 
 def measure(count: int, name: str = "b1") -> list[float]:
@@ -28,8 +29,11 @@ def measure(count: int, name: str = "b1") -> list[float]:
     import multilatin as ml
     from multilatin.study.plan import clear_operator_cache
 
-    model = ml.load_model(name)
-    if name == "b3":
+    model = ml.load_model(name.split("-")[0])
+    if name == "b3-lines":
+        grid = ml.Grid.parse(["xc=23:27:5", "mu1=0:0.6:13", f"mu2=0:0.6:{count}", "rc=3"])
+        warm_up = ml.Grid.parse(["xc=23:24:2", "mu1=0.3", "rc=3"])
+    elif name == "b3":
         grid = ml.Grid.parse(["xc=23:27:5", "yc=73:77:5"])
         warm_up = ml.Grid.parse(["xc=25", "yc=75"])
     else:
@@ -41,32 +45,36 @@ def measure(count: int, name: str = "b1") -> list[float]:
     for _ in range(2):
         clear_operator_cache()
         t0 = time.perf_counter()
-        ml.run_study(model, grid, progress=False)
+        result = ml.run_study(model, grid, progress=False)
         times.append(time.perf_counter() - t0)
+        times.append(sum(r["setup_s"] for r in result.records))
     return times
 
 
 def main() -> None:
     parser = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
-    parser.add_argument("--count", type=int, default=13)
-    parser.add_argument("--model", choices=("b1", "b3"), default="b1")
-    parser.add_argument("--baseline", help="another source tree (its src/), side by side")
-    parser.add_argument("--rounds", type=int, default=3)
+    parser.add_argument("--count", type=int, default=None,
+                        help="B1: frictions per axis (13); b3-lines: μ2 values (4)")
+    parser.add_argument("--model", choices=("b1", "b3", "b3-lines"), default="b1")
+    add_arguments(parser)
     parser.add_argument("--json", action="store_true", help=argparse.SUPPRESS)
     args = parser.parse_args()
+    if args.count is None:
+        args.count = 4 if args.model == "b3-lines" else 13
     if args.json or not args.baseline:
         times = measure(args.count, args.model)
-        print(json.dumps(times) if args.json else " / ".join(f"{t:.2f} s" for t in times))
+        print(json.dumps(times) if args.json else _shown(times))
         return
-    here = str(Path(__file__).resolve().parents[1] / "src")
-    command = [sys.executable, __file__, "--json", "--count", str(args.count),
-               "--model", args.model]
-    for _ in range(args.rounds):
-        for label, tree in (("baseline", str(Path(args.baseline).resolve())), ("this", here)):
-            done = subprocess.run(command, env={**os.environ, "PYTHONPATH": tree},
-                                  capture_output=True, text=True, check=True)
-            times = json.loads(done.stdout.strip().splitlines()[-1])
-            print(f"{label}: " + " / ".join(f"{t:.2f} s" for t in times), flush=True)
+    arguments = ["--json", "--count", str(args.count), "--model", args.model]
+    for label, line in alternate(__file__, arguments, args.baseline, args.rounds):
+        print(f"{label}: {_shown(json.loads(line))}", flush=True)
+
+
+def _shown(times: list[float]) -> str:
+    """Each study's wall time, and in brackets its cases' set-up (assembly, operators,
+    starts: Σ ``setup_s``)."""
+    return " / ".join(f"{wall:.2f} s (set-up {setup:.2f} s)"
+                      for wall, setup in zip(times[::2], times[1::2], strict=True))
 
 
 if __name__ == "__main__":

@@ -238,3 +238,16 @@ def test_dask_cluster_gives_the_serial_results(b1: ml.Model, tmp_path: Path) -> 
         else:
             xr.testing.assert_identical(left[name], right[name])
     assert len({r["chain"] for r in distributed.records}) == 2
+
+
+def test_each_geometry_is_built_once_in_a_serial_study(tmp_path: Path) -> None:
+    """A study whose batches hold lines of hole positions (b3: xc innermost of the geometric
+    parameters, frictions outside) meets every geometry again at each line: each one's
+    operators are built once (``plan._operators`` keeps ``_OPERATOR_CACHE_SIZE`` of them;
+    with 2 kept, a 3-position line rebuilt 2 of them at every line)."""
+    clear_operator_cache()
+    result = run_study(ml.load_model("b3"), Grid.parse(["xc=23:25:3", "mu1=0:0.6:3", "rc=3"]),
+                       options=LatinOptions(qoi_rtol=1e-2), out=tmp_path, progress=False)
+    records = result.records
+    assert len(records) == 9 and all(r["converged"] for r in records)
+    assert sum(bool(r["operators_built"]) for r in records) == 3

@@ -29,6 +29,7 @@ from ..fem.mesh import SIDES, normal_axis
 from . import kernels
 from .condensation import SubstructureOperators, condense
 from .local_stage import MacroOnlyMap, macro_only_map
+from .threads import one_blas_thread
 from .two_scale import TwoScaleDirection, stiffened_points, two_scale_direction
 
 if TYPE_CHECKING:
@@ -114,6 +115,14 @@ class LatinOperators:
 
     def __init__(self, assembly: Assembly, options: LatinOptions,
                  reuse: LatinOperators | None = None) -> None:
+        # BLAS on one thread: the dense blocks here are small, and a threaded BLAS woken
+        # after the iteration's one-thread sections (or beside PyTorch's OpenMP threads)
+        # spent 20–200 ms on the macro problem's 204 × 204 Cholesky factor (b3)
+        with one_blas_thread():
+            self._build(assembly, options, reuse)
+
+    def _build(self, assembly: Assembly, options: LatinOptions,
+               reuse: LatinOperators | None) -> None:
         self.assembly = assembly
         self.options = options
         self.interface_signature = interface_signature(assembly, options)
