@@ -57,6 +57,10 @@ def peak_memory(torch: Any, device: str) -> str:
     return f"{resource.getrusage(resource.RUSAGE_SELF).ru_maxrss / 1024:.0f} MiB (RSS)"
 
 
+#: where the latest ``study`` spent its time (``time_split``)
+LATEST: dict[str, float] = {}
+
+
 def study(model: ml.Model, grid: list[str], options: LatinOptions, **kwargs: Any
           ) -> tuple[float, np.ndarray, int]:
     """Wall time, R_stop over the grid (grid order) and iterations in all."""
@@ -67,7 +71,20 @@ def study(model: ml.Model, grid: list[str], options: LatinOptions, **kwargs: Any
                               progress=False, **kwargs)
         wall = time.perf_counter() - t0
     iterations = sum(r["iterations"] for r in result.records)
+    setup = sum(r["setup_s"] for r in result.records)
+    cases = sum(r["wall_s"] for r in result.records)
+    LATEST.update(wall=wall, setup=setup, solve=cases - setup, rest=wall - cases)
     return wall, np.asarray(result.dataset["R_stop"].values, dtype=float), iterations
+
+
+def time_split() -> str:
+    """The latest study's wall time by part, from its records: the cases' set-up
+    (assembly, operators, starts), their solves (the iterations, results, re-solves), and
+    the rest (the study's records and store, the compiled kernels' first load)."""
+    t = LATEST
+    return (f"  where the {t['wall']:.1f} s went: set-up (assembly, operators, starts) "
+            f"{t['setup']:.1f} s, solves {t['solve']:.1f} s, records, store and the rest "
+            f"{t['rest']:.1f} s")
 
 
 def tight_values(model: ml.Model, grid: list[str]) -> np.ndarray:
@@ -197,6 +214,7 @@ def main() -> None:
             row(f"B3 {n_full} cases", f"torch {args.device}, {label}, batch {args.full_batch}",
                 wall, values.size, iterations, peak_memory(torch, args.device), None, None,
                 None)
+            print(time_split(), flush=True)
 
 
 if __name__ == "__main__":
