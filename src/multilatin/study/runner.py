@@ -20,11 +20,13 @@ import xarray as xr
 
 from ..decomposition.result import withheld
 from ..errors import ModelError, NotConvergedError
-from ..latin import LatinOptions, kernels, solve_latin
+from ..latin import LatinOptions
 from ..latin.options import STUDY_QOI_RTOL
 from ..limits import check_study
 from ..model import Model
 from ..parameters import Grid
+from .cluster import load_kernels as _load_kernels
+from .cluster import local_cluster, warm_workers
 from .plan import MODES, SCHEDULES, START_FROM, Case, ChainState, StudyPlan, plan_study, run_chain_step
 from .rolling import rolls, run_rolling
 from .store import StudyStore
@@ -310,25 +312,6 @@ def _record_fits(plan: StudyPlan) -> Callable[[dict[str, Any]], bool]:
     return fits
 
 
-def _load_kernels(model: Model, case: Case, options: LatinOptions) -> None:
-    """Compile the Numba kernels, or load them from Numba's cache, on two iterations of the
-    study's first case, before any mode's clock starts: the first study after installing
-    would otherwise charge the compilation (about 1.5 s, once per installation) to the mode
-    that runs first, and ``--compare`` would compare unequal things. (Dask workers compile
-    in their own processes.)"""
-    if kernels.relax is None:
-        return
-    t0 = time.perf_counter()
-    solver_log = logging.getLogger("multilatin.latin")
-    level = solver_log.level
-    solver_log.setLevel(max(logging.WARNING, solver_log.getEffectiveLevel()))
-    try:  # its "not converged after 2 iterations" is no news to the user
-        solve_latin(model.assemble(case.mu), replace(options, max_iter=2), check=False)
-    finally:
-        solver_log.setLevel(level)
-    log.info("compiled kernels ready in %.2f s", time.perf_counter() - t0)
-
-
 def _elapsed(store: StudyStore, mode: str) -> float:
     """The study time of ``mode`` so far: the latest finished case's, over all runs."""
     return max((r.get("elapsed_s", 0.0) for (m, _), r in store.records.items() if m == mode),
@@ -432,11 +415,12 @@ def _run_dask(model: Model, grid: Grid, plan: StudyPlan, mode: str, options: Lat
     the previous one's output (its warm-start state), chains run in parallel. The client
     alone writes the store."""
     try:
-        from dask.distributed import Client, LocalCluster, as_completed
+        from dask.distributed import Client, as_completed
     except ImportError:
         raise ModelError("--workers/--scheduler need Dask: pip install 'multilatin[dask]'"
                          ) from None
-    cluster = None
+    cluster: Any = None
+    warm_ups: list[Any] = []
     # Dask's nanny writes its workers' environment (OMP_NUM_THREADS=1, …) into this
     # process's too: the caller's environment is restored when the study ends
     environment = dict(os.environ)
@@ -447,23 +431,14 @@ def _run_dask(model: Model, grid: Grid, plan: StudyPlan, mode: str, options: Lat
             raise ModelError(f"--scheduler {scheduler}: cannot connect within "
                              f"{SCHEDULER_TIMEOUT_S:g} s ({type(exc).__name__}: {exc})") from None
     else:
-        # Dask starts its workers with MALLOC_TRIM_THRESHOLD_ set, which turns off glibc's
-        # dynamic mmap threshold: every field array of an iteration is then mmapped and
-        # unmapped again (measured: the system time equal to the computing time, no gain
-        # from the second worker). The workers here keep glibc's default.
-        import dask
-        environ = {name: value for name, value in
-                   dask.config.get("distributed.nanny.pre-spawn-environ", {}).items()
-                   if name != "MALLOC_TRIM_THRESHOLD_"}
-        if not log.isEnabledFor(logging.INFO):  # Dask's INFO chatter only with -v
-            environ["DASK_LOGGING__DISTRIBUTED"] = "warning"
-            logging.getLogger("distributed").setLevel(logging.WARNING)
-        with dask.config.set({"distributed.nanny.pre-spawn-environ": environ}):
-            cluster = LocalCluster(n_workers=workers, threads_per_worker=1, processes=True,
-                                   dashboard_address=None)
+        cluster = local_cluster(workers)
         client = Client(cluster)
     try:
         model_future = client.scatter(model, broadcast=True)
+        # every worker loads the compiled kernels now, beside the first task (the middle
+        # line's root on one worker), not at its own first task, on the waves' critical path
+        warm_ups = warm_workers(client, model_future, plan.cases[0], options,
+                                f"{mode}-{id(store)}")
         futures = []
         if schedule == "waves":
             n_workers = workers or len(client.scheduler_info()["workers"])
@@ -490,6 +465,7 @@ def _run_dask(model: Model, grid: Grid, plan: StudyPlan, mode: str, options: Lat
             future.release()
             finished(records, state)
     finally:
+        del warm_ups
         client.close()
         if cluster is not None:
             cluster.close()
