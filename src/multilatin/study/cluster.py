@@ -44,7 +44,17 @@ def warm_workers(client: Any, model_future: Any, case: Case, options: LatinOptio
     return [client.submit(_warm_worker, model_future, case, options, workers=[address],
                           allow_other_workers=False, pure=False, priority=10,
                           key=f"warm-up-{address}-{tag}")
-            for address in client.scheduler_info()["workers"]]
+            for address in worker_addresses(client)]
+
+
+def worker_addresses(client: Any) -> list[str]:
+    """Every worker of the client's cluster: Dask's ``scheduler_info`` listed only 5 by
+    default from mid-2025 (dask/distributed#9045) until #9308 (2026)."""
+    try:
+        info = client.scheduler_info(n_workers=-1)
+    except TypeError:  # older Dask: no such argument, every worker listed
+        info = client.scheduler_info()
+    return list(info["workers"])
 
 
 def _warm_worker(model: Model, case: Case, options: LatinOptions) -> None:

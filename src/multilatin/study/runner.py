@@ -26,7 +26,7 @@ from ..limits import check_study
 from ..model import Model
 from ..parameters import Grid
 from .cluster import load_kernels as _load_kernels
-from .cluster import local_cluster, warm_workers
+from .cluster import local_cluster, warm_workers, worker_addresses
 from .plan import MODES, SCHEDULES, START_FROM, Case, ChainState, StudyPlan, plan_study, run_chain_step
 from .rolling import rolls, run_rolling
 from .store import StudyStore
@@ -441,7 +441,7 @@ def _run_dask(model: Model, grid: Grid, plan: StudyPlan, mode: str, options: Lat
                                 f"{mode}-{id(store)}")
         futures = []
         if schedule == "waves":
-            n_workers = workers or len(client.scheduler_info()["workers"])
+            n_workers = workers or len(worker_addresses(client))
             futures = submit_line_tasks(client, model_future, grid, plan, mode, options,
                                         store, batch, n_workers, start)
         else:
