@@ -31,6 +31,7 @@ import numpy as np
 
 import multilatin as ml
 from multilatin.latin.options import STUDY_QOI_RTOL
+from multilatin.study.cluster import local_cluster
 from multilatin.study.plan import clear_operator_cache, plan_study
 from multilatin.study.waves import line_tasks, run_line_task
 
@@ -149,11 +150,8 @@ def on_dask(model: ml.Model, grid: ml.Grid, options: ml.LatinOptions, workers: i
             serial_s: float, serial_wall: float) -> None:
     """Both schedules on a real local cluster of ``workers`` processes: wall times against
     the serial study's."""
-    from dask.distributed import LocalCluster
-
     start = time.perf_counter()
-    LocalCluster(n_workers=workers, threads_per_worker=1, processes=True,
-                 dashboard_address=None).close()
+    local_cluster(workers).close()  # the study's own kind of cluster
     print(f"\nDask, {workers} workers (a local cluster alone starts and stops in "
           f"{time.perf_counter() - start:.1f} s); the cases' time on the workers against "
           f"the serial study's {serial_s:.1f} s ({serial_wall:.1f} s wall):\n")

@@ -57,13 +57,12 @@ def peak_memory(torch: Any, device: str) -> str:
     return f"{resource.getrusage(resource.RUSAGE_SELF).ru_maxrss / 1024:.0f} MiB (RSS)"
 
 
-#: where the latest ``study`` spent its time (``time_split``)
-LATEST: dict[str, float] = {}
-
-
 def study(model: ml.Model, grid: list[str], options: LatinOptions, **kwargs: Any
-          ) -> tuple[float, np.ndarray, int]:
-    """Wall time, R_stop over the grid (grid order) and iterations in all."""
+          ) -> tuple[float, np.ndarray, int, str]:
+    """Wall time, R_stop over the grid (grid order), iterations in all, and where the time
+    went from the records: the cases' set-up (assembly, operators, starts), their solves
+    (the iterations, results, re-solves), the rest (records, store, the kernels' first
+    load)."""
     clear_operator_cache()
     with tempfile.TemporaryDirectory() as folder:
         t0 = time.perf_counter()
@@ -73,18 +72,10 @@ def study(model: ml.Model, grid: list[str], options: LatinOptions, **kwargs: Any
     iterations = sum(r["iterations"] for r in result.records)
     setup = sum(r["setup_s"] for r in result.records)
     cases = sum(r["wall_s"] for r in result.records)
-    LATEST.update(wall=wall, setup=setup, solve=cases - setup, rest=wall - cases)
-    return wall, np.asarray(result.dataset["R_stop"].values, dtype=float), iterations
-
-
-def time_split() -> str:
-    """The latest study's wall time by part, from its records: the cases' set-up
-    (assembly, operators, starts), their solves (the iterations, results, re-solves), and
-    the rest (the study's records and store, the compiled kernels' first load)."""
-    t = LATEST
-    return (f"  where the {t['wall']:.1f} s went: set-up (assembly, operators, starts) "
-            f"{t['setup']:.1f} s, solves {t['solve']:.1f} s, records, store and the rest "
-            f"{t['rest']:.1f} s")
+    split = (f"  where the {wall:.1f} s went: set-up (assembly, operators, starts) "
+             f"{setup:.1f} s, solves {cases - setup:.1f} s, records, store and the rest "
+             f"{wall - cases:.1f} s")
+    return wall, np.asarray(result.dataset["R_stop"].values, dtype=float), iterations, split
 
 
 def tight_values(model: ml.Model, grid: list[str]) -> np.ndarray:
@@ -189,16 +180,16 @@ def main() -> None:
     for workload, model, grid, variants in runs:
         cases = int(np.prod([len(v) for v in ml.Grid.parse(grid).values()]))
         tight = None if args.no_tight else tight_values(model, grid)
-        wall, values, iterations = study(model, grid, numpy_options, workers=args.cpu_workers)
+        wall, values, iterations, _ = study(model, grid, numpy_options, workers=args.cpu_workers)
         row(workload, f"NumPy, neighbour, {args.cpu_workers} workers", wall, cases,
             iterations, "—", None, tight, values)
         for label, kwargs in variants:
-            wall, numpy_values, iterations = study(model, grid, numpy_options, **kwargs)
+            wall, numpy_values, iterations, _ = study(model, grid, numpy_options, **kwargs)
             row(workload, f"NumPy, {label}", wall, cases, iterations, "—", None, tight,
                 numpy_values)
             if args.device.startswith("cuda"):
                 torch.cuda.reset_peak_memory_stats()
-            wall, values, iterations = study(model, grid, device_options, **kwargs)
+            wall, values, iterations, _ = study(model, grid, device_options, **kwargs)
             row(workload, f"torch {args.device}, {label}", wall, cases, iterations,
                 peak_memory(torch, args.device), relative(numpy_values, values), tight,
                 values)
@@ -209,12 +200,12 @@ def main() -> None:
         for label, kwargs in (FULL_STARTS[name] for name in args.full_start.split(",")):
             if args.device.startswith("cuda"):
                 torch.cuda.reset_peak_memory_stats()
-            wall, values, iterations = study(b3, full, device_options,
+            wall, values, iterations, split = study(b3, full, device_options,
                                              batch=args.full_batch, **kwargs)
             row(f"B3 {n_full} cases", f"torch {args.device}, {label}, batch {args.full_batch}",
                 wall, values.size, iterations, peak_memory(torch, args.device), None, None,
                 None)
-            print(time_split(), flush=True)
+            print(split, flush=True)
 
 
 if __name__ == "__main__":

@@ -23,7 +23,7 @@ import time
 from side_by_side import add_arguments, alternate
 
 
-def measure(count: int, name: str = "b1") -> list[float]:
+def measure(count: int, name: str = "b1") -> list[tuple[float, float]]:
     import numpy as np
 
     import multilatin as ml
@@ -46,8 +46,7 @@ def measure(count: int, name: str = "b1") -> list[float]:
         clear_operator_cache()
         t0 = time.perf_counter()
         result = ml.run_study(model, grid, progress=False)
-        times.append(time.perf_counter() - t0)
-        times.append(sum(r["setup_s"] for r in result.records))
+        times.append((time.perf_counter() - t0, sum(r["setup_s"] for r in result.records)))
     return times
 
 
@@ -70,11 +69,10 @@ def main() -> None:
         print(f"{label}: {_shown(json.loads(line))}", flush=True)
 
 
-def _shown(times: list[float]) -> str:
+def _shown(times: list[tuple[float, float]]) -> str:
     """Each study's wall time, and in brackets its cases' set-up (assembly, operators,
     starts: Σ ``setup_s``)."""
-    return " / ".join(f"{wall:.2f} s (set-up {setup:.2f} s)"
-                      for wall, setup in zip(times[::2], times[1::2], strict=True))
+    return " / ".join(f"{wall:.2f} s (set-up {setup:.2f} s)" for wall, setup in times)
 
 
 if __name__ == "__main__":

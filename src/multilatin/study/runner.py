@@ -25,8 +25,7 @@ from ..latin.options import STUDY_QOI_RTOL
 from ..limits import check_study
 from ..model import Model
 from ..parameters import Grid
-from .cluster import load_kernels as _load_kernels
-from .cluster import local_cluster, warm_workers, worker_addresses
+from .cluster import load_kernels, local_cluster, warm_workers, worker_addresses
 from .plan import MODES, SCHEDULES, START_FROM, Case, ChainState, StudyPlan, plan_study, run_chain_step
 from .rolling import rolls, run_rolling
 from .store import StudyStore
@@ -243,7 +242,7 @@ def run_study(
     try:  # the store (and its folder's lock) is closed however the study ends
         if not (workers or scheduler) and any(not store.finished(mode, case.number)
                                               for mode in modes for case in plan.cases):
-            _load_kernels(model, plan.cases[0], options)
+            load_kernels(model, plan.cases[0], options)
             # study.nc from the start (the cases a resumed study has): xarray's first write
             # (its backends' discovery, ~0.2 s) is then charged to no mode's clock
             store.write_dataset(grid, attrs)
