@@ -171,3 +171,35 @@ def test_kirsch_plate_converges_at_optimal_rates():
     print("Kirsch errors (L2, energy)", errors.tolist(), "rates", rates.tolist(), slope)
     assert slope[0] > 1.85 and slope[1] > 0.9, slope
     assert np.all(rates[:, 0] > 1.7) and np.all(rates[:, 1] > 0.8), rates
+
+
+def test_element_stiffnesses_kept_per_mesh_give_the_integrated_stiffness():
+    """``xfem_stiffness`` takes the material cells' element stiffnesses from the mesh's kept
+    ones: equal (1e-12) to integrating those cells and the cut ones anew, for two holes in
+    the same mesh (the second one a hit of the cache), and the cut cells' quadrature has no
+    more points than the fullest cell has of positive weight (they sum to its material
+    area)."""
+    import scipy.sparse as sp
+
+    from multilatin.fem import xfem
+    from multilatin.fem.elasticity import stiffness_matrix
+    from multilatin.fem.xfem import inactive_dofs
+
+    mesh = RectMesh(0.0, 10.0, 0.0, 10.0, 10, 10)
+    hooke = hooke_matrix(2e5, 0.3)
+    xfem._CELL_STIFFNESS.clear()
+    for centre in ((5.0, 5.0), (4.3, 6.1)):
+        cut = cut_cells(mesh, Circle(centre, 2.2))
+        weights = cut.cut_quadrature.weights
+        assert cut.cut.size and np.all(weights >= 0.0)
+        assert np.any(np.all(weights > 0.0, axis=1))  # as many columns as the fullest cell
+        # the reference square's area is 4: each cut cell's weights sum to 4 × its fraction
+        assert np.allclose(weights.sum(axis=1), 4.0 * cut.material_fraction[cut.cut],
+                           rtol=1e-12)
+        kept = xfem_stiffness(mesh, hooke, 1.0, cut)
+        anew = (stiffness_matrix(mesh.nodes, mesh.cells[cut.material], hooke)
+                + stiffness_matrix(mesh.nodes, mesh.cells[cut.cut], hooke, 1.0,
+                                   cut.cut_quadrature)
+                + sp.diags(np.isin(np.arange(2 * mesh.n_nodes), inactive_dofs(cut)) * 1.0))
+        assert abs(kept - anew).max() <= 1e-12 * abs(anew).max()
+    assert len(xfem._CELL_STIFFNESS) == 1

@@ -17,7 +17,7 @@ import scipy.sparse as sp
 from ..fem.elasticity import FloatArray, IntArray, hooke_matrix
 from ..fem.levelset import CutCells, LevelSet, cut_cells
 from ..fem.mesh import RectMesh, UnstructuredMesh
-from ..fem.xfem import xfem_stiffness
+from ..fem.xfem import mesh_pattern, xfem_stiffness
 from ..parameters import Mu
 
 DISPLACEMENT = "displacement"
@@ -75,6 +75,12 @@ class Substructure:
     def stiffness(self) -> sp.csr_matrix:
         """K_E (eq. [2]–[3]), on the material part only when there is a hole."""
         return xfem_stiffness(self.mesh, self.material.hooke, self.material.thickness, self.cut)
+
+    def stiffness_pattern(self) -> sp.csr_matrix | None:
+        """With a hole, a pattern containing the stiffness's for any hole in this mesh (the
+        uncut mesh's): the condensation orders the interior once for all hole positions
+        (``latin.condensation.interior_ordering``). None without a hole."""
+        return mesh_pattern(self.mesh) if self.hole is not None else None
 
 
 @dataclass(frozen=True)

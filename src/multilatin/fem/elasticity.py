@@ -116,19 +116,19 @@ def physical_gradients(
     for cells of ``a`` nodes (4: Q4, 3: T3)."""
     n, dn = shape_functions(quadrature.points, cell_coords.shape[1])
     n = np.broadcast_to(n, (cell_coords.shape[0],) + n.shape[1:])
-    dn = np.broadcast_to(dn, (cell_coords.shape[0],) + dn.shape[1:])
-    jac = np.einsum("cqad,cae->cqde", dn, cell_coords)  # d x_e / d xi_d
+    # batched 2 × a by a × 2 products (matmul broadcasts a shared rule over the cells;
+    # einsum on broadcast views took 4 ms for B3's 32 cut cells of 192 points)
+    jac = np.swapaxes(dn, -1, -2) @ cell_coords[:, None]  # (c, q, d, e): d x_e / d xi_d
     det = jac[..., 0, 0] * jac[..., 1, 1] - jac[..., 0, 1] * jac[..., 1, 0]
     if np.any(det <= 0.0):
         raise ValueError("an element is degenerate or inverted (det J <= 0)")
-    inv = np.stack(
-        [
-            np.stack([jac[..., 1, 1], -jac[..., 0, 1]], axis=-1),
-            np.stack([-jac[..., 1, 0], jac[..., 0, 0]], axis=-1),
-        ],
-        axis=-2,
-    ) / det[..., None, None]
-    grad = np.einsum("cqad,cqed->cqae", dn, inv)  # dN/dx = J⁻¹ dN/dξ
+    inv_t = np.empty_like(jac)  # (J⁻¹)ᵀ
+    inv_t[..., 0, 0] = jac[..., 1, 1]
+    inv_t[..., 0, 1] = -jac[..., 1, 0]
+    inv_t[..., 1, 0] = -jac[..., 0, 1]
+    inv_t[..., 1, 1] = jac[..., 0, 0]
+    inv_t /= det[..., None, None]
+    grad = dn @ inv_t  # dN/dx = J⁻¹ dN/dξ, (c, q, a, 2)
     return n, grad, det * quadrature.weights
 
 
@@ -155,16 +155,34 @@ def stiffness_matrix(
     quadrature: Quadrature | None = None,
 ) -> sp.csr_matrix:
     """Global stiffness K = Σ_e ∫ Bᵀ D B t dΩ (eq. [2]–[3]), assembled without element loops."""
+    return assemble_cells(element_stiffness(nodes, cells, hooke, thickness, quadrature),
+                          cells, nodes.shape[0])
+
+
+def element_stiffness(
+    nodes: FloatArray,
+    cells: IntArray,
+    hooke: FloatArray,
+    thickness: float = 1.0,
+    quadrature: Quadrature | None = None,
+) -> FloatArray:
+    """Element stiffnesses ∫_e Bᵀ D B t dΩ, (c, 2a, 2a) on interleaved element dofs."""
     quadrature = quadrature or Quadrature.for_cells(cells.shape[1], 2)
     _, grad, wdet = physical_gradients(nodes[cells], quadrature)
     b = strain_matrices(grad)
-    ke = thickness * np.einsum("cqji,jk,cqkl,cq->cil", b, hooke, b, wdet, optimize=True)
+    return np.asarray(thickness * np.einsum("cqji,jk,cqkl,cq->cil", b, hooke, b, wdet,
+                                            optimize=True), dtype=np.float64)
+
+
+def assemble_cells(element_matrices: FloatArray, cells: IntArray, n_nodes: int
+                   ) -> sp.csr_matrix:
+    """Σ_e of element matrices (c, 2a, 2a) on interleaved dofs, as a (2 n_nodes)² CSR."""
     dofs = element_dofs(cells)
     per_cell = dofs.shape[1]
     rows = np.repeat(dofs, per_cell, axis=1).ravel()
     cols = np.tile(dofs, (1, per_cell)).ravel()
-    n = 2 * nodes.shape[0]
-    return sp.csr_matrix((ke.ravel(), (rows, cols)), shape=(n, n))
+    n = 2 * n_nodes
+    return sp.csr_matrix((element_matrices.ravel(), (rows, cols)), shape=(n, n))
 
 
 def body_force_vector(

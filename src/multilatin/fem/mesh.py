@@ -14,6 +14,8 @@ from dataclasses import dataclass, field
 import numpy as np
 import numpy.typing as npt
 
+from ..kept import Kept
+
 FloatArray = npt.NDArray[np.float64]
 IntArray = npt.NDArray[np.int64]
 
@@ -74,6 +76,14 @@ class RectangleSides:
         )
 
 
+#: nodes and cells of structured meshes, by box and divisions (read-only, shared): a
+#: study's cases rebuild their substructures' meshes (B3: 27 per case, 5 ms)
+_RECT_ARRAYS: Kept[tuple[float, float, float, float, int, int],
+                   tuple[FloatArray, IntArray]] = Kept(256)
+#: meshes of more nodes are built each time
+_RECT_ARRAYS_MAX_NODES = 20_000
+
+
 @dataclass(frozen=True)
 class RectMesh(RectangleSides):
     """A structured ``nx`` × ``ny`` Q4 mesh of ``[x0, x1] × [y0, y1]``."""
@@ -88,14 +98,25 @@ class RectMesh(RectangleSides):
     cells: IntArray = field(init=False, repr=False)
 
     def __post_init__(self) -> None:
+        key = (self.x0, self.x1, self.y0, self.y1, self.nx, self.ny)
+        if (self.nx + 1) * (self.ny + 1) > _RECT_ARRAYS_MAX_NODES:
+            nodes, cells = self._arrays()
+        else:
+            nodes, cells = _RECT_ARRAYS.get(key, self._arrays)
+        object.__setattr__(self, "nodes", nodes)
+        object.__setattr__(self, "cells", cells)
+
+    def _arrays(self) -> tuple[FloatArray, IntArray]:
         xs = np.linspace(self.x0, self.x1, self.nx + 1)
         ys = np.linspace(self.y0, self.y1, self.ny + 1)
         gx, gy = np.meshgrid(xs, ys)  # shape (ny+1, nx+1)
-        object.__setattr__(self, "nodes", np.column_stack([gx.ravel(), gy.ravel()]))
+        nodes = np.column_stack([gx.ravel(), gy.ravel()])
         i, j = np.meshgrid(np.arange(self.nx), np.arange(self.ny))
         n0 = (j * (self.nx + 1) + i).ravel()
-        cells = np.column_stack([n0, n0 + 1, n0 + self.nx + 2, n0 + self.nx + 1])
-        object.__setattr__(self, "cells", cells.astype(np.int64))
+        cells = np.column_stack([n0, n0 + 1, n0 + self.nx + 2, n0 + self.nx + 1]).astype(np.int64)
+        for array in (nodes, cells):
+            array.setflags(write=False)  # shared by every mesh of this box
+        return nodes, cells
 
     @property
     def n_nodes(self) -> int:

@@ -15,7 +15,15 @@ from collections.abc import Callable
 import numpy as np
 import scipy.sparse as sp
 
-from .elasticity import FloatArray, Quadrature, error_norms, stiffness_matrix
+from ..kept import Kept
+from .elasticity import (
+    FloatArray,
+    Quadrature,
+    assemble_cells,
+    element_stiffness,
+    error_norms,
+    stiffness_matrix,
+)
 from .levelset import CutCells
 from .mesh import RectMesh, UnstructuredMesh
 
@@ -33,7 +41,8 @@ def xfem_stiffness(mesh: RectMesh | UnstructuredMesh, hooke: FloatArray, thickne
     """K = Σ_material ∫ Bᵀ D B + Σ_cut ∫_(material part) Bᵀ D B, identity on removed dofs."""
     if cut is None:
         return stiffness_matrix(mesh.nodes, mesh.cells, hooke, thickness)
-    stiffness = stiffness_matrix(mesh.nodes, mesh.cells[cut.material], hooke, thickness)
+    material = _cell_stiffness(mesh, hooke, thickness)[cut.material]
+    stiffness = assemble_cells(material, mesh.cells[cut.material], mesh.n_nodes)
     if cut.cut.size:
         stiffness = stiffness + stiffness_matrix(mesh.nodes, mesh.cells[cut.cut], hooke,
                                                  thickness, cut.cut_quadrature)
@@ -41,6 +50,43 @@ def xfem_stiffness(mesh: RectMesh | UnstructuredMesh, hooke: FloatArray, thickne
     pin = np.zeros(2 * mesh.n_nodes)
     pin[removed] = 1.0
     return (stiffness + sp.diags(pin)).tocsr()
+
+
+#: element stiffnesses of whole meshes with the usual rule, by mesh, material and thickness:
+#: a hole moving inside a substructure changes its cut and void cells only, so a study over
+#: hole positions integrates the others once (B3: 501 of 533 cells)
+_CELL_STIFFNESS: Kept[tuple[str, bytes, float], FloatArray] = Kept(8)
+#: meshes of more cells are integrated each time (their element stiffnesses: 512 B a cell)
+_CELL_STIFFNESS_MAX_CELLS = 20_000
+_PATTERNS: Kept[str, sp.csr_matrix] = Kept(8)
+
+
+def _cell_stiffness(mesh: RectMesh | UnstructuredMesh, hooke: FloatArray,
+                    thickness: float) -> FloatArray:
+    """Every cell's element stiffness (c, 8, 8) with the usual Gauss rule, kept per mesh
+    (``repr`` names a structured mesh by its box and divisions, a mesh of its own by a digest
+    of its nodes and cells)."""
+
+    def integrate() -> FloatArray:
+        out = element_stiffness(mesh.nodes, mesh.cells, hooke, thickness)
+        out.setflags(write=False)
+        return out
+
+    if mesh.n_cells > _CELL_STIFFNESS_MAX_CELLS:
+        return integrate()
+    key = (repr(mesh), np.ascontiguousarray(hooke).tobytes(), float(thickness))
+    return _CELL_STIFFNESS.get(key, integrate)
+
+
+def mesh_pattern(mesh: RectMesh | UnstructuredMesh) -> sp.csr_matrix:
+    """The nonzero pattern (ones) of the stiffness of every cell of ``mesh``: it contains the
+    pattern of the mesh with any hole, kept per mesh as ``_cell_stiffness`` is."""
+
+    def pattern() -> sp.csr_matrix:
+        ones = np.ones((mesh.n_cells, 2 * mesh.cells.shape[1], 2 * mesh.cells.shape[1]))
+        return assemble_cells(ones, mesh.cells, mesh.n_nodes)
+
+    return _PATTERNS.get(repr(mesh), pattern)
 
 
 def xfem_error_norms(

@@ -152,7 +152,8 @@ class LatinOperators:
                 rows = basis[lo:hi] if basis is not None else None
                 coupling = self.two_scale.block(lo, hi) if self.two_scale is not None else None
                 block = self._substructure(sub.stiffness(), pts.traces[s], self.m0[lo:hi],
-                                           k_flat[lo:hi], rows, key, coupling)
+                                           k_flat[lo:hi], rows, key, coupling,
+                                           sub.stiffness_pattern())
                 rebuilt.append(sub.name)
             self.blocks[key] = block
             self.substructure_operators.append(block)
@@ -217,13 +218,14 @@ class LatinOperators:
     @staticmethod
     def _substructure(stiffness: sp.csr_matrix, trace: sp.csr_matrix, m0: FloatArray,
                       k: FloatArray, basis_rows: sp.csr_matrix | None, key: str,
-                      coupling: FloatArray | None = None) -> SubstructureOperators:
+                      coupling: FloatArray | None = None,
+                      pattern: sp.csr_matrix | None = None) -> SubstructureOperators:
         """coupling: M0 (H − D) on the substructure's points (``TwoScaleDirection.block``),
-        H's part beyond its diagonal D = k."""
+        H's part beyond its diagonal D = k; pattern: ``Substructure.stiffness_pattern``."""
         m0_h = sp.diags(m0 * k) + (sp.csr_matrix(coupling) if coupling is not None else 0)
         operator = (stiffness + trace.T @ m0_h @ trace).tocsc()
         # C_E = T S⁻¹ Tᵀ M0, dense, from the factorisation's last block (``condensation``)
-        factor, condensed, recovery = condense(operator, trace, m0)
+        factor, condensed, recovery = condense(operator, trace, m0, pattern=pattern)
         trace_rhs = sp.csc_matrix(trace.T @ sp.diags(m0))
         if basis_rows is None:
             empty = np.zeros((0, 0))
