@@ -31,7 +31,8 @@ import numpy as np
 import multilatin as ml
 from multilatin.latin import LatinOperators, solve_latin
 from multilatin.parameters import Grid
-from multilatin.study.plan import clear_operator_cache, peak_memory_mb
+from multilatin.study.plan import clear_operator_cache
+from multilatin.study.records import peak_memory_mb
 from multilatin.study.runner import run_study
 
 SOLVER_CASES = [(0.3, 0.0), (0.1, 0.3)]

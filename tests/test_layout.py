@@ -16,8 +16,8 @@ import multilatin
 PACKAGE = Path(multilatin.__file__).parent
 
 #: rooms from the bottom up; a room may import only itself and the rooms before it
-ROOMS = ["errors", "limits", "parameters", "fem", "decomposition", "io", "latin", "reference",
-         "model", "study", "cli"]
+ROOMS = ["errors", "limits", "kept", "parameters", "fem", "decomposition", "io", "latin",
+         "reference", "model", "study", "cli"]
 #: rooms at the same height that must not see each other (the references check the solver)
 APART = {("latin", "reference"), ("reference", "latin")}
 

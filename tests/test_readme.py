@@ -57,3 +57,19 @@ def test_ci_runs_the_readme_test_command_and_the_readme_is_short() -> None:
     test_command = next(c for c in commands if "pytest" in c)
     assert test_command in (ROOT / ".ci" / "run").read_text()
     assert len(README.encode()) < 10_000
+
+
+def test_readme_study_commands_plan_on_valid_grids() -> None:
+    """Every ``multilatin study`` line of README names a grid its model accepts: each
+    geometry of it is built (``plan_study``, nothing solved), so a hole that would cross a
+    substructure's boundary fails here, not in a reader's terminal."""
+    from multilatin.study.plan import plan_study
+
+    lines = [line.split("#")[0] for block in _blocks("bash")
+             for line in block.replace("\\\n", " ").splitlines()
+             if line.startswith("multilatin study ")]
+    assert len(lines) >= 3
+    for line in lines:
+        words = line.split()
+        grid = ml.Grid.parse([words[i + 1] for i, w in enumerate(words) if w == "--grid"])
+        plan_study(ml.load_model(words[2]), grid)

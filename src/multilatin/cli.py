@@ -172,11 +172,12 @@ def build_parser() -> argparse.ArgumentParser:
                        help="with --workers/--scheduler: grid lines as tasks, each from the "
                             "neighbour line nearer the middle one (waves), or contiguous "
                             "chains from zero (default: %(default)s)")
-    study.add_argument("--start", choices=["neighbour", "zero"], default=None,
+    study.add_argument("--start", choices=["neighbour", "nearest", "zero"], default=None,
                        help="multiresolution: start each case from its nearest converged "
-                       "neighbour, or every case of a geometry from zero in batches of "
-                       "--batch sharing the operators (default: neighbour; zero with "
-                       "--backend torch --device cuda, faster there)")
+                       "neighbour (along a line of hole positions, the secant of the two "
+                       "nearest), from the nearest alone, or every case of a geometry from "
+                       "zero in batches of --batch sharing the operators (default: "
+                       "neighbour; zero with --backend torch --device cuda, faster there)")
     study.add_argument("--batch", type=int, default=None,
                        help="multiresolution: iterate up to N cases together, each from its "
                             "nearest converged neighbour (1: one by one; default: 16; "

@@ -12,7 +12,6 @@ standalone computation (its own operators, started from zero).
 from __future__ import annotations
 
 import logging
-import sys
 import time
 from collections import OrderedDict
 from collections.abc import Iterator, Sequence
@@ -29,15 +28,18 @@ from ..latin import LatinOptions, solve_latin, solve_latin_batch
 from ..latin.operators import LatinOperators, operator_signature
 from ..model import Model
 from ..parameters import Grid, Mu
+from .predictors import secant_fields, secant_partner
+from .records import case_record
 
 log = logging.getLogger(__name__)
 
 MODES = ("multiresolution", "cold")
-#: how the multiresolution mode starts a case: from its nearest converged neighbour (the
-#: paper's §6), or from zero with the cases in wide batches — every case of a geometry,
-#: sharing the operators (NumPy), or consecutive cases of several geometries (torch) — for
-#: a GPU, where a wide batch costs little more than a narrow one
-START_FROM = ("neighbour", "zero")
+#: how the multiresolution mode starts a case: from its nearest converged neighbour, and
+#: along a geometric grid line from the secant of the two nearest (``predictors``); from the
+#: nearest alone (the paper's §6); or from zero with the cases in wide batches — every case
+#: of a geometry, sharing the operators (NumPy), or consecutive cases of several geometries
+#: (torch) — for a GPU, where a wide batch costs little more than a narrow one
+START_FROM = ("neighbour", "nearest", "zero")
 #: how a Dask run shares out multiresolution work (``run_study(schedule=...)``,
 #: ``study.waves``)
 SCHEDULES = ("waves", "chains")
@@ -51,6 +53,9 @@ class Case:
     index: tuple[int, ...]  # grid index, in the grid's parameter order
     mu: Mu
     chain: int
+    #: the grid's dimensions that change the geometry: secant starts along them
+    #: (``predictors``)
+    axes: tuple[int, ...] = ()
 
 
 @dataclass(frozen=True)
@@ -130,9 +135,11 @@ def boustrophedon(shape: tuple[int, ...]) -> Iterator[tuple[int, ...]]:
 
 
 def plan_study(model: Model, grid: Grid, options: LatinOptions | None = None,
-               chains: int = 1) -> StudyPlan:
+               chains: int = 1, secant: bool = True) -> StudyPlan:
     """Validate the grid against the model (names, ranges, geometry of every distinct
-    geometric parameter set) and order its cases; nothing is computed here."""
+    geometric parameter set) and order its cases; nothing is computed here. ``secant``:
+    cases may start from the secant of two neighbours along geometric axes (``Case.axes``;
+    False: from the nearest alone)."""
     options = options or LatinOptions()
     grid.validate(model.parameters)
     if chains < 1:
@@ -168,7 +175,8 @@ def plan_study(model: Model, grid: Grid, options: LatinOptions | None = None,
     n_chains = min(chains, len(ordered))
     bounds = np.linspace(0, len(ordered), n_chains + 1).round().astype(int)
     chain_cases = tuple(
-        tuple(Case(number, ordered[number], grid.mu(ordered[number], model.parameters), c)
+        tuple(Case(number, ordered[number], grid.mu(ordered[number], model.parameters), c,
+                   tuple(sorted(geometric_dims)) if secant else ())
               for number in range(bounds[c], bounds[c + 1]))
         for c in range(n_chains))
     # the grid lines that multiresolution batches: along the innermost dimension; a
@@ -290,19 +298,19 @@ def run_case(model: Model, grid: Grid, case: Case, mode: str, options: LatinOpti
     assembly = model.assemble(case.mu)
     if mode == "cold":
         ops, built = LatinOperators(assembly, options), True
-        start_index, initial = None, None
+        start_index, initial, partner = None, None, None
     else:
         ops, built = _operators(assembly, options)
         state = state if state is not None else ChainState(_retained_capacity(grid))
-        start_index, initial = _start(state, case, assembly, ops)
+        start_index, initial, partner = _start(grid, state, case, assembly, ops)
     setup_s = time.perf_counter() - t0
     result = solve_latin(assembly, options, operators=ops, initial=initial, check=False)
     [(result, spent)] = _path_independent([assembly], options, [ops], [result], [start_index])
     wall_s = time.perf_counter() - t0
     if mode != "cold" and result.converged and state is not None:
         state = _retain(state, case, result)
-    return _record(grid, case, mode, result, wall_s, setup_s, built, start_index, 1,
-                   spent), state
+    return case_record(grid, case, mode, result, wall_s, setup_s, built, start_index, 1,
+                       spent, partner), state
 
 
 def solve_again(result: SolveResult, start_index: tuple[int, ...] | None) -> bool:
@@ -382,48 +390,49 @@ def _solve_together(model: Model, grid: Grid, cases: tuple[Case, ...], mode: str
         ops, built = _operators(assembly, options)
         per_case.append(ops)
         first_built.append(built)
-    starts = [_start(state, case, assembly, ops) if state is not None else (None, None)
+    starts = [_start(grid, state, case, assembly, ops) if state is not None
+              else (None, None, None)
               for case, assembly, ops in zip(cases, assemblies, per_case, strict=True)]
     setup_s = time.perf_counter() - t0
     results = solve_latin_batch(assemblies, options, operators=per_case,
-                                initial=[fields for _, fields in starts], check=False)
+                                initial=[fields for _, fields, _ in starts], check=False)
     kept = _path_independent(assemblies, options, per_case, results,
-                             [start_index for start_index, _ in starts])
+                             [start_index for start_index, _, _ in starts])
     wall_s = time.perf_counter() - t0
     total_iterations = sum(r.iterations + spent for r, spent in kept)
     records = []
-    for case, (result, spent), (start_index, _), built in zip(cases, kept, starts, first_built,
-                                                             strict=True):
+    for case, (result, spent), (start_index, _, partner), built in zip(
+            cases, kept, starts, first_built, strict=True):
         share = (result.iterations + spent) / total_iterations
-        records.append(_record(grid, case, mode, result, share * wall_s, share * setup_s,
-                               built, start_index, len(cases), spent))
+        records.append(case_record(grid, case, mode, result, share * wall_s, share * setup_s,
+                                    built, start_index, len(cases), spent, partner))
         if result.converged and state is not None:
             state = _retain(state, case, result)
     return records, state
 
 
-def peak_memory_mb() -> float:
-    """Peak resident memory of this process so far (MiB); NaN where not measurable."""
-    try:
-        import resource
-    except ImportError:  # pragma: no cover - not on Unix
-        return float("nan")
-    peak = resource.getrusage(resource.RUSAGE_SELF).ru_maxrss
-    return float(peak / 1024 if sys.platform != "darwin" else peak / 2**20)
-
-
-def _start(state: ChainState, case: Case, assembly: Assembly, ops: LatinOperators
-           ) -> tuple[tuple[int, ...] | None, tuple[FloatArray, FloatArray] | None]:
-    """The nearest converged neighbour's index and interface fields to start ``case`` from;
-    none when its interfaces are discretised otherwise (a geometric parameter that moves a
-    part across a substructure's boundary): the case then starts from zero."""
+def _start(grid: Grid, state: ChainState, case: Case, assembly: Assembly, ops: LatinOperators
+           ) -> tuple[tuple[int, ...] | None, tuple[FloatArray, FloatArray] | None,
+                      tuple[int, ...] | None]:
+    """The nearest converged neighbour's index and interface fields to start ``case`` from,
+    and the second neighbour of a secant start (``predictors``: along a geometric axis,
+    where the case one step further back on the line is retained; else None); none when its
+    interfaces are discretised otherwise (a geometric parameter that moves a part across a
+    substructure's boundary): the case then starts from zero."""
     start_index, initial = state.nearest(case.index)
     shape = (assembly.n_steps, ops.points.n_points, 2)
     if initial is not None and any(field.shape != shape for field in initial):
         log.info("%s: its nearest converged neighbour has other interfaces; started from "
                  "zero", assembly.name)
-        return None, None
-    return start_index, initial
+        return None, None, None
+    partner = secant_partner(case.index, start_index, case.axes, grid.shape)
+    if start_index is not None and initial is not None and partner in state.retained:
+        assert partner is not None
+        secant = secant_fields(grid, case.index, start_index, initial, partner,
+                               state.retained[partner])
+        if secant is not None:
+            return start_index, secant, partner
+    return start_index, initial, None
 
 
 def _has_neighbour(state: ChainState | None, case: Case) -> bool:
@@ -436,50 +445,6 @@ def _retain(state: ChainState, case: Case, result: SolveResult) -> ChainState:
     assert result.interface is not None
     return state.added(case.index, (result.interface.displacement_hat,
                                     result.interface.force_hat))
-
-
-def _record(grid: Grid, case: Case, mode: str, result: SolveResult, wall_s: float,
-            setup_s: float, built: bool, start_index: tuple[int, ...] | None, batch: int,
-            warm_attempt: int = 0) -> dict[str, Any]:
-    """A case's journal record. ``warm_attempt``: iterations of a warm start given up for a
-    solve from zero (the answer was not unique); they count in ``iterations``."""
-    start = ("zero" if start_index is None else
-             ", ".join(f"{n}={grid[n][i]:g}" for n, i in zip(grid, start_index, strict=True)))
-    if warm_attempt:
-        start = "zero (not unique: the warm start was set aside)"
-    params = {name: case.mu[name] for name in grid}
-    text = ", ".join(f"{k}={v:g}" for k, v in params.items())
-    iterations = int(result.iterations) + warm_attempt
-    undetermined = [m.describe() for m in result.free_motions if m.reaches_last_step]
-    status = ("converged" if result.converged else f"NOT CONVERGED ({result.failure})")
-    return {
-        "mode": mode,
-        "number": case.number,
-        "chain": case.chain,
-        "index": list(case.index),
-        "params": params,
-        "converged": bool(result.converged),
-        "unique": bool(result.unique),
-        "free_motions": undetermined,
-        "iterations": iterations,
-        "indicator": float(result.indicator),
-        "wall_s": wall_s,
-        "setup_s": setup_s,
-        "operators_built": built,
-        "start": start,
-        "batch": batch,
-        "peak_rss_mb": peak_memory_mb(),
-        "qoi": result.qoi,
-        "qoi_error": result.qoi_error,
-        "stopped_on_qoi": bool(result.stopped_on_qoi),
-        "state_change": (float(result.state_change) if np.isfinite(result.state_change)
-                         else None),
-        "log": (f"{mode} #{case.number + 1} ({text}): {status} in "
-                f"{iterations} iterations, eta={result.indicator:.2e}, "
-                f"{wall_s:.3f} s{f' (share of a batch of {batch})' if batch > 1 else ''}, "
-                f"start: {start}, operators {'built' if built else 'reused'}"
-                + ("; NOT UNIQUE: " + "; ".join(undetermined) if undetermined else "")),
-    }
 
 
 def _retained_capacity(grid: Grid) -> int:

@@ -43,11 +43,12 @@ from .plan import (
     ChainState,
     StudyPlan,
     _operators,
-    _record,
     _retain,
     _retained_capacity,
     nearest_index,
 )
+from .predictors import secant_fields, secant_partner
+from .records import case_record
 from .waves import from_the_middle, line_graph
 
 log = logging.getLogger(__name__)
@@ -152,17 +153,28 @@ class ChainFeed:
             else:
                 self.dependants.setdefault(parent.number, []).append(case)
         self.state = state if state is not None else ChainState(_retained_capacity(grid))
+        #: per case number, the second neighbour of its secant start (``predictors``): the
+        #: case its start neighbour started from, where the three lie on a geometric line
+        self.partner: dict[int, Index] = {}
+        for case in chain:
+            start = self.parent.get(case.number)
+            before = self.by_index.get(start) if start is not None else None
+            partner = secant_partner(case.index, start, case.axes, grid.shape)
+            if before is not None and partner is not None and partner == self.parent.get(
+                    before.number):
+                self.partner[case.number] = partner
         #: the fields of finished cases that cases still to start from them need
         self.fields: dict[Index, tuple[FloatArray, FloatArray]] = {}
-        self.children: dict[Index, int] = {}  # pending cases per start neighbour
+        self.children: dict[Index, int] = {}  # pending cases per start neighbour (or partner)
         for number in pending:
-            index = self.parent[number]
-            if index is not None:
-                self.children[index] = self.children.get(index, 0) + 1
+            for index in (self.parent[number], self.partner.get(number)):
+                if index is not None:
+                    self.children[index] = self.children.get(index, 0) + 1
         for index in self.children:  # a resumed chain's: its state stored them
             if index in self.state.retained:
                 self.fields[index] = self.state.retained[index]
-        self.running: dict[Hashable, tuple[Case, Index | None, float, bool, int, float]] = {}
+        self.running: dict[Hashable, tuple[Case, Index | None, Index | None, float, bool, int,
+                                            float]] = {}
         #: not unique from a warm start, solved again from zero: (case, its warm
         #: iterations, their wall time)
         self.again: list[tuple[Case, int, float]] = []
@@ -179,49 +191,60 @@ class ChainFeed:
             out.append(self._stream_case(case, self._start(case), 0, 0.0))
         return out
 
-    def _start(self, case: Case) -> tuple[Index | None, tuple[FloatArray, FloatArray] | None]:
-        """The start neighbour's index and fields; where they are not at hand (its answer
-        lost, or a resumed study's state without it), the nearest retained case's."""
+    def _start(self, case: Case) -> tuple[Index | None, tuple[FloatArray, FloatArray] | None,
+                                          Index | None]:
+        """The start neighbour's index and fields, and the secant's second neighbour where
+        the case has one and its fields are at hand (``predictors``); where the start
+        neighbour's are not (its answer lost, or a resumed study's state without it), the
+        nearest retained case's."""
         index = self.parent[case.number]
         if index is None:
-            return None, None
+            return None, None, None
         fields = self.fields.get(index) or self.state.retained.get(index)
-        if fields is not None:
-            return index, fields
-        return self.state.nearest(case.index)
+        if fields is None:
+            return (*self.state.nearest(case.index), None)
+        partner = self.partner.get(case.number)
+        partner_fields = (self.fields.get(partner) or self.state.retained.get(partner)
+                          if partner is not None else None)
+        if partner is not None and partner_fields is not None:
+            secant = secant_fields(self.grid, case.index, index, fields, partner,
+                                   partner_fields)
+            if secant is not None:
+                return index, secant, partner
+        return index, fields, None
 
     def _release(self, index: Index) -> None:
         self.children[index] -= 1
         if not self.children[index]:
             self.fields.pop(index, None)
 
-    def _stream_case(self, case: Case, start: tuple[Index | None, Any] | None,
+    def _stream_case(self, case: Case, start: tuple[Index | None, Any, Index | None] | None,
                      spent: int, spent_s: float) -> StreamCase:
         t0 = time.perf_counter()
         assembly = self.model.assemble(case.mu)
         ops, built = _operators(assembly, self.options)
-        start_index, initial = start if start is not None else (None, None)
+        start_index, initial, partner = start if start is not None else (None, None, None)
         shape = (assembly.n_steps, ops.points.n_points, 2)
         if initial is not None and any(field.shape != shape for field in initial):
             log.info("%s: its neighbour has other interfaces; started from zero",
                      assembly.name)
-            start_index, initial = None, None
+            start_index, initial, partner = None, None, None
         key = (case.number, spent)
-        self.running[key] = (case, start_index, time.perf_counter() - t0, built, spent,
-                             spent_s)
+        self.running[key] = (case, start_index, partner, time.perf_counter() - t0, built,
+                             spent, spent_s)
         return StreamCase(key, assembly, ops, initial)
 
     def done(self, key: Hashable, result: SolveResult, wall_s: float) -> None:
-        case, start_index, setup_s, built, spent, spent_s = self.running.pop(key)
+        case, start_index, partner, setup_s, built, spent, spent_s = self.running.pop(key)
         if plan_module.solve_again(result, start_index):
             log.info("%s: not unique from a warm start; solved again from zero",
                      result.assembly.name)
             self.again.append((case, result.iterations, wall_s + setup_s))
             return
         self.done_numbers.add(case.number)
-        start = self.parent[case.number]
-        if start is not None and start in self.children:  # kept until now for the store
-            self._release(start)
+        for start in (self.parent[case.number], self.partner.get(case.number)):
+            if start is not None and start in self.children:  # kept until now for the store
+                self._release(start)
         if result.converged:
             assert result.interface is not None
             if self.children.get(case.index):
@@ -231,9 +254,9 @@ class ChainFeed:
         for dependant in self.dependants.pop(case.number, []):
             heapq.heappush(self.ready, (self.priority[dependant.number], dependant.number,
                                             dependant))
-        record = _record(self.grid, case, self.mode, result, spent_s + wall_s + setup_s,
-                         setup_s, built, start_index, int(result.timings.get("batch_size", 1)),
-                         spent)
+        record = case_record(self.grid, case, self.mode, result, spent_s + wall_s + setup_s,
+                             setup_s, built, start_index,
+                             int(result.timings.get("batch_size", 1)), spent, partner)
         self.unsaved.append(record)
         if len(self.unsaved) >= STATE_EVERY or self.finished():
             self.flush()

@@ -173,7 +173,9 @@ def run_study(
         together, each from its nearest converged neighbour (``study.run_batch``); 1 solves
         case after case. Default: 16; ``GPU_BATCH`` on a GPU from zero.
     start: how the multiresolution mode starts a case (``plan.START_FROM``): ``"neighbour"``
-        (the paper's multiresolution), or ``"zero"``: every case of a geometry from zero, in
+        (the paper's multiresolution; along a line of hole positions from the secant of
+        the two nearest converged cases, ``study.predictors``), ``"nearest"`` (the nearest
+        alone, as the paper), or ``"zero"``: every case of a geometry from zero, in
         batches of up to ``batch`` cases sharing the operators (for the torch backend on a
         GPU: a wide batch there costs little more than a narrow one). Default:
         ``"neighbour"``; ``"zero"`` for the torch backend on a CUDA device, where it was
@@ -214,6 +216,8 @@ def run_study(
         raise ModelError(f"--schedule: expected one of {SCHEDULES}, got {schedule!r}")
     if start not in START_FROM:
         raise ModelError(f"--start: expected one of {START_FROM}, got {start!r}")
+    # "nearest": the neighbour's start without the secant along geometric lines
+    requested, start = start, ("neighbour" if start == "nearest" else start)
     if on_failure not in ("warn", "raise", "ignore"):
         raise ModelError(f"on_failure: expected 'warn', 'raise' or 'ignore', got {on_failure!r}")
     if start != "neighbour" or options.backend == "torch":
@@ -221,7 +225,7 @@ def run_study(
     n_chains = (chains if chains is not None else
                 1 if schedule == "waves" else max(workers, 1))
     check_study(grid.size, len(modes))
-    plan = plan_study(model, grid, options, n_chains)
+    plan = plan_study(model, grid, options, n_chains, secant=requested != "nearest")
     identity = {
         "model": model.name,
         "model_sha1": sha1(json.dumps(model.spec.data, sort_keys=True, default=str)
@@ -231,8 +235,8 @@ def run_study(
         "options": {k: v for k, v in asdict(options).items() if k not in OUTPUT_CHOICES},
         "chains": len(plan.chains),
     }
-    if start != "neighbour":  # studies written before the option keep their identity
-        identity["start"] = start
+    if requested != "neighbour":  # studies written before the option keep their identity
+        identity["start"] = requested
     folder = Path(out) if out is not None else Path(tempfile.mkdtemp(prefix="multilatin-"))
     store = StudyStore(folder, identity, record_fits=_record_fits(plan))
     attrs = {"model": model.name, "title": model.title, "command": command,

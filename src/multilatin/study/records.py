@@ -1,0 +1,71 @@
+"""A study case's journal record (``case_record``): its parameters, answer, QoIs, start
+and costs, as the store, table.csv and study.nc keep them."""
+
+from __future__ import annotations
+
+import sys
+from typing import TYPE_CHECKING, Any
+
+import numpy as np
+
+from ..decomposition.result import SolveResult
+from ..parameters import Grid
+from .predictors import start_text
+
+if TYPE_CHECKING:
+    from .plan import Case
+
+
+def peak_memory_mb() -> float:
+    """Peak resident memory of this process so far (MiB); NaN where not measurable."""
+    try:
+        import resource
+    except ImportError:  # pragma: no cover - not on Unix
+        return float("nan")
+    peak = resource.getrusage(resource.RUSAGE_SELF).ru_maxrss
+    return float(peak / 1024 if sys.platform != "darwin" else peak / 2**20)
+
+
+def case_record(grid: Grid, case: Case, mode: str, result: SolveResult, wall_s: float,
+                setup_s: float, built: bool, start_index: tuple[int, ...] | None, batch: int,
+                warm_attempt: int = 0, partner: tuple[int, ...] | None = None
+                ) -> dict[str, Any]:
+    """A case's journal record. ``warm_attempt``: iterations of a warm start given up for a
+    solve from zero (the answer was not unique); they count in ``iterations``. ``partner``:
+    the second neighbour of a secant start (``predictors``)."""
+    start = start_text(grid, start_index, partner)
+    if warm_attempt:
+        start = "zero (not unique: the warm start was set aside)"
+    params = {name: case.mu[name] for name in grid}
+    text = ", ".join(f"{k}={v:g}" for k, v in params.items())
+    iterations = int(result.iterations) + warm_attempt
+    undetermined = [m.describe() for m in result.free_motions if m.reaches_last_step]
+    status = ("converged" if result.converged else f"NOT CONVERGED ({result.failure})")
+    return {
+        "mode": mode,
+        "number": case.number,
+        "chain": case.chain,
+        "index": list(case.index),
+        "params": params,
+        "converged": bool(result.converged),
+        "unique": bool(result.unique),
+        "free_motions": undetermined,
+        "iterations": iterations,
+        "indicator": float(result.indicator),
+        "wall_s": wall_s,
+        "setup_s": setup_s,
+        "operators_built": built,
+        "start": start,
+        "batch": batch,
+        "peak_rss_mb": peak_memory_mb(),
+        "qoi": result.qoi,
+        "qoi_error": result.qoi_error,
+        "stopped_on_qoi": bool(result.stopped_on_qoi),
+        "state_change": (float(result.state_change) if np.isfinite(result.state_change)
+                         else None),
+        "log": (f"{mode} #{case.number + 1} ({text}): {status} in "
+                f"{iterations} iterations, eta={result.indicator:.2e}, "
+                f"{wall_s:.3f} s{f' (share of a batch of {batch})' if batch > 1 else ''}, "
+                f"start: {start}, operators {'built' if built else 'reused'}"
+                + ("; NOT UNIQUE: " + "; ".join(undetermined) if undetermined else "")),
+    }

@@ -1,0 +1,91 @@
+"""Secant starts along geometric grid lines (``multilatin.study.predictors``): which cases
+take them, the extrapolation itself, that it starts closer to the answer than the nearest
+neighbour on a line of hole positions, and that a study's answers do not move beyond the
+requested accuracy."""
+
+from __future__ import annotations
+
+from pathlib import Path
+
+import numpy as np
+import pytest
+
+import multilatin as ml
+from multilatin.latin import LatinOptions
+from multilatin.study.plan import clear_operator_cache
+from multilatin.study.predictors import secant_fields, secant_partner, start_text
+
+
+def test_the_partner_is_one_step_beyond_along_a_geometric_axis_only() -> None:
+    shape = (5, 4)
+    assert secant_partner((3, 1), (2, 1), {0}, shape) == (1, 1)
+    assert secant_partner((1, 1), (2, 1), {0}, shape) == (3, 1)
+    assert secant_partner((0, 1), (1, 1), {0}, shape) == (2, 1)
+    assert secant_partner((4, 1), (3, 1), {1}, shape) is None  # not a geometric axis
+    assert secant_partner((3, 2), (2, 1), {0, 1}, shape) is None  # a diagonal step
+    assert secant_partner((3, 1), (1, 1), {0}, shape) is None  # two steps
+    assert secant_partner((1, 3), (1, 2), {1}, (5, 4)) == (1, 1)
+    assert secant_partner((1, 0), (1, 1), {1}, (5, 4)) == (1, 2)
+    assert secant_partner((1, 1), (1, 0), {1}, (5, 4)) is None  # beyond the grid
+    assert secant_partner((1, 1), None, {1}, (5, 4)) is None
+
+
+def test_the_secant_extrapolates_linearly_in_the_parameter_values() -> None:
+    """Uneven values: t = (v − v_P) / (v_P − v_G); a field linear in v is reproduced."""
+    grid = ml.Grid({"mu1": [0.3], "xc": [20.0, 21.0, 23.0]})
+    slope, offset = np.arange(6.0).reshape(1, 3, 2), np.ones((1, 3, 2))
+
+    def field(v: float) -> tuple[np.ndarray, np.ndarray]:
+        return offset + v * slope, 2 * offset - v * slope
+
+    got = secant_fields(grid, (0, 2), (0, 1), field(21.0), (0, 0), field(20.0))
+    assert got is not None
+    for a, b in zip(got, field(23.0), strict=True):
+        assert np.allclose(a, b, rtol=1e-14)
+    assert secant_fields(grid, (0, 2), (0, 1), field(21.0), (0, 0),
+                         (np.ones((1, 4, 2)), np.ones((1, 4, 2)))) is None
+    assert start_text(grid, (0, 1), (0, 0)) == "mu1=0.3, xc=21 (secant with mu1=0.3, xc=20)"
+    assert start_text(grid, None) == "zero"
+
+
+def test_on_a_line_of_hole_positions_the_secant_starts_closer() -> None:
+    """B3, the hole at xc = 23, 24, 25 mm: the secant of the first two converged answers is
+    nearer the third's (Ŵ and F̂ of every step, relative) than the second's answer is."""
+    model = ml.load_model("b3")
+    answers = []
+    for xc in (23.0, 24.0, 25.0):
+        result = model.solve({"xc": xc}, options=LatinOptions(tol=1e-8, max_iter=3000))
+        assert result.converged and result.interface is not None
+        answers.append((result.interface.displacement_hat, result.interface.force_hat))
+    grid = ml.Grid({"xc": [23.0, 24.0, 25.0]})
+    secant = secant_fields(grid, (2,), (1,), answers[1], (0,), answers[0])
+    assert secant is not None
+    for k in range(2):
+        target = answers[2][k]
+        nearest = np.linalg.norm(answers[1][k] - target)
+        assert np.linalg.norm(secant[k] - target) < 0.5 * nearest
+
+
+def test_a_study_along_hole_positions_takes_secant_starts(tmp_path: Path) -> None:
+    """B3, xc = 23 … 26 (a line from its first value on): the third and fourth cases start
+    from the secant of the two cases before them, in the rolling batch and line by line
+    alike (the same iterations); with ``start="nearest"`` none does, and R_stop agrees
+    within 0.1 % (the study's accuracy)."""
+    model = ml.load_model("b3")
+    grid = ml.Grid.parse(["xc=23:26:4", "rc=3"])
+    runs = {}
+    for label, start, rolling in (("rolling", "neighbour", True),
+                                  ("lines", "neighbour", False),
+                                  ("nearest", "nearest", True)):
+        clear_operator_cache()
+        study = ml.run_study(model, grid, start=start, out=tmp_path / label, progress=False,
+                             rolling=rolling)
+        runs[label] = sorted(study.records, key=lambda r: r["number"])
+    assert [("secant" in r["start"]) for r in runs["rolling"]] == [False, False, True, True]
+    assert runs["rolling"][2]["start"] == "xc=24, rc=3 (secant with xc=23, rc=3)"
+    assert [r["start"] for r in runs["lines"]] == [r["start"] for r in runs["rolling"]]
+    assert [r["iterations"] for r in runs["lines"]] == [r["iterations"] for r in runs["rolling"]]
+    assert not any("secant" in r["start"] for r in runs["nearest"])
+    for secant, nearest in zip(runs["rolling"], runs["nearest"], strict=True):
+        assert secant["converged"] and secant["unique"]
+        assert secant["qoi"]["R_stop"] == pytest.approx(nearest["qoi"]["R_stop"], rel=1e-3)
