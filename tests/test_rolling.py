@@ -237,7 +237,9 @@ def test_hole_positions_join_a_rolling_batch_with_their_own_operators(
     the interfaces), so cases of several geometries iterate side by side in the rolling
     batch. The same starts, iterations and R_stop (to rounding) as the line-by-line study,
     and several geometries ran together; the batch renumbers its cases (and their
-    operators) whenever a case leaves."""
+    operators) whenever a case leaves. From the nearest neighbours alone: the rolling
+    batch's parallelogram starts wait for a case of their own line, which the line batches
+    solve together (``tests/test_predictors.py``)."""
     model = ml.load_model("b3")
     grid = Grid.parse(["xc=24:26:3", "yc=74:76:2", "rc=3"])
     monkeypatch.setattr(stream, "RENUMBER_AFTER", 0)  # cases renumbered as others leave
@@ -245,7 +247,8 @@ def test_hole_positions_join_a_rolling_batch_with_their_own_operators(
     for rolling in (False, True):
         clear_operator_cache()
         runs[rolling] = sorted(run_study(model, grid, out=tmp_path / str(rolling),
-                                         progress=False, rolling=rolling).records,
+                                         progress=False, rolling=rolling,
+                                         start="nearest").records,
                                key=lambda r: r["number"])
     assert [r["start"] for r in runs[True]] == [r["start"] for r in runs[False]]
     assert [r["iterations"] for r in runs[True]] == [r["iterations"] for r in runs[False]]

@@ -296,13 +296,14 @@ def run_case(model: Model, grid: Grid, case: Case, mode: str, options: LatinOpti
     """Solve one case; returns its record and the chain's state for the next case."""
     t0 = time.perf_counter()
     assembly = model.assemble(case.mu)
+    extra: tuple[tuple[int, ...], ...]
     if mode == "cold":
         ops, built = LatinOperators(assembly, options), True
-        start_index, initial, partner = None, None, None
+        start_index, initial, extra = None, None, ()
     else:
         ops, built = _operators(assembly, options)
         state = state if state is not None else ChainState(_retained_capacity(grid))
-        start_index, initial, partner = _start(grid, state, case, assembly, ops)
+        start_index, initial, extra = _start(grid, state, case, assembly, ops)
     setup_s = time.perf_counter() - t0
     result = solve_latin(assembly, options, operators=ops, initial=initial, check=False)
     [(result, spent)] = _path_independent([assembly], options, [ops], [result], [start_index])
@@ -310,7 +311,7 @@ def run_case(model: Model, grid: Grid, case: Case, mode: str, options: LatinOpti
     if mode != "cold" and result.converged and state is not None:
         state = _retain(state, case, result)
     return case_record(grid, case, mode, result, wall_s, setup_s, built, start_index, 1,
-                       spent, partner), state
+                       spent, extra), state
 
 
 def solve_again(result: SolveResult, start_index: tuple[int, ...] | None) -> bool:
@@ -391,7 +392,7 @@ def _solve_together(model: Model, grid: Grid, cases: tuple[Case, ...], mode: str
         per_case.append(ops)
         first_built.append(built)
     starts = [_start(grid, state, case, assembly, ops) if state is not None
-              else (None, None, None)
+              else (None, None, ())
               for case, assembly, ops in zip(cases, assemblies, per_case, strict=True)]
     setup_s = time.perf_counter() - t0
     results = solve_latin_batch(assemblies, options, operators=per_case,
@@ -401,11 +402,11 @@ def _solve_together(model: Model, grid: Grid, cases: tuple[Case, ...], mode: str
     wall_s = time.perf_counter() - t0
     total_iterations = sum(r.iterations + spent for r, spent in kept)
     records = []
-    for case, (result, spent), (start_index, _, partner), built in zip(
+    for case, (result, spent), (start_index, _, extra), built in zip(
             cases, kept, starts, first_built, strict=True):
         share = (result.iterations + spent) / total_iterations
         records.append(case_record(grid, case, mode, result, share * wall_s, share * setup_s,
-                                    built, start_index, len(cases), spent, partner))
+                                    built, start_index, len(cases), spent, extra))
         if result.converged and state is not None:
             state = _retain(state, case, result)
     return records, state
@@ -413,10 +414,10 @@ def _solve_together(model: Model, grid: Grid, cases: tuple[Case, ...], mode: str
 
 def _start(grid: Grid, state: ChainState, case: Case, assembly: Assembly, ops: LatinOperators
            ) -> tuple[tuple[int, ...] | None, tuple[FloatArray, FloatArray] | None,
-                      tuple[int, ...] | None]:
+                      tuple[tuple[int, ...], ...]]:
     """The nearest converged neighbour's index and interface fields to start ``case`` from,
     and the second neighbour of a secant start (``predictors``: along a geometric axis,
-    where the case one step further back on the line is retained; else None); none when its
+    where the case one step further back on the line is retained; else none); none when its
     interfaces are discretised otherwise (a geometric parameter that moves a part across a
     substructure's boundary): the case then starts from zero."""
     start_index, initial = state.nearest(case.index)
@@ -424,15 +425,15 @@ def _start(grid: Grid, state: ChainState, case: Case, assembly: Assembly, ops: L
     if initial is not None and any(field.shape != shape for field in initial):
         log.info("%s: its nearest converged neighbour has other interfaces; started from "
                  "zero", assembly.name)
-        return None, None, None
+        return None, None, ()
     partner = secant_partner(case.index, start_index, case.axes, grid.shape)
     if start_index is not None and initial is not None and partner in state.retained:
         assert partner is not None
         secant = secant_fields(grid, case.index, start_index, initial, partner,
                                state.retained[partner])
         if secant is not None:
-            return start_index, secant, partner
-    return start_index, initial, None
+            return start_index, secant, (partner,)
+    return start_index, initial, ()
 
 
 def _has_neighbour(state: ChainState | None, case: Case) -> bool:

@@ -1,25 +1,32 @@
 """Starts beyond the nearest neighbour (issue 16; the paper's §6 starts a case from one
-converged neighbour): along a grid line of a parameter that changes the geometry (B3's hole
-positions), a case whose start neighbour P is one grid step away, and whose case G one step
-further back on the same line has converged too, starts from the secant of the two,
+converged neighbour), along parameters that change the geometry (B3's hole positions):
 
-    ŝ = ŝ_P + t (ŝ_P − ŝ_G),   t = (v − v_P) / (v_P − v_G),
+- secant: a case whose start neighbour P is one grid step away, and whose case G one step
+  further back on the same line has converged too, starts from
 
-in Ŵ and F̂ at every step (v: the parameter's values). Interface fields of nearby hole
-positions change smoothly; the fields of nearby friction coefficients do not (contact
-statuses change between neighbours: the secant cost 11 % more iterations on the B1 13 × 13
-study, session 12), so the rule is for geometric axes only (``Case.axes``;
-``start="nearest"`` leaves them out). Measured: docs/performance.md ("Secant starts along
-hole positions": B3's 5 × 5 positions 20 % fewer iterations).
+      ŝ = ŝ_P + t (ŝ_P − ŝ_G),   t = (v − v_P) / (v_P − v_G),
 
-The rolling batch takes G where P started from it (so that the start does not depend on
-which cases have finished); the line batches and Dask's line tasks where G is among the
-converged cases they hold (a task holds its parent line's), else the nearest alone.
+  in Ŵ and F̂ at every step (v: the parameter's values);
+- parallelogram: a case C started from P across lines, where the case Q beside C on its own
+  line and P both started from the same case R, starts from ŝ_P + ŝ_Q − ŝ_R.
+
+Interface fields of nearby hole positions change smoothly; the fields of nearby friction
+coefficients do not (contact statuses change between neighbours: the secant cost 11 % more
+iterations on the B1 13 × 13 study, session 12), so the rules are for geometric axes only
+(``Case.axes``; ``start="nearest"`` leaves them out). Measured: docs/performance.md
+("Secant and parallelogram starts along hole positions": B3's 5 × 5 positions 32 % fewer
+iterations).
+
+The rolling batch takes G where P started from it, and the parallelogram where R started P
+and Q, waiting for Q (so that no start depends on which cases have finished); the line
+batches and Dask's line tasks take the secant where G is among the converged cases they
+hold (a task holds its parent line's) and no parallelogram (a line solves its cases
+together), else the nearest alone.
 """
 
 from __future__ import annotations
 
-from collections.abc import Collection
+from collections.abc import Collection, Mapping, Sequence
 
 from ..fem.elasticity import FloatArray
 from ..parameters import Grid
@@ -60,13 +67,57 @@ def secant_fields(grid: Grid, index: Index, start: Index, fields: Fields, partne
             fields[1] + t * (fields[1] - partner_fields[1]))
 
 
-def start_text(grid: Grid, start: Index | None, partner: Index | None = None) -> str:
-    """A record's ``start``: "zero", the neighbour's parameters, and the secant's second
-    neighbour where there is one."""
+def parallelogram_partners(index: Index, start: Index | None, axes: Collection[int],
+                           shape: tuple[int, ...], parent: Mapping[Index, Index | None]
+                           ) -> tuple[Index, Index] | None:
+    """(Q, R) of a parallelogram start ŝ_P + ŝ_Q − ŝ_R for case C from its start neighbour
+    P one step along a geometric axis: Q = C − σ e_b and R = P − σ e_b on another geometric
+    axis b, where R is the case both P and Q started from (``parent``: each case's start
+    neighbour by grid index) — B3's 5 × 5 study: the cases of the lines next to the middle
+    one. None where there is no such pair."""
+    if start is None:
+        return None
+    moved = [d for d, (c, p) in enumerate(zip(index, start, strict=True)) if c != p]
+    if len(moved) != 1 or moved[0] not in axes or abs(index[moved[0]] - start[moved[0]]) != 1:
+        return None
+    for b in sorted(axes):
+        if b == moved[0]:
+            continue
+        for sigma in (1, -1):
+            if not 0 <= index[b] - sigma < shape[b]:
+                continue
+            q = index[:b] + (index[b] - sigma,) + index[b + 1:]
+            r = start[:b] + (start[b] - sigma,) + start[b + 1:]
+            if parent.get(start) == r and parent.get(q) == r:
+                return q, r
+    return None
+
+
+def extrapolated_fields(grid: Grid, index: Index, start: Index, fields: Fields,
+                        extra: tuple[Index, ...], extra_fields: Sequence[Fields]
+                        ) -> Fields | None:
+    """The secant start (``extra`` = (G,)) or the parallelogram start ŝ_P + ŝ_Q − ŝ_R
+    (``extra`` = (Q, R)); None when the neighbours' fields differ in shape."""
+    if len(extra) == 1:
+        return secant_fields(grid, index, start, fields, extra[0], extra_fields[0])
+    if any(a.shape != b.shape for other in extra_fields
+           for a, b in zip(fields, other, strict=True)):
+        return None
+    q, r = extra_fields
+    return (fields[0] + q[0] - r[0], fields[1] + q[1] - r[1])
+
+
+def start_text(grid: Grid, start: Index | None, extra: tuple[Index, ...] = ()) -> str:
+    """A record's ``start``: "zero", the neighbour's parameters, and the other neighbours of
+    a secant or parallelogram start where there are."""
     if start is None:
         return "zero"
 
     def named(index: Index) -> str:
         return ", ".join(f"{n}={grid[n][i]:g}" for n, i in zip(grid, index, strict=True))
 
-    return named(start) + (f" (secant with {named(partner)})" if partner is not None else "")
+    if len(extra) == 1:
+        return f"{named(start)} (secant with {named(extra[0])})"
+    if len(extra) == 2:
+        return f"{named(start)} (parallelogram with {named(extra[0])}; {named(extra[1])})"
+    return named(start)

@@ -47,7 +47,7 @@ from .plan import (
     _retained_capacity,
     nearest_index,
 )
-from .predictors import secant_fields, secant_partner
+from .predictors import extrapolated_fields, parallelogram_partners, secant_partner
 from .records import case_record
 from .waves import from_the_middle, line_graph
 
@@ -138,8 +138,23 @@ class ChainFeed:
             self.priority = {c.number: c.number for c in chain}
         self.by_index = {c.index: c for c in chain}
         self.done_numbers = set(finished)
-        #: per case number, the pending cases that start from it
+        #: per case number, the other neighbours of its start (``predictors``): the secant's
+        #: (the case its start neighbour started from, on the same geometric line) or the
+        #: parallelogram's (Q, R): such a start waits for Q too
+        self.extra: dict[int, tuple[Index, ...]] = {}
+        parent_of = {c.index: self.parent.get(c.number) for c in chain}
+        for case in chain:
+            start = self.parent.get(case.number)
+            partner = secant_partner(case.index, start, case.axes, grid.shape)
+            if partner is not None and start is not None and partner == parent_of.get(start):
+                self.extra[case.number] = (partner,)
+                continue
+            pair = parallelogram_partners(case.index, start, case.axes, grid.shape, parent_of)
+            if pair is not None and pair[0] in self.by_index:
+                self.extra[case.number] = pair
+        #: per case number, the pending cases that start from it (or wait for it)
         self.dependants: dict[int, list[Case]] = {}
+        self.unmet: dict[int, int] = {}  # per pending case, its unfinished predecessors
         self.ready: list[tuple[int, int, Case]] = []  # a heap: priority, then traversal
         self.n_waiting = 0
         for case in chain:
@@ -147,34 +162,29 @@ class ChainFeed:
                 continue
             self.n_waiting += 1
             index = self.parent[case.number]
-            parent = self.by_index.get(index) if index is not None else None
-            if parent is None or parent.number in self.done_numbers:
+            extra = self.extra.get(case.number, ())
+            # a parallelogram's Q is no ancestor of P: the case waits for it too
+            needed = [index, extra[0]] if len(extra) == 2 else [index]
+            waits = [self.by_index[i] for i in needed if i is not None and i in self.by_index]
+            waits = [c for c in waits if c.number not in self.done_numbers]
+            self.unmet[case.number] = len(waits)
+            if not waits:
                 heapq.heappush(self.ready, (self.priority[case.number], case.number, case))
-            else:
-                self.dependants.setdefault(parent.number, []).append(case)
+            for earlier in waits:
+                self.dependants.setdefault(earlier.number, []).append(case)
         self.state = state if state is not None else ChainState(_retained_capacity(grid))
-        #: per case number, the second neighbour of its secant start (``predictors``): the
-        #: case its start neighbour started from, where the three lie on a geometric line
-        self.partner: dict[int, Index] = {}
-        for case in chain:
-            start = self.parent.get(case.number)
-            before = self.by_index.get(start) if start is not None else None
-            partner = secant_partner(case.index, start, case.axes, grid.shape)
-            if before is not None and partner is not None and partner == self.parent.get(
-                    before.number):
-                self.partner[case.number] = partner
         #: the fields of finished cases that cases still to start from them need
         self.fields: dict[Index, tuple[FloatArray, FloatArray]] = {}
         self.children: dict[Index, int] = {}  # pending cases per start neighbour (or partner)
         for number in pending:
-            for index in (self.parent[number], self.partner.get(number)):
+            for index in (self.parent[number], *self.extra.get(number, ())):
                 if index is not None:
                     self.children[index] = self.children.get(index, 0) + 1
         for index in self.children:  # a resumed chain's: its state stored them
             if index in self.state.retained:
                 self.fields[index] = self.state.retained[index]
-        self.running: dict[Hashable, tuple[Case, Index | None, Index | None, float, bool, int,
-                                            float]] = {}
+        self.running: dict[Hashable, tuple[Case, Index | None, tuple[Index, ...], float, bool,
+                                            int, float]] = {}
         #: not unique from a warm start, solved again from zero: (case, its warm
         #: iterations, their wall time)
         self.again: list[tuple[Case, int, float]] = []
@@ -192,57 +202,56 @@ class ChainFeed:
         return out
 
     def _start(self, case: Case) -> tuple[Index | None, tuple[FloatArray, FloatArray] | None,
-                                          Index | None]:
-        """The start neighbour's index and fields, and the secant's second neighbour where
-        the case has one and its fields are at hand (``predictors``); where the start
-        neighbour's are not (its answer lost, or a resumed study's state without it), the
-        nearest retained case's."""
+                                          tuple[Index, ...]]:
+        """The start neighbour's index and fields, and the other neighbours of a secant or
+        parallelogram start where the case has them and their fields are at hand
+        (``predictors``); where the start neighbour's are not (its answer lost, or a resumed
+        study's state without it), the nearest retained case's."""
         index = self.parent[case.number]
         if index is None:
-            return None, None, None
+            return None, None, ()
         fields = self.fields.get(index) or self.state.retained.get(index)
         if fields is None:
-            return (*self.state.nearest(case.index), None)
-        partner = self.partner.get(case.number)
-        partner_fields = (self.fields.get(partner) or self.state.retained.get(partner)
-                          if partner is not None else None)
-        if partner is not None and partner_fields is not None:
-            secant = secant_fields(self.grid, case.index, index, fields, partner,
-                                   partner_fields)
-            if secant is not None:
-                return index, secant, partner
-        return index, fields, None
+            return (*self.state.nearest(case.index), ())
+        extra = self.extra.get(case.number, ())
+        others = [self.fields.get(i) or self.state.retained.get(i) for i in extra]
+        if extra and all(other is not None for other in others):
+            moved = extrapolated_fields(self.grid, case.index, index, fields, extra,
+                                        [o for o in others if o is not None])
+            if moved is not None:
+                return index, moved, extra
+        return index, fields, ()
 
     def _release(self, index: Index) -> None:
         self.children[index] -= 1
         if not self.children[index]:
             self.fields.pop(index, None)
 
-    def _stream_case(self, case: Case, start: tuple[Index | None, Any, Index | None] | None,
+    def _stream_case(self, case: Case, start: tuple[Index | None, Any, tuple[Index, ...]] | None,
                      spent: int, spent_s: float) -> StreamCase:
         t0 = time.perf_counter()
         assembly = self.model.assemble(case.mu)
         ops, built = _operators(assembly, self.options)
-        start_index, initial, partner = start if start is not None else (None, None, None)
+        start_index, initial, extra = start if start is not None else (None, None, ())
         shape = (assembly.n_steps, ops.points.n_points, 2)
         if initial is not None and any(field.shape != shape for field in initial):
             log.info("%s: its neighbour has other interfaces; started from zero",
                      assembly.name)
-            start_index, initial, partner = None, None, None
+            start_index, initial, extra = None, None, ()
         key = (case.number, spent)
-        self.running[key] = (case, start_index, partner, time.perf_counter() - t0, built,
+        self.running[key] = (case, start_index, extra, time.perf_counter() - t0, built,
                              spent, spent_s)
         return StreamCase(key, assembly, ops, initial)
 
     def done(self, key: Hashable, result: SolveResult, wall_s: float) -> None:
-        case, start_index, partner, setup_s, built, spent, spent_s = self.running.pop(key)
+        case, start_index, extra, setup_s, built, spent, spent_s = self.running.pop(key)
         if plan_module.solve_again(result, start_index):
             log.info("%s: not unique from a warm start; solved again from zero",
                      result.assembly.name)
             self.again.append((case, result.iterations, wall_s + setup_s))
             return
         self.done_numbers.add(case.number)
-        for start in (self.parent[case.number], self.partner.get(case.number)):
+        for start in (self.parent[case.number], *self.extra.get(case.number, ())):
             if start is not None and start in self.children:  # kept until now for the store
                 self._release(start)
         if result.converged:
@@ -252,11 +261,13 @@ class ChainFeed:
                                            result.interface.force_hat)
             self.state = _retain(self.state, case, result)
         for dependant in self.dependants.pop(case.number, []):
-            heapq.heappush(self.ready, (self.priority[dependant.number], dependant.number,
+            self.unmet[dependant.number] -= 1
+            if not self.unmet[dependant.number]:
+                heapq.heappush(self.ready, (self.priority[dependant.number], dependant.number,
                                             dependant))
         record = case_record(self.grid, case, self.mode, result, spent_s + wall_s + setup_s,
                              setup_s, built, start_index,
-                             int(result.timings.get("batch_size", 1)), spent, partner)
+                             int(result.timings.get("batch_size", 1)), spent, extra)
         self.unsaved.append(record)
         if len(self.unsaved) >= STATE_EVERY or self.finished():
             self.flush()

@@ -1,11 +1,12 @@
-"""Secant starts along hole positions (issue 16, ``study.predictors``) against the nearest
-neighbour's start (``start="nearest"``, the paper's §6), side by side in one process: per
-B3 study of hole positions, the multiresolution iterations, the study's wall time, how many
-cases took a secant start, and R_stop's largest change between the two; with ``--tight``,
-each study's worst R_stop error against η < 1e-10 solves too.
+"""Secant and parallelogram starts along hole positions (issue 16, ``study.predictors``)
+against the nearest neighbour's start (``start="nearest"``, the paper's §6), side by side in
+one process: per B3 study of hole positions, the multiresolution iterations, the study's
+wall time, how many cases took a secant / parallelogram start, and R_stop's largest change
+between the two; with ``--tight``, each study's worst R_stop error against η < 1e-10 solves
+too.
 
-    python benchmarks/secant_starts.py
-    python benchmarks/secant_starts.py --tight
+    python benchmarks/extrapolated_starts.py
+    python benchmarks/extrapolated_starts.py --tight
 """
 
 from __future__ import annotations
@@ -36,8 +37,8 @@ def main() -> None:
     warnings.simplefilter("ignore")
     model = ml.load_model("b3")
     ml.run_study(model, ml.Grid.parse(["xc=25", "yc=75"]), progress=False)  # kernels
-    print("| study | start | iterations | wall (s) | secant starts | R_stop change | worst "
-          "R_stop error vs tight |")
+    print("| study | start | iterations | wall (s) | secant / parallelogram starts | R_stop "
+          "change | worst R_stop error vs tight |")
     print("|---|---|---|---|---|---|---|")
     for name, items in STUDIES.items():
         if args.only and name not in args.only:
@@ -62,10 +63,12 @@ def main() -> None:
                          / max(abs(base[n]["qoi"]["R_stop"]), 1.0) for n, r in records.items())
             error = (f"{100 * max(abs(r['qoi']['R_stop'] - tight[n]) / max(abs(tight[n]), 1.0) for n, r in records.items()):.3f} %"  # noqa: E501
                      if tight else "—")
-            label = "nearest" if start == "nearest" else "secant (default)"
+            label = "nearest" if start == "nearest" else "extrapolated (default)"
+            kinds = [sum(kind in r["start"] for r in records.values())
+                     for kind in ("secant", "parallelogram")]
             print(f"| {name} | {label} | {sum(r['iterations'] for r in records.values())} | "
-                  f"{wall:.2f} | {sum('secant' in r['start'] for r in records.values())} | "
-                  f"{100 * change:.3f} % | {error} |", flush=True)
+                  f"{wall:.2f} | {kinds[0]} / {kinds[1]} | {100 * change:.3f} % | {error} |",
+                  flush=True)
 
 
 if __name__ == "__main__":
