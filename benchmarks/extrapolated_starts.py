@@ -7,13 +7,20 @@ too.
 
     python benchmarks/extrapolated_starts.py
     python benchmarks/extrapolated_starts.py --tight
+    python benchmarks/extrapolated_starts.py --frictions
+
+``--frictions``: instead, the B1 13 × 13 friction study with the rules forced onto its
+friction axes (``Case.axes`` patched; the parallelogram alone, then both), against the
+default (no extrapolation there): why they stay on geometric axes.
 """
 
 from __future__ import annotations
 
 import argparse
+import dataclasses
 import time
 import warnings
+from typing import Any
 
 import multilatin as ml
 from multilatin.latin import LatinOptions
@@ -28,13 +35,54 @@ STUDIES = {
 }
 
 
+def frictions() -> None:
+    from multilatin.study import rolling, runner
+
+    model = ml.load_model("b1")
+    grid = ml.Grid.parse(["mu1=0:0.6:13", "mu2=0:0.6:13"])
+    plan_study, secant_partner = runner.plan_study, rolling.secant_partner
+    runs = {}
+    print("| B1 13 x 13 | iterations | secant / parallelogram starts | R_stop change |")
+    print("|---|---|---|---|")
+    for label in ("default", "parallelogram on frictions", "both on frictions"):
+        def forced(*args: Any, label: str = label, **kwargs: Any) -> Any:
+            plan = plan_study(*args, **kwargs)
+            if label == "default":
+                return plan
+            chains = tuple(tuple(dataclasses.replace(c, axes=(0, 1)) for c in chain)
+                           for chain in plan.chains)
+            return dataclasses.replace(plan, chains=chains)
+
+        runner.plan_study = forced  # type: ignore[assignment]
+        if label == "parallelogram on frictions":
+            rolling.secant_partner = lambda *args, **kwargs: None  # type: ignore[assignment]
+        try:
+            clear_operator_cache()
+            records = {r["number"]: r for r in ml.run_study(model, grid, progress=False).records}
+        finally:
+            runner.plan_study, rolling.secant_partner = plan_study, secant_partner
+        runs[label] = records
+        base = runs["default"]
+        change = max(abs(r["qoi"]["R_stop"] - base[n]["qoi"]["R_stop"])
+                     / max(abs(base[n]["qoi"]["R_stop"]), 1.0) for n, r in records.items())
+        kinds = [sum(kind in r["start"] for r in records.values())
+                 for kind in ("secant", "parallelogram")]
+        print(f"| {label} | {sum(r['iterations'] for r in records.values())} | "
+              f"{kinds[0]} / {kinds[1]} | {100 * change:.3f} % |", flush=True)
+
+
 def main() -> None:
     parser = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
     parser.add_argument("--tight", action="store_true",
                         help="also R_stop's worst error against tight solves (slow)")
     parser.add_argument("--only", nargs="*", default=None, help="studies by name")
+    parser.add_argument("--frictions", action="store_true",
+                        help="the B1 friction study with the rules forced on (module doc)")
     args = parser.parse_args()
     warnings.simplefilter("ignore")
+    if args.frictions:
+        frictions()
+        return
     model = ml.load_model("b3")
     ml.run_study(model, ml.Grid.parse(["xc=25", "yc=75"]), progress=False)  # kernels
     print("| study | start | iterations | wall (s) | secant / parallelogram starts | R_stop "
