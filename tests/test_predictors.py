@@ -141,3 +141,30 @@ def test_a_grid_of_hole_positions_takes_parallelogram_starts(tmp_path: Path) -> 
     for got, nearest in zip(runs["neighbour"], runs["nearest"], strict=True):
         assert got["converged"] and got["unique"]
         assert got["qoi"]["R_stop"] == pytest.approx(nearest["qoi"]["R_stop"], rel=1e-3)
+
+
+def test_a_new_geometrys_cases_start_across_geometries(tmp_path: Path) -> None:
+    """B3, two hole positions × 3 × 2 frictions (each geometry's cases together, as the
+    traversal keeps them): the second geometry's lines after its first start from the
+    parallelogram of their friction neighbour and the same frictions at the first geometry
+    (four cases, ``across_geometries``); R_stop within 0.1 % of the nearest starts'."""
+    from multilatin.study.predictors import across_geometries
+
+    number = {(0, 0): 0, (0, 1): 1, (1, 1): 2, (1, 0): 3}
+    assert across_geometries((1, 0), (1, 1), {0}, number) == ((0, 0), (0, 1))
+    assert across_geometries((1, 1), (0, 1), {0}, number) is None  # a geometric step
+    assert across_geometries((0, 1), (0, 0), {0}, number) is None  # nothing earlier
+    model = ml.load_model("b3")
+    grid = ml.Grid.parse(["xc=24:25:2", "mu1=0.4:0.6:3", "mu2=0.1,0.2", "rc=3"])
+    runs = {}
+    for start in ("neighbour", "nearest"):
+        clear_operator_cache()
+        study = ml.run_study(model, grid, start=start, out=tmp_path / start, progress=False)
+        runs[start] = sorted(study.records, key=lambda r: r["number"])
+    across = [r for r in runs["neighbour"] if "parallelogram" in r["start"]]
+    assert len(across) == 4
+    for record in across:
+        assert record["params"]["xc"] == 25.0 and "xc=24" in record["start"].split("with")[1]
+    for got, nearest in zip(runs["neighbour"], runs["nearest"], strict=True):
+        assert got["converged"] and got["unique"]
+        assert got["qoi"]["R_stop"] == pytest.approx(nearest["qoi"]["R_stop"], rel=1e-3)

@@ -8,14 +8,17 @@ converged neighbour), along parameters that change the geometry (B3's hole posit
 
   in Ŵ and F̂ at every step (v: the parameter's values);
 - parallelogram: a case C started from P across lines, where the case Q beside C on its own
-  line and P both started from the same case R, starts from ŝ_P + ŝ_Q − ŝ_R.
+  line and P both started from the same case R, starts from ŝ_P + ŝ_Q − ŝ_R;
+- parallelogram across geometries (studies over hole positions and frictions): a case C
+  started from P along a friction axis, where Q = C and R = P at the previous geometry came
+  earlier in the traversal, starts from ŝ_P + ŝ_Q − ŝ_R.
 
 Interface fields of nearby hole positions change smoothly; the fields of nearby friction
 coefficients do not (contact statuses change between neighbours: the secant cost 11 % more
 iterations on the B1 13 × 13 study, session 12), so the rules are for geometric axes only
 (``Case.axes``; ``start="nearest"`` leaves them out). Measured: docs/performance.md
 ("Secant and parallelogram starts along hole positions": B3's 5 × 5 positions 32 % fewer
-iterations).
+iterations, B3's xc × 13 × 4 frictions 37 % fewer).
 
 The rolling batch takes G where P started from it, and the parallelogram where R started P
 and Q, waiting for Q (so that no start depends on which cases have finished); the line
@@ -89,6 +92,29 @@ def parallelogram_partners(index: Index, start: Index | None, axes: Collection[i
             q = index[:b] + (index[b] - sigma,) + index[b + 1:]
             r = start[:b] + (start[b] - sigma,) + start[b + 1:]
             if parent.get(start) == r and parent.get(q) == r:
+                return q, r
+    return None
+
+
+def across_geometries(index: Index, start: Index | None, axes: Collection[int],
+                      number: Mapping[Index, int]) -> tuple[Index, Index] | None:
+    """(Q, R) of a parallelogram start across geometries, ŝ_P + ŝ_Q − ŝ_R, for case C
+    started from P one step along an axis that does *not* change the geometry (a friction):
+    Q = C − σ e_b and R = P − σ e_b one step back along a geometric axis b (the same
+    frictions at the previous geometry), both earlier than C in the traversal (``number``:
+    each case's place in it; so no case waits for a later one). Measured:
+    ``benchmarks/geometry_neighbours.py`` (B3: 12–14 iterations a case instead of 25–50)."""
+    if start is None or index not in number:
+        return None
+    moved = [d for d, (c, p) in enumerate(zip(index, start, strict=True)) if c != p]
+    if len(moved) != 1 or moved[0] in axes or abs(index[moved[0]] - start[moved[0]]) != 1:
+        return None
+    for b in sorted(axes):
+        for sigma in (1, -1):
+            q = index[:b] + (index[b] - sigma,) + index[b + 1:]
+            r = start[:b] + (start[b] - sigma,) + start[b + 1:]
+            if (q in number and r in number and number[q] < number[index]
+                    and number[r] < number[index]):
                 return q, r
     return None
 

@@ -47,7 +47,12 @@ from .plan import (
     _retained_capacity,
     nearest_index,
 )
-from .predictors import extrapolated_fields, parallelogram_partners, secant_partner
+from .predictors import (
+    across_geometries,
+    extrapolated_fields,
+    parallelogram_partners,
+    secant_partner,
+)
 from .records import case_record
 from .waves import from_the_middle, line_graph
 
@@ -142,7 +147,11 @@ class ChainFeed:
         #: (the case its start neighbour started from, on the same geometric line) or the
         #: parallelogram's (Q, R): such a start waits for Q too
         self.extra: dict[int, tuple[Index, ...]] = {}
+        #: the cases whose (Q, R) are the same frictions at the previous geometry: they wait
+        #: for both, and the chain's stored state does not carry them (a geometry's worth)
+        self.across: set[int] = set()
         parent_of = {c.index: self.parent.get(c.number) for c in chain}
+        number_of = {c.index: c.number for c in chain}
         for case in chain:
             start = self.parent.get(case.number)
             partner = secant_partner(case.index, start, case.axes, grid.shape)
@@ -152,6 +161,12 @@ class ChainFeed:
             pair = parallelogram_partners(case.index, start, case.axes, grid.shape, parent_of)
             if pair is not None and pair[0] in self.by_index:
                 self.extra[case.number] = pair
+                continue
+            pair = (across_geometries(case.index, start, case.axes, number_of)
+                    if not from_the_middle(plan) else None)
+            if pair is not None:
+                self.extra[case.number] = pair
+                self.across.add(case.number)
         #: per case number, the pending cases that start from it (or wait for it)
         self.dependants: dict[int, list[Case]] = {}
         self.unmet: dict[int, int] = {}  # per pending case, its unfinished predecessors
@@ -163,8 +178,10 @@ class ChainFeed:
             self.n_waiting += 1
             index = self.parent[case.number]
             extra = self.extra.get(case.number, ())
-            # a parallelogram's Q is no ancestor of P: the case waits for it too
-            needed = [index, extra[0]] if len(extra) == 2 else [index]
+            # a parallelogram's Q is no ancestor of P (nor, across geometries, R): the case
+            # waits for them too
+            needed = ([index, *extra] if case.number in self.across else
+                      [index, extra[0]] if len(extra) == 2 else [index])
             waits = [self.by_index[i] for i in needed if i is not None and i in self.by_index]
             waits = [c for c in waits if c.number not in self.done_numbers]
             self.unmet[case.number] = len(waits)
@@ -176,10 +193,13 @@ class ChainFeed:
         #: the fields of finished cases that cases still to start from them need
         self.fields: dict[Index, tuple[FloatArray, FloatArray]] = {}
         self.children: dict[Index, int] = {}  # pending cases per start neighbour (or partner)
+        #: the same, without the partners across geometries: what a stored state carries
+        self.essential: dict[Index, int] = {}
         for number in pending:
-            for index in (self.parent[number], *self.extra.get(number, ())):
-                if index is not None:
-                    self.children[index] = self.children.get(index, 0) + 1
+            for index in self._needs(number):
+                self.children[index] = self.children.get(index, 0) + 1
+            for index in self._needs(number, essential=True):
+                self.essential[index] = self.essential.get(index, 0) + 1
         for index in self.children:  # a resumed chain's: its state stored them
             if index in self.state.retained:
                 self.fields[index] = self.state.retained[index]
@@ -222,10 +242,23 @@ class ChainFeed:
                 return index, moved, extra
         return index, fields, ()
 
-    def _release(self, index: Index) -> None:
-        self.children[index] -= 1
-        if not self.children[index]:
-            self.fields.pop(index, None)
+    def _needs(self, number: int, essential: bool = False) -> list[Index]:
+        """The cases whose fields case ``number`` starts from (``essential``: but its
+        partners across geometries)."""
+        extra = () if essential and number in self.across else self.extra.get(number, ())
+        return [i for i in (self.parent[number], *extra) if i is not None]
+
+    def _release(self, number: int) -> None:
+        """Case ``number`` has started for good: the fields it needed may go."""
+        essential = self._needs(number, essential=True)
+        for index in self._needs(number):
+            if index not in self.children:  # a resumed study's, or a case of another chain
+                continue
+            self.children[index] -= 1
+            if index in essential:
+                self.essential[index] -= 1
+            if not self.children[index]:
+                self.fields.pop(index, None)
 
     def _stream_case(self, case: Case, start: tuple[Index | None, Any, tuple[Index, ...]] | None,
                      spent: int, spent_s: float) -> StreamCase:
@@ -251,9 +284,7 @@ class ChainFeed:
             self.again.append((case, result.iterations, wall_s + setup_s))
             return
         self.done_numbers.add(case.number)
-        for start in (self.parent[case.number], *self.extra.get(case.number, ())):
-            if start is not None and start in self.children:  # kept until now for the store
-                self._release(start)
+        self._release(case.number)  # its neighbours' fields kept until now for the store
         if result.converged:
             assert result.interface is not None
             if self.children.get(case.index):
@@ -281,8 +312,11 @@ class ChainFeed:
     def _stored_state(self) -> ChainState:
         """The chain's state for the store: its latest converged cases, and those that
         cases still to start from them need (older ones first), so that a resumed chain
-        starts every case from its own neighbour, as an uninterrupted one."""
-        needed = [index for index in self.fields if index not in self.state.retained]
+        starts every case from its own neighbour, as an uninterrupted one — but for the
+        partners across geometries (a geometry's worth at every flush): a resumed case
+        without them starts from its neighbour alone."""
+        needed = [index for index in self.fields
+                  if index not in self.state.retained and self.essential.get(index)]
         if not needed:
             return self.state
         retained = OrderedDict((index, self.fields[index]) for index in needed)
