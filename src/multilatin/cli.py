@@ -174,8 +174,8 @@ def build_parser() -> argparse.ArgumentParser:
                             "chains from zero (default: %(default)s)")
     study.add_argument("--start", choices=["neighbour", "nearest", "zero"], default=None,
                        help="multiresolution: start each case from its nearest converged "
-                       "neighbour (along a line of hole positions, the secant of the two "
-                       "nearest), from the nearest alone, or every case of a geometry from "
+                       "neighbour (along hole positions, neighbours extrapolated: secant, "
+                       "parallelogram), from the nearest alone, or every case of a geometry from "
                        "zero in batches of --batch sharing the operators (default: "
                        "neighbour; zero with --backend torch --device cuda, faster there)")
     study.add_argument("--batch", type=int, default=None,

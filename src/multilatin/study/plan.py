@@ -35,7 +35,7 @@ log = logging.getLogger(__name__)
 
 MODES = ("multiresolution", "cold")
 #: how the multiresolution mode starts a case: from its nearest converged neighbour, and
-#: along a geometric grid line from the secant of the two nearest (``predictors``); from the
+#: along geometric axes from neighbours extrapolated (``predictors``); from the
 #: nearest alone (the paper's §6); or from zero with the cases in wide batches — every case
 #: of a geometry, sharing the operators (NumPy), or consecutive cases of several geometries
 #: (torch) — for a GPU, where a wide batch costs little more than a narrow one
@@ -53,8 +53,8 @@ class Case:
     index: tuple[int, ...]  # grid index, in the grid's parameter order
     mu: Mu
     chain: int
-    #: the grid's dimensions that change the geometry: secant starts along them
-    #: (``predictors``)
+    #: the grid's dimensions that change the geometry: extrapolated starts along them
+    #: (``predictors``: secant, parallelogram)
     axes: tuple[int, ...] = ()
 
 
@@ -135,11 +135,11 @@ def boustrophedon(shape: tuple[int, ...]) -> Iterator[tuple[int, ...]]:
 
 
 def plan_study(model: Model, grid: Grid, options: LatinOptions | None = None,
-               chains: int = 1, secant: bool = True) -> StudyPlan:
+               chains: int = 1, extrapolate: bool = True) -> StudyPlan:
     """Validate the grid against the model (names, ranges, geometry of every distinct
-    geometric parameter set) and order its cases; nothing is computed here. ``secant``:
-    cases may start from the secant of two neighbours along geometric axes (``Case.axes``;
-    False: from the nearest alone)."""
+    geometric parameter set) and order its cases; nothing is computed here.
+    ``extrapolate``: cases may start from neighbours extrapolated along geometric axes
+    (``Case.axes``, ``predictors``; False: from the nearest alone)."""
     options = options or LatinOptions()
     grid.validate(model.parameters)
     if chains < 1:
@@ -176,7 +176,7 @@ def plan_study(model: Model, grid: Grid, options: LatinOptions | None = None,
     bounds = np.linspace(0, len(ordered), n_chains + 1).round().astype(int)
     chain_cases = tuple(
         tuple(Case(number, ordered[number], grid.mu(ordered[number], model.parameters), c,
-                   tuple(sorted(geometric_dims)) if secant else ())
+                   tuple(sorted(geometric_dims)) if extrapolate else ())
               for number in range(bounds[c], bounds[c + 1]))
         for c in range(n_chains))
     # the grid lines that multiresolution batches: along the innermost dimension; a

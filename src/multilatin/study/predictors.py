@@ -38,19 +38,25 @@ Index = tuple[int, ...]
 Fields = tuple[FloatArray, FloatArray]
 
 
+def _step_axis(index: Index, start: Index | None) -> int | None:
+    """The axis along which ``index`` is one grid step from ``start``; None otherwise."""
+    if start is None:
+        return None
+    moved = [d for d, (c, p) in enumerate(zip(index, start, strict=True)) if c != p]
+    if len(moved) != 1 or abs(index[moved[0]] - start[moved[0]]) != 1:
+        return None
+    return moved[0]
+
+
 def secant_partner(index: Index, start: Index | None, axes: Collection[int],
                    shape: tuple[int, ...]) -> Index | None:
     """G = 2 P − C: the grid index one step beyond the start neighbour P on the line from
     case C through P, where C − P is one step along a geometric axis (``axes``) and G lies in
     the grid (``shape``); else None."""
-    if start is None:
+    d = _step_axis(index, start)
+    if d is None or d not in axes:
         return None
-    moved = [d for d, (c, p) in enumerate(zip(index, start, strict=True)) if c != p]
-    if len(moved) != 1 or moved[0] not in axes:
-        return None
-    d = moved[0]
-    if abs(index[d] - start[d]) != 1:
-        return None
+    assert start is not None
     beyond = 2 * start[d] - index[d]
     if not 0 <= beyond < shape[d]:
         return None
@@ -78,13 +84,12 @@ def parallelogram_partners(index: Index, start: Index | None, axes: Collection[i
     axis b, where R is the case both P and Q started from (``parent``: each case's start
     neighbour by grid index) — B3's 5 × 5 study: the cases of the lines next to the middle
     one. None where there is no such pair."""
-    if start is None:
+    a = _step_axis(index, start)
+    if a is None or a not in axes:
         return None
-    moved = [d for d, (c, p) in enumerate(zip(index, start, strict=True)) if c != p]
-    if len(moved) != 1 or moved[0] not in axes or abs(index[moved[0]] - start[moved[0]]) != 1:
-        return None
+    assert start is not None
     for b in sorted(axes):
-        if b == moved[0]:
+        if b == a:
             continue
         for sigma in (1, -1):
             if not 0 <= index[b] - sigma < shape[b]:
@@ -104,11 +109,10 @@ def across_geometries(index: Index, start: Index | None, axes: Collection[int],
     frictions at the previous geometry), both earlier than C in the traversal (``number``:
     each case's place in it; so no case waits for a later one). Measured:
     ``benchmarks/geometry_neighbours.py`` (B3: 12–14 iterations a case instead of 25–50)."""
-    if start is None or index not in number:
+    a = _step_axis(index, start)
+    if a is None or a in axes or index not in number:
         return None
-    moved = [d for d, (c, p) in enumerate(zip(index, start, strict=True)) if c != p]
-    if len(moved) != 1 or moved[0] in axes or abs(index[moved[0]] - start[moved[0]]) != 1:
-        return None
+    assert start is not None
     for b in sorted(axes):
         for sigma in (1, -1):
             q = index[:b] + (index[b] - sigma,) + index[b + 1:]

@@ -136,7 +136,8 @@ class ChainFeed:
         self.model, self.grid, self.mode, self.options = model, grid, mode, options
         self.on_records = on_records
         finished = {c.number for c in chain} - pending
-        if from_the_middle(plan):  # half as deep a chain of starts as from a corner
+        middle = from_the_middle(plan)
+        if middle:  # half as deep a chain of starts as from a corner
             self.parent, self.priority = middle_starts(plan, chain)
         else:  # the traversal's rule: each geometry's operators built once, in turn
             self.parent = start_neighbours(plan, chain, finished)
@@ -163,7 +164,7 @@ class ChainFeed:
                 self.extra[case.number] = pair
                 continue
             pair = (across_geometries(case.index, start, case.axes, number_of)
-                    if not from_the_middle(plan) else None)
+                    if not middle else None)
             if pair is not None:
                 self.extra[case.number] = pair
                 self.across.add(case.number)

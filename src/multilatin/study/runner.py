@@ -173,8 +173,8 @@ def run_study(
         together, each from its nearest converged neighbour (``study.run_batch``); 1 solves
         case after case. Default: 16; ``GPU_BATCH`` on a GPU from zero.
     start: how the multiresolution mode starts a case (``plan.START_FROM``): ``"neighbour"``
-        (the paper's multiresolution; along a line of hole positions from the secant of
-        the two nearest converged cases, ``study.predictors``), ``"nearest"`` (the nearest
+        (the paper's multiresolution; along hole positions from converged neighbours
+        extrapolated, ``study.predictors``), ``"nearest"`` (the nearest
         alone, as the paper), or ``"zero"``: every case of a geometry from zero, in
         batches of up to ``batch`` cases sharing the operators (for the torch backend on a
         GPU: a wide batch there costs little more than a narrow one). Default:
@@ -216,7 +216,7 @@ def run_study(
         raise ModelError(f"--schedule: expected one of {SCHEDULES}, got {schedule!r}")
     if start not in START_FROM:
         raise ModelError(f"--start: expected one of {START_FROM}, got {start!r}")
-    # "nearest": the neighbour's start without the secant along geometric lines
+    # "nearest": the neighbour's start without the extrapolations along geometric axes
     requested, start = start, ("neighbour" if start == "nearest" else start)
     if on_failure not in ("warn", "raise", "ignore"):
         raise ModelError(f"on_failure: expected 'warn', 'raise' or 'ignore', got {on_failure!r}")
@@ -225,7 +225,7 @@ def run_study(
     n_chains = (chains if chains is not None else
                 1 if schedule == "waves" else max(workers, 1))
     check_study(grid.size, len(modes))
-    plan = plan_study(model, grid, options, n_chains, secant=requested != "nearest")
+    plan = plan_study(model, grid, options, n_chains, extrapolate=requested != "nearest")
     identity = {
         "model": model.name,
         "model_sha1": sha1(json.dumps(model.spec.data, sort_keys=True, default=str)
