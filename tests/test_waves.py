@@ -6,6 +6,7 @@ from __future__ import annotations
 import json
 from pathlib import Path
 
+import numpy as np
 import pytest
 
 import multilatin as ml
@@ -205,3 +206,67 @@ def test_a_dask_study_leaves_the_callers_environment_as_it_was(tmp_path: Path) -
     run_study(ml.load_model("b1"), Grid({"mu1": [0.3], "mu2": [0.0, 0.3]}), workers=1,
               out=tmp_path, progress=False)
     assert dict(os.environ) == before
+
+
+def test_partner_lines_are_earlier_and_span_a_geometric_step() -> None:
+    """Each line's partners (``partner_lines``) are nearer the first line than it is: the
+    line one step beyond its parent along a geometric axis (secant), or the two lines
+    beside it and its parent one step back along another axis, one of the two geometric
+    (parallelogram); none on a grid of frictions alone or without extrapolation."""
+    from multilatin.study.waves import line_graph, partner_lines
+
+    model = ml.load_model("b3")
+    grid = Grid.parse(["mu1=0:0.6:5", "mu2=0.1,0.2", "xc=23:27:5", "rc=3"])
+    kinds = {0: 0, 1: 0, 2: 0}
+    for extrapolate in (True, False):
+        plan = plan_study(model, grid, None, 1, extrapolate=extrapolate)
+        graph = line_graph(plan, plan.chains[0])
+        for n in graph.order:
+            partners = partner_lines(graph, n, graph.lines[n][0].axes)
+            if not extrapolate:
+                assert partners == ()
+                continue
+            kinds[len(partners)] += 1
+            assert all(graph.depth[m] < graph.depth[n] for m in partners)
+            parent = graph.parent[n]
+            if parent is None:
+                assert partners == ()
+                continue
+            key, p = np.array(graph.keys[n]), np.array(graph.keys[parent])
+            (a,) = np.flatnonzero(key != p)
+            if len(partners) == 1:  # key = (mu1, xc): xc is geometric
+                assert a == 1 and graph.keys[partners[0]] == tuple(2 * p - key)
+            elif len(partners) == 2:
+                q, r = (np.array(graph.keys[m]) for m in partners)
+                assert list(np.abs(q - key)).count(1) == 1 and np.array_equal(q - key, r - p)
+                assert 1 in (a, int(np.flatnonzero(q != key)[0]))
+    assert kinds[1] and kinds[2]  # both kinds occur
+    b1 = ml.load_model("b1")
+    friction = Grid.parse(["mu1=0:0.6:5", "mu2=0:0.6:5"])
+    plan = plan_study(b1, friction, None, 1)
+    graph = line_graph(plan, plan.chains[0])
+    assert all(partner_lines(graph, n, graph.lines[n][0].axes) == () for n in graph.order)
+
+
+def test_line_tasks_start_from_parallelograms_across_geometries(tmp_path: Path) -> None:
+    """B3, 2 hole positions × 2 × 2 frictions as line tasks (Dask's waves, one after the
+    other): the last line starts each case from the parallelogram of its parent line's
+    case and the same frictions' at the other geometry (its partner lines); R_stop within
+    0.1 % of the nearest neighbour's starts."""
+    from multilatin.study.waves import run_line_tasks
+
+    model = ml.load_model("b3")
+    grid = Grid.parse(["mu1=0.3,0.4", "mu2=0.1,0.2", "xc=24:25:2", "rc=3"])
+    runs = {}
+    for extrapolate in (True, False):
+        plan = plan_study(model, grid, None, 1, extrapolate=extrapolate)
+        records: list[dict] = []
+        run_line_tasks(model, grid, plan, plan.chains[0], "multiresolution", LatinOptions(),
+                       {c.number for c in plan.chains[0]}, 16, None, "neighbour",
+                       lambda got, _, into=records: into.extend(got))
+        runs[extrapolate] = sorted(records, key=lambda r: r["number"])
+    across = [r for r in runs[True] if "parallelogram" in r["start"]]
+    assert len(across) == 2 and not any("parallelogram" in r["start"] for r in runs[False])
+    for got, nearest in zip(runs[True], runs[False], strict=True):
+        assert got["converged"] and got["unique"]
+        assert got["qoi"]["R_stop"] == pytest.approx(nearest["qoi"]["R_stop"], rel=1e-3)

@@ -28,7 +28,7 @@ from ..latin import LatinOptions, solve_latin, solve_latin_batch
 from ..latin.operators import LatinOperators, operator_signature
 from ..model import Model
 from ..parameters import Grid, Mu
-from .predictors import secant_fields, secant_partner
+from .predictors import extrapolated_fields, held_square, secant_fields, secant_partner
 from .records import case_record
 
 log = logging.getLogger(__name__)
@@ -416,8 +416,9 @@ def _start(grid: Grid, state: ChainState, case: Case, assembly: Assembly, ops: L
            ) -> tuple[tuple[int, ...] | None, tuple[FloatArray, FloatArray] | None,
                       tuple[tuple[int, ...], ...]]:
     """The nearest converged neighbour's index and interface fields to start ``case`` from,
-    and the second neighbour of a secant start (``predictors``: along a geometric axis,
-    where the case one step further back on the line is retained; else none); none when its
+    and the other neighbours of an extrapolated start (``predictors``: a secant along a
+    geometric axis, where the case one step further back on the line is retained, else a
+    parallelogram whose other two corners are, ``held_square``; else none); none when its
     interfaces are discretised otherwise (a geometric parameter that moves a part across a
     substructure's boundary): the case then starts from zero."""
     start_index, initial = state.nearest(case.index)
@@ -433,6 +434,12 @@ def _start(grid: Grid, state: ChainState, case: Case, assembly: Assembly, ops: L
                                state.retained[partner])
         if secant is not None:
             return start_index, secant, (partner,)
+    square = held_square(case.index, start_index, case.axes, state.retained)
+    if start_index is not None and initial is not None and square is not None:
+        fields = extrapolated_fields(grid, case.index, start_index, initial, square,
+                                     [state.retained[i] for i in square])
+        if fields is not None:
+            return start_index, fields, square
     return start_index, initial, ()
 
 

@@ -23,8 +23,10 @@ iterations, B3's xc × 13 × 4 frictions 37 % fewer).
 The rolling batch takes G where P started from it, and the parallelogram where R started P
 and Q, waiting for Q (so that no start depends on which cases have finished); the line
 batches and Dask's line tasks take the secant where G is among the converged cases they
-hold (a task holds its parent line's) and no parallelogram (a line solves its cases
-together), else the nearest alone.
+hold, else a parallelogram whose Q and R they hold (``held_square``; a task holds its
+parent line's cases and its partner lines', ``waves.partner_lines``: the line one step
+beyond the parent, or the two lines beside it and the parent across a geometric axis;
+never the task's own line, whose cases are solved together), else the nearest alone.
 """
 
 from __future__ import annotations
@@ -119,6 +121,28 @@ def across_geometries(index: Index, start: Index | None, axes: Collection[int],
             r = start[:b] + (start[b] - sigma,) + start[b + 1:]
             if (q in number and r in number and number[q] < number[index]
                     and number[r] < number[index]):
+                return q, r
+    return None
+
+
+def held_square(index: Index, start: Index | None, axes: Collection[int],
+                held: Collection[Index]) -> tuple[Index, Index] | None:
+    """(Q, R) of a parallelogram start ŝ_P + ŝ_Q − ŝ_R for case C from its start neighbour
+    P one step away, among the converged cases ``held`` (the line batches' and Dask's line
+    tasks' rule: which cases a task holds is fixed by the task graph,
+    ``waves.partner_lines``): Q = C − σ e_b, R = P − σ e_b on another axis b, one of the
+    two axes geometric (``axes``). None where there is no such pair."""
+    a = _step_axis(index, start)
+    if a is None or not axes:
+        return None
+    assert start is not None
+    for b in range(len(index)):
+        if b == a or (a not in axes and b not in axes):
+            continue
+        for sigma in (1, -1):
+            q = index[:b] + (index[b] - sigma,) + index[b + 1:]
+            r = start[:b] + (start[b] - sigma,) + start[b + 1:]
+            if q in held and r in held:
                 return q, r
     return None
 

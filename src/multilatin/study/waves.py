@@ -17,7 +17,9 @@ hold its neighbours, so that the lines run as a pipeline. Which neighbour a case
 from does not depend on the number of workers, and a serial study over two or more
 parameters, all geometric or none, starts its cases by the same rule
 (``from_the_middle``: its rolling batch, ``study.rolling``, or these tasks one after the
-other, ``run_line_tasks``).
+other, ``run_line_tasks``). Along hole positions a task also waits for the *partner* lines
+of its cases' extrapolated starts (``partner_lines``, ``predictors``), each nearer the first
+line than its own: the graph is no deeper.
 
 Cold mode has no dependencies: each piece is a task of its own.
 """
@@ -26,7 +28,7 @@ from __future__ import annotations
 
 import math
 from collections import OrderedDict
-from collections.abc import Callable
+from collections.abc import Callable, Collection
 from dataclasses import dataclass
 from typing import Any
 
@@ -48,6 +50,9 @@ class LineTask:
     cases: tuple[Case, ...]
     parents: tuple[int, ...]
     depth: int
+    #: earlier tasks holding the other neighbours of its cases' extrapolated starts
+    #: (``partner_lines``): a secant's or a parallelogram's; none with ``start="nearest"``
+    partners: tuple[int, ...] = ()
 
 
 @dataclass(frozen=True)
@@ -64,6 +69,9 @@ class LineGraph:
     depth: dict[int, int]
     parent: dict[int, int | None]
     inner: int | None
+    #: per line, its index in the grid's other dimensions (``dims``, in the grid's order)
+    keys: list[tuple[int, ...]]
+    dims: tuple[int, ...]
 
     def along(self, case: Case) -> int:
         """The case's index along the lines."""
@@ -108,7 +116,46 @@ def line_graph(plan: StudyPlan, chain: tuple[Case, ...]) -> LineGraph:
     parent_line: dict[int, int | None] = {root: None}
     for n in order[1:]:
         parent_line[n] = next(m for m in neighbours(n) if depth_of[m] == depth_of[n] - 1)
-    return LineGraph(lines, root, order, depth_of, parent_line, inner)
+    dims = tuple(d for d in range(len(chain[0].index)) if d != inner)
+    return LineGraph(lines, root, order, depth_of, parent_line, inner, keys, dims)
+
+
+def partner_lines(graph: LineGraph, n: int, axes: Collection[int]) -> tuple[int, ...]:
+    """The lines holding the other neighbours of line ``n``'s extrapolated starts
+    (``predictors``), each nearer the root than ``n`` (so it is solved earlier, and no
+    task waits longer than its depth): where ``n``'s parent line is one step along a
+    geometric axis (``axes``: grid dimensions) and the line one step further is nearer the
+    root, that line (secant); else two lines Q, R beside ``n`` and its parent one step back
+    along another outer axis, one of the two axes geometric (parallelogram: across
+    geometries, or across hole-position lines); else none. Two non-geometric axes are left
+    out as the rolling batch leaves them (session 12, ``predictors``)."""
+    parent = graph.parent[n]
+    if parent is None or not axes:
+        return ()
+    key, parent_key = graph.keys[n], graph.keys[parent]
+    number_of = {k: m for m, k in enumerate(graph.keys)}
+    moved = [i for i, (k, p) in enumerate(zip(key, parent_key, strict=True)) if k != p]
+    if len(moved) != 1:
+        return ()
+    (a,) = moved
+
+    def earlier(k: tuple[int, ...]) -> int | None:
+        m = number_of.get(k)
+        return m if m is not None and graph.depth[m] < graph.depth[n] else None
+
+    if graph.dims[a] in axes:
+        beyond = earlier(tuple(2 * p - k for k, p in zip(key, parent_key, strict=True)))
+        if beyond is not None:
+            return (beyond,)
+    for b in range(len(key)):
+        if b == a or (graph.dims[a] not in axes and graph.dims[b] not in axes):
+            continue
+        for sigma in (1, -1):
+            q = earlier(key[:b] + (key[b] - sigma,) + key[b + 1:])
+            r = earlier(parent_key[:b] + (parent_key[b] - sigma,) + parent_key[b + 1:])
+            if q is not None and r is not None:
+                return (q, r)
+    return ()
 
 
 def line_tasks(plan: StudyPlan, chain: tuple[Case, ...], workers: int, batch: int
@@ -126,6 +173,7 @@ def line_tasks(plan: StudyPlan, chain: tuple[Case, ...], workers: int, batch: in
     held: dict[int, list[set[int]]] = {}  # per line, the inner values of each piece
     for n in order:
         line, parent, depth = lines[n], parent_line[n], depth_of[n]
+        extrapolated = partner_lines(graph, n, line[0].axes)
         values = sorted({along(case) for case in line})
         n_pieces = min(len(values), max(math.ceil(len(values) / batch),
                                         math.ceil(max(workers, 1) * len(values)
@@ -163,22 +211,28 @@ def line_tasks(plan: StudyPlan, chain: tuple[Case, ...], workers: int, batch: in
             else:  # each case next to the one before, the first next to the piece before
                 piece = sorted(pieces[r], key=along, reverse=r < mid)
             parents = after if parent is not None else tuple(tasks_of_line[n][a] for a in after)
+            partners = tuple(tasks_of_line[m][q] for m in extrapolated
+                             for q, other in enumerate(held[m]) if other & ranges[r])
             tasks_of_line[n][r] = len(tasks)
-            tasks.append(LineTask(tuple(piece), parents, depth))
+            tasks.append(LineTask(tuple(piece), parents, depth, partners))
     return tasks
 
 
 def run_line_task(model: Model, grid: Grid, cases: tuple[Case, ...], mode: str,
                   options: LatinOptions,
                   parents: list[tuple[list[dict[str, Any]], ChainState | None]],
-                  resumed: ChainState | None, start: str = "neighbour"
+                  resumed: ChainState | None, start: str = "neighbour",
+                  partners: list[tuple[list[dict[str, Any]], ChainState | None]] | None = None
                   ) -> tuple[list[dict[str, Any]], ChainState | None]:
     """A task of the graph: its cases solved together (``run_batch``), started from the
-    converged cases its parent tasks retained (and a resumed study's saved state)."""
+    converged cases its parent tasks retained (and a resumed study's saved state), and
+    extrapolated with its partner tasks' (``LineTask.partners``)."""
     if mode == "cold":
         return run_batch(model, grid, cases, mode, options, None, start)
     retained: OrderedDict[tuple[int, ...], Any] = OrderedDict()
-    for state in [resumed] + [output[1] for output in parents]:
+    # the parents' last: a case's start neighbour is the latest of the nearest
+    outputs = [output[1] for output in (partners or [])] + [output[1] for output in parents]
+    for state in [resumed, *outputs]:
         if state is not None:
             retained.update(state.retained)
     # only what the cases may start from travels on: the converged cases up to NEAR grid
@@ -227,16 +281,17 @@ def run_line_tasks(model: Model, grid: Grid, plan: StudyPlan, chain: tuple[Case,
     tasks = line_tasks(plan, chain, 1, batch)
     children = [0] * len(tasks)
     for task in tasks:
-        for p in task.parents:
+        for p in task.parents + task.partners:
             children[p] += 1
     outputs: dict[int, tuple[list[dict[str, Any]], ChainState | None]] = {}
     for number, task in enumerate(tasks):
         cases = tuple(c for c in task.cases if c.number in pending)
         if cases:
             parents = [outputs[p] for p in task.parents if p in outputs]
+            partners = [outputs[p] for p in task.partners if p in outputs]
             records, state = run_line_task(model, grid, cases, mode, options, parents,
-                                           resumed, start)
-        for p in task.parents:
+                                           resumed, start, partners)
+        for p in task.parents + task.partners:
             children[p] -= 1
             if not children[p]:
                 outputs.pop(p, None)
@@ -275,9 +330,11 @@ def submit_line_tasks(client: Any, model_future: Any, grid: Grid, plan: StudyPla
                 continue
             parents = ([submitted[p] for p in task.parents if p in submitted]
                        if mode != "cold" else [])  # cold cases start from zero: no waiting
+            partners = ([submitted[p] for p in task.partners if p in submitted]
+                        if mode != "cold" else [])
             submitted[number] = client.submit(
                 run_line_task, model_future, grid, pending, mode, options, parents,
-                resumed_future, start, pure=False,
+                resumed_future, start, partners, pure=False,
                 key=f"{mode}-line-{pending[0].number}-{id(store)}")
             futures.append(submitted[number])
     return futures
