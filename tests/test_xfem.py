@@ -203,3 +203,19 @@ def test_element_stiffnesses_kept_per_mesh_give_the_integrated_stiffness():
                 + sp.diags(np.isin(np.arange(2 * mesh.n_nodes), inactive_dofs(cut)) * 1.0))
         assert abs(kept - anew).max() <= 1e-12 * abs(anew).max()
     assert len(xfem._CELL_STIFFNESS) == 1
+
+
+def test_forgetting_the_operators_forgets_what_their_builds_share():
+    """``clear_operator_cache`` (benchmarks run studies as fresh processes do) empties every
+    ``Kept`` map: the element stiffnesses kept per mesh among them."""
+    from multilatin.fem import xfem
+    from multilatin.kept import Kept
+    from multilatin.study.plan import clear_operator_cache
+
+    mesh = RectMesh(0.0, 10.0, 0.0, 10.0, 10, 10)
+    xfem_stiffness(mesh, hooke_matrix(2e5, 0.3), 1.0, cut_cells(mesh, Circle((5.0, 5.0), 2.2)))
+    mine: Kept[str, int] = Kept(2)
+    mine.get("a", lambda: 1)
+    assert len(xfem._CELL_STIFFNESS) and len(mine)
+    clear_operator_cache()
+    assert len(xfem._CELL_STIFFNESS) == 0 and len(mine) == 0

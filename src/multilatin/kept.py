@@ -4,6 +4,7 @@ share (meshes' arrays, element stiffnesses, orderings), safe across threads."""
 from __future__ import annotations
 
 import threading
+import weakref
 from collections import OrderedDict
 from collections.abc import Callable, Hashable
 from typing import Generic, TypeVar
@@ -17,10 +18,14 @@ class Kept(Generic[Key, Value]):
     compute a missing value, the first one kept), the least recently used forgotten beyond
     ``size``."""
 
+    #: every map made, so that a benchmark can forget them all (``clear_all``)
+    _made: weakref.WeakSet[Kept[object, object]] = weakref.WeakSet()
+
     def __init__(self, size: int) -> None:
         self.size = size
         self._values: OrderedDict[Key, Value] = OrderedDict()
         self._lock = threading.Lock()
+        Kept._made.add(self)  # type: ignore[arg-type]
 
     def get(self, key: Key, compute: Callable[[], Value]) -> Value:
         with self._lock:
@@ -37,6 +42,12 @@ class Kept(Generic[Key, Value]):
     def clear(self) -> None:
         with self._lock:
             self._values.clear()
+
+    @classmethod
+    def clear_all(cls) -> None:
+        """Forget every map's values: the process then builds as a fresh one does."""
+        for kept in list(cls._made):
+            kept.clear()
 
     def __len__(self) -> int:
         return len(self._values)

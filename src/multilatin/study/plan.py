@@ -24,6 +24,7 @@ from ..decomposition.assembly import Assembly
 from ..decomposition.result import SolveResult
 from ..errors import ModelError
 from ..fem.elasticity import FloatArray
+from ..kept import Kept
 from ..latin import LatinOptions, solve_latin, solve_latin_batch
 from ..latin.operators import LatinOperators, operator_signature
 from ..model import Model
@@ -272,8 +273,10 @@ _OPERATOR_CACHE_SIZE = 8
 
 
 def clear_operator_cache() -> None:
-    """Forget the operators this process keeps between cases (and studies)."""
+    """Forget the operators this process keeps between cases (and studies), and what
+    their builds share (``Kept``: meshes' arrays, element stiffnesses, orderings)."""
     _OPERATORS.clear()
+    Kept.clear_all()
 
 
 def _operators(assembly: Any, options: LatinOptions) -> tuple[LatinOperators, bool]:
