@@ -168,3 +168,35 @@ def test_a_new_geometrys_cases_start_across_geometries(tmp_path: Path) -> None:
     for got, nearest in zip(runs["neighbour"], runs["nearest"], strict=True):
         assert got["converged"] and got["unique"]
         assert got["qoi"]["R_stop"] == pytest.approx(nearest["qoi"]["R_stop"], rel=1e-3)
+
+
+def test_a_case_beside_a_flagged_hole_position_starts_from_zero(tmp_path: Path) -> None:
+    """B3, two hole positions × 2 × 2 frictions around μ1 + μ2 = 0.3 (a body at the
+    friction limit: not unique at every position): at the second position the cases whose
+    frictions were flagged at the first start from zero (``not_unique_beside``) instead of
+    from a warm attempt set aside; fewer iterations, the same answers (R_stop within
+    0.1 %), each flagged case still flagged."""
+    from multilatin.study.plan import Case, not_unique_beside
+
+    mu = ml.Mu({})
+    case = Case(0, (1, 2, 3), mu, 0, (0,))
+    assert not_unique_beside(case, {(0, 2, 3)}) == (0, 2, 3)
+    assert not_unique_beside(case, {(1, 1, 3), (3, 2, 3)}) is None  # friction; 2 steps
+    assert not_unique_beside(Case(0, (1, 2, 3), mu, 0, ()), {(0, 2, 3)}) is None
+    model = ml.load_model("b3")
+    grid = ml.Grid.parse(["xc=24:25:2", "mu1=0.1,0.15", "mu2=0.15,0.2", "rc=3"])
+    runs = {}
+    for start in ("neighbour", "nearest"):
+        clear_operator_cache()
+        study = ml.run_study(model, grid, start=start, out=tmp_path / start, progress=False)
+        runs[start] = sorted(study.records, key=lambda r: r["number"])
+    set_aside = [r for r in runs["nearest"] if "set aside" in r["start"]]
+    predicted = [r for r in runs["neighbour"] if r["params"]["xc"] == 25.0
+                 and r["start"] == "zero" and not r["unique"]]
+    assert len(predicted) >= 1 and len(set_aside) > len(
+        [r for r in runs["neighbour"] if "set aside" in r["start"]])
+    assert (sum(r["iterations"] for r in runs["neighbour"])
+            < sum(r["iterations"] for r in runs["nearest"]))
+    for got, nearest in zip(runs["neighbour"], runs["nearest"], strict=True):
+        assert got["converged"] and got["unique"] == nearest["unique"]
+        assert got["qoi"]["R_stop"] == pytest.approx(nearest["qoi"]["R_stop"], rel=1e-3)

@@ -14,7 +14,7 @@ from __future__ import annotations
 import logging
 import time
 from collections import OrderedDict
-from collections.abc import Iterator, Sequence
+from collections.abc import Collection, Iterator, Sequence
 from dataclasses import dataclass, field
 from typing import Any
 
@@ -221,6 +221,10 @@ class ChainState:
     capacity: int = 32
     retained: OrderedDict[tuple[int, ...], tuple[FloatArray, FloatArray]] = field(
         default_factory=OrderedDict)
+    #: the retained cases whose answer the discrete problem does not determine (flagged
+    #: not unique): a case at the same frictions one hole position away starts from zero
+    #: (``not_unique_beside``)
+    unsettled: frozenset[tuple[int, ...]] = frozenset()
 
     def nearest(self, index: tuple[int, ...]) -> tuple[tuple[int, ...] | None,
                                                       tuple[FloatArray, FloatArray] | None]:
@@ -235,16 +239,26 @@ class ChainState:
         there is none."""
         return nearest_index(list(self.retained), index)[1]
 
-    def added(self, index: tuple[int, ...], fields: tuple[FloatArray, FloatArray]
-              ) -> ChainState:
-        """A new state with ``fields`` retained (this one is left unchanged: distributed
-        tasks share their inputs)."""
+    def added(self, index: tuple[int, ...], fields: tuple[FloatArray, FloatArray],
+              unsettled: bool = False) -> ChainState:
+        """A new state with ``fields`` retained, flagged ``unsettled`` or not (this one is
+        left unchanged: distributed tasks share their inputs)."""
         retained = OrderedDict(self.retained)
         retained[index] = fields
         retained.move_to_end(index)
         while len(retained) > self.capacity:
             retained.popitem(last=False)
-        return ChainState(self.capacity, retained)
+        flagged = (self.unsettled | {index}) if unsettled else self.unsettled - {index}
+        return ChainState(self.capacity, retained, frozenset(flagged & retained.keys()))
+
+    def keeping(self, retained: OrderedDict[tuple[int, ...], tuple[FloatArray, FloatArray]],
+                unsettled: frozenset[tuple[int, ...]] | None = None,
+                capacity: int | None = None) -> ChainState:
+        """A state of these retained cases, with the flags (this state's, or
+        ``unsettled``) of those among them."""
+        flagged = self.unsettled if unsettled is None else unsettled
+        return ChainState(self.capacity if capacity is None else capacity, retained,
+                          frozenset(flagged & retained.keys()))
 
     def to_arrays(self) -> dict[str, FloatArray]:
         out: dict[str, FloatArray] = {"capacity": np.array(self.capacity)}
@@ -252,6 +266,8 @@ class ChainState:
             out[f"index_{n}"] = np.array(index)
             out[f"w_hat_{n}"] = w_hat
             out[f"f_hat_{n}"] = f_hat
+        if self.unsettled:
+            out["unsettled"] = np.array(sorted(self.unsettled))
         return out
 
     @classmethod
@@ -262,6 +278,9 @@ class ChainState:
             index = tuple(int(i) for i in arrays[f"index_{n}"])
             state.retained[index] = (arrays[f"w_hat_{n}"], arrays[f"f_hat_{n}"])
             n += 1
+        if "unsettled" in arrays:
+            state = state.keeping(state.retained, frozenset(
+                tuple(int(i) for i in row) for row in arrays["unsettled"]))
         return state
 
 
@@ -377,7 +396,7 @@ def run_batch(model: Model, grid: Grid, cases: tuple[Case, ...], mode: str,
         return records, state
     assert state is not None
     if state.capacity < 2 * len(cases):  # a wavefront keeps the previous lines of all
-        state = ChainState(2 * len(cases), state.retained)  # its geometries
+        state = state.keeping(state.retained, capacity=2 * len(cases))  # its geometries
     return _solve_together(model, grid, cases, mode, options, state)
 
 
@@ -424,6 +443,11 @@ def _start(grid: Grid, state: ChainState, case: Case, assembly: Assembly, ops: L
     parallelogram whose other two corners are, ``held_square``; else none); none when its
     interfaces are discretised otherwise (a geometric parameter that moves a part across a
     substructure's boundary): the case then starts from zero."""
+    flagged = not_unique_beside(case, state.unsettled)
+    if flagged is not None:
+        log.info("%s: not unique at the neighbouring hole position %s; started from zero",
+                 assembly.name, flagged)
+        return None, None, ()
     start_index, initial = state.nearest(case.index)
     shape = (assembly.n_steps, ops.points.n_points, 2)
     if initial is not None and any(field.shape != shape for field in initial):
@@ -455,7 +479,23 @@ def _has_neighbour(state: ChainState | None, case: Case) -> bool:
 def _retain(state: ChainState, case: Case, result: SolveResult) -> ChainState:
     assert result.interface is not None
     return state.added(case.index, (result.interface.displacement_hat,
-                                    result.interface.force_hat))
+                                    result.interface.force_hat), not result.unique)
+
+
+def not_unique_beside(case: Case, unsettled: Collection[tuple[int, ...]]
+                      ) -> tuple[int, ...] | None:
+    """A case flagged not unique at the same frictions one hole position away (one step
+    along a geometric axis, ``Case.axes``), among ``unsettled``; None if none. Such a case
+    is most likely not unique too (the friction limit is the load's, not the hole's: B3's
+    studies flag the same 9 friction pairs at every position), so it starts from zero
+    rather than from a warm attempt that would be set aside (``solve_again``; measured:
+    docs/performance.md, session 26)."""
+    for index in sorted(unsettled):
+        moved = [d for d, (a, b) in enumerate(zip(index, case.index, strict=True)) if a != b]
+        if (len(moved) == 1 and moved[0] in case.axes
+                and abs(index[moved[0]] - case.index[moved[0]]) == 1):
+            return index
+    return None
 
 
 def _retained_capacity(grid: Grid) -> int:

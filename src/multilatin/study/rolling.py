@@ -46,6 +46,7 @@ from .plan import (
     _retain,
     _retained_capacity,
     nearest_index,
+    not_unique_beside,
 )
 from .predictors import (
     across_geometries,
@@ -191,6 +192,8 @@ class ChainFeed:
             for earlier in waits:
                 self.dependants.setdefault(earlier.number, []).append(case)
         self.state = state if state is not None else ChainState(_retained_capacity(grid))
+        #: the finished cases flagged not unique (``plan.not_unique_beside``)
+        self.unsettled: set[Index] = set(self.state.unsettled)
         #: the fields of finished cases that cases still to start from them need
         self.fields: dict[Index, tuple[FloatArray, FloatArray]] = {}
         self.children: dict[Index, int] = {}  # pending cases per start neighbour (or partner)
@@ -230,6 +233,15 @@ class ChainFeed:
         study's state without it), the nearest retained case's."""
         index = self.parent[case.number]
         if index is None:
+            return None, None, ()
+        # its start neighbour, or across geometries Q (its own frictions at the previous
+        # geometry), both waited for: flagged not unique one hole position away, the case
+        # starts from zero (``plan.not_unique_beside``)
+        beside = {index, *self.extra.get(case.number, ())[:1]} & self.unsettled
+        flagged = not_unique_beside(case, beside) if beside else None
+        if flagged is not None:
+            log.info("case %d: not unique at the neighbouring hole position %s; started from "
+                     "zero", case.number, flagged)
             return None, None, ()
         fields = self.fields.get(index) or self.state.retained.get(index)
         if fields is None:
@@ -286,6 +298,8 @@ class ChainFeed:
             return
         self.done_numbers.add(case.number)
         self._release(case.number)  # its neighbours' fields kept until now for the store
+        if result.converged and not result.unique:
+            self.unsettled.add(case.index)
         if result.converged:
             assert result.interface is not None
             if self.children.get(case.index):
@@ -322,7 +336,7 @@ class ChainFeed:
             return self.state
         retained = OrderedDict((index, self.fields[index]) for index in needed)
         retained.update(self.state.retained)
-        return ChainState(self.state.capacity, retained)
+        return self.state.keeping(retained, frozenset(self.unsettled))
 
     def finished(self) -> bool:
         return not self.n_waiting and not self.again and not self.running

@@ -230,11 +230,13 @@ def run_line_task(model: Model, grid: Grid, cases: tuple[Case, ...], mode: str,
     if mode == "cold":
         return run_batch(model, grid, cases, mode, options, None, start)
     retained: OrderedDict[tuple[int, ...], Any] = OrderedDict()
+    unsettled: set[tuple[int, ...]] = set()
     # the parents' last: a case's start neighbour is the latest of the nearest
     outputs = [output[1] for output in (partners or [])] + [output[1] for output in parents]
     for state in [resumed, *outputs]:
         if state is not None:
             retained.update(state.retained)
+            unsettled |= state.unsettled
     # only what the cases may start from travels on: the converged cases up to NEAR grid
     # steps away (one step: the parent line; two: a fallback next to a failed neighbour)
     near = OrderedDict((index, fields) for index, fields in retained.items()
@@ -242,7 +244,8 @@ def run_line_task(model: Model, grid: Grid, cases: tuple[Case, ...], mode: str,
                               <= NEAR for case in cases))
     capacity = max(_retained_capacity(grid), len(near) + len(cases))
     records, state = run_batch(model, grid, cases, mode, options,
-                               ChainState(capacity, near), start)
+                               ChainState().keeping(near, frozenset(unsettled), capacity),
+                               start)
     if state is None:
         return records, state
     # what the task hands on: its own converged cases, the ones its children start from
@@ -253,7 +256,7 @@ def run_line_task(model: Model, grid: Grid, cases: tuple[Case, ...], mode: str,
     own = {case.index for case in cases}
     kept = OrderedDict((index, fields) for index, fields in state.retained.items()
                        if index in own)
-    return records, ChainState(state.capacity, kept)
+    return records, state.keeping(kept)
 
 
 def from_the_middle(plan: StudyPlan) -> bool:
@@ -302,10 +305,12 @@ def run_line_tasks(model: Model, grid: Grid, plan: StudyPlan, chain: tuple[Case,
         stored = state
         if state is not None:  # with the cases that tasks still to run start from
             kept: OrderedDict[tuple[int, ...], Any] = OrderedDict()
+            flags = set(state.unsettled)
             for _, output in outputs.values():
                 kept.update(output.retained if output is not None else {})
+                flags |= output.unsettled if output is not None else set()
             kept.update(state.retained)
-            stored = ChainState(state.capacity, kept)
+            stored = state.keeping(kept, frozenset(flags))
         on_records(records, stored)
 
 
