@@ -6,6 +6,7 @@ requested accuracy."""
 from __future__ import annotations
 
 from pathlib import Path
+from typing import Any
 
 import numpy as np
 import pytest
@@ -123,6 +124,17 @@ def test_a_study_along_hole_positions_takes_secant_starts(tmp_path: Path) -> Non
         assert secant["qoi"]["R_stop"] == pytest.approx(nearest["qoi"]["R_stop"], rel=1e-3)
 
 
+def _both_starts(model: ml.Model, grid: ml.Grid, tmp_path: Path
+                 ) -> dict[str, list[dict[str, Any]]]:
+    """The study's records (in traversal order) with the default starts and the nearest."""
+    runs = {}
+    for start in ("neighbour", "nearest"):
+        clear_operator_cache()
+        study = ml.run_study(model, grid, start=start, out=tmp_path / start, progress=False)
+        runs[start] = sorted(study.records, key=lambda r: r["number"])
+    return runs
+
+
 def test_a_grid_of_hole_positions_takes_parallelogram_starts(tmp_path: Path) -> None:
     """B3, 3 × 3 hole positions from the middle: the middle line from its centre, the other
     two lines from it; their outer cases (four) start from the parallelogram of their
@@ -131,11 +143,7 @@ def test_a_grid_of_hole_positions_takes_parallelogram_starts(tmp_path: Path) -> 
     starts' answers."""
     model = ml.load_model("b3")
     grid = ml.Grid.parse(["xc=24:26:3", "yc=74:76:3", "rc=3"])
-    runs = {}
-    for start in ("neighbour", "nearest"):
-        clear_operator_cache()
-        study = ml.run_study(model, grid, start=start, out=tmp_path / start, progress=False)
-        runs[start] = sorted(study.records, key=lambda r: r["number"])
+    runs = _both_starts(model, grid, tmp_path)
     kinds = [r["start"].split(" (")[-1].split(" ")[0] for r in runs["neighbour"]]
     assert kinds.count("parallelogram") == 4 and "secant" not in kinds
     for got, nearest in zip(runs["neighbour"], runs["nearest"], strict=True):
@@ -156,11 +164,7 @@ def test_a_new_geometrys_cases_start_across_geometries(tmp_path: Path) -> None:
     assert across_geometries((0, 1), (0, 0), {0}, number) is None  # nothing earlier
     model = ml.load_model("b3")
     grid = ml.Grid.parse(["xc=24:25:2", "mu1=0.4:0.6:3", "mu2=0.1,0.2", "rc=3"])
-    runs = {}
-    for start in ("neighbour", "nearest"):
-        clear_operator_cache()
-        study = ml.run_study(model, grid, start=start, out=tmp_path / start, progress=False)
-        runs[start] = sorted(study.records, key=lambda r: r["number"])
+    runs = _both_starts(model, grid, tmp_path)
     across = [r for r in runs["neighbour"] if "parallelogram" in r["start"]]
     assert len(across) == 4
     for record in across:
@@ -176,20 +180,14 @@ def test_a_case_beside_a_flagged_hole_position_starts_from_zero(tmp_path: Path) 
     frictions were flagged at the first start from zero (``not_unique_beside``) instead of
     from a warm attempt set aside; fewer iterations, the same answers (R_stop within
     0.1 %), each flagged case still flagged."""
-    from multilatin.study.plan import Case, not_unique_beside
+    from multilatin.study.predictors import not_unique_beside
 
-    mu = ml.Mu({})
-    case = Case(0, (1, 2, 3), mu, 0, (0,))
-    assert not_unique_beside(case, {(0, 2, 3)}) == (0, 2, 3)
-    assert not_unique_beside(case, {(1, 1, 3), (3, 2, 3)}) is None  # friction; 2 steps
-    assert not_unique_beside(Case(0, (1, 2, 3), mu, 0, ()), {(0, 2, 3)}) is None
+    assert not_unique_beside((1, 2, 3), (0,), {(0, 2, 3)}) == (0, 2, 3)
+    assert not_unique_beside((1, 2, 3), (0,), {(1, 1, 3), (3, 2, 3)}) is None  # μ; 2 steps
+    assert not_unique_beside((1, 2, 3), (), {(0, 2, 3)}) is None
     model = ml.load_model("b3")
     grid = ml.Grid.parse(["xc=24:25:2", "mu1=0.1,0.15", "mu2=0.15,0.2", "rc=3"])
-    runs = {}
-    for start in ("neighbour", "nearest"):
-        clear_operator_cache()
-        study = ml.run_study(model, grid, start=start, out=tmp_path / start, progress=False)
-        runs[start] = sorted(study.records, key=lambda r: r["number"])
+    runs = _both_starts(model, grid, tmp_path)
     set_aside = [r for r in runs["nearest"] if "set aside" in r["start"]]
     predicted = [r for r in runs["neighbour"] if r["params"]["xc"] == 25.0
                  and r["start"] == "zero" and not r["unique"]]

@@ -14,7 +14,7 @@ from __future__ import annotations
 import logging
 import time
 from collections import OrderedDict
-from collections.abc import Collection, Iterator, Sequence
+from collections.abc import Iterator, Sequence
 from dataclasses import dataclass, field
 from typing import Any
 
@@ -29,7 +29,7 @@ from ..latin import LatinOptions, solve_latin, solve_latin_batch
 from ..latin.operators import LatinOperators, operator_signature
 from ..model import Model
 from ..parameters import Grid, Mu
-from .predictors import extrapolated_fields, held_square, secant_fields, secant_partner
+from .predictors import extrapolated_fields, held_square, not_unique_beside, secant_partner
 from .records import case_record
 
 log = logging.getLogger(__name__)
@@ -221,9 +221,8 @@ class ChainState:
     capacity: int = 32
     retained: OrderedDict[tuple[int, ...], tuple[FloatArray, FloatArray]] = field(
         default_factory=OrderedDict)
-    #: the retained cases whose answer the discrete problem does not determine (flagged
-    #: not unique): a case at the same frictions one hole position away starts from zero
-    #: (``not_unique_beside``)
+    #: retained cases flagged not unique: a case at the same frictions one hole position
+    #: away starts from zero (``predictors.not_unique_beside``)
     unsettled: frozenset[tuple[int, ...]] = frozenset()
 
     def nearest(self, index: tuple[int, ...]) -> tuple[tuple[int, ...] | None,
@@ -254,11 +253,9 @@ class ChainState:
     def keeping(self, retained: OrderedDict[tuple[int, ...], tuple[FloatArray, FloatArray]],
                 unsettled: frozenset[tuple[int, ...]] | None = None,
                 capacity: int | None = None) -> ChainState:
-        """A state of these retained cases, with the flags (this state's, or
-        ``unsettled``) of those among them."""
-        flagged = self.unsettled if unsettled is None else unsettled
-        return ChainState(self.capacity if capacity is None else capacity, retained,
-                          frozenset(flagged & retained.keys()))
+        """These retained cases, with their flags (this state's, or ``unsettled``)."""
+        flagged = (self.unsettled if unsettled is None else unsettled) & retained.keys()
+        return ChainState(capacity or self.capacity, retained, frozenset(flagged))
 
     def to_arrays(self) -> dict[str, FloatArray]:
         out: dict[str, FloatArray] = {"capacity": np.array(self.capacity)}
@@ -443,7 +440,7 @@ def _start(grid: Grid, state: ChainState, case: Case, assembly: Assembly, ops: L
     parallelogram whose other two corners are, ``held_square``; else none); none when its
     interfaces are discretised otherwise (a geometric parameter that moves a part across a
     substructure's boundary): the case then starts from zero."""
-    flagged = not_unique_beside(case, state.unsettled)
+    flagged = not_unique_beside(case.index, case.axes, state.unsettled)
     if flagged is not None:
         log.info("%s: not unique at the neighbouring hole position %s; started from zero",
                  assembly.name, flagged)
@@ -457,8 +454,8 @@ def _start(grid: Grid, state: ChainState, case: Case, assembly: Assembly, ops: L
     partner = secant_partner(case.index, start_index, case.axes, grid.shape)
     if start_index is not None and initial is not None and partner in state.retained:
         assert partner is not None
-        secant = secant_fields(grid, case.index, start_index, initial, partner,
-                               state.retained[partner])
+        secant = extrapolated_fields(grid, case.index, start_index, initial, (partner,),
+                                     [state.retained[partner]])
         if secant is not None:
             return start_index, secant, (partner,)
     square = held_square(case.index, start_index, case.axes, state.retained)
@@ -481,21 +478,6 @@ def _retain(state: ChainState, case: Case, result: SolveResult) -> ChainState:
     return state.added(case.index, (result.interface.displacement_hat,
                                     result.interface.force_hat), not result.unique)
 
-
-def not_unique_beside(case: Case, unsettled: Collection[tuple[int, ...]]
-                      ) -> tuple[int, ...] | None:
-    """A case flagged not unique at the same frictions one hole position away (one step
-    along a geometric axis, ``Case.axes``), among ``unsettled``; None if none. Such a case
-    is most likely not unique too (the friction limit is the load's, not the hole's: B3's
-    studies flag the same 9 friction pairs at every position), so it starts from zero
-    rather than from a warm attempt that would be set aside (``solve_again``; measured:
-    docs/performance.md, session 26)."""
-    for index in sorted(unsettled):
-        moved = [d for d, (a, b) in enumerate(zip(index, case.index, strict=True)) if a != b]
-        if (len(moved) == 1 and moved[0] in case.axes
-                and abs(index[moved[0]] - case.index[moved[0]]) == 1):
-            return index
-    return None
 
 
 def _retained_capacity(grid: Grid) -> int:

@@ -147,6 +147,21 @@ def held_square(index: Index, start: Index | None, axes: Collection[int],
     return None
 
 
+def not_unique_beside(index: Index, axes: Collection[int], unsettled: Collection[Index]
+                      ) -> Index | None:
+    """A case flagged not unique at the same frictions one hole position away from case
+    ``index`` (one step along a geometric axis, ``axes``), among ``unsettled``; None if
+    none. The case is then most likely not unique too (the friction limit is the load's, not
+    the hole's: B3's studies flag the same friction pairs at every position), so it starts
+    from zero rather than from a warm attempt that would be set aside
+    (``plan.solve_again``; docs/performance.md, session 26)."""
+    for other in sorted(unsettled):
+        d = _step_axis(index, other)
+        if d is not None and d in axes:
+            return other
+    return None
+
+
 def extrapolated_fields(grid: Grid, index: Index, start: Index, fields: Fields,
                         extra: tuple[Index, ...], extra_fields: Sequence[Fields]
                         ) -> Fields | None:

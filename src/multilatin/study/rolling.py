@@ -46,11 +46,11 @@ from .plan import (
     _retain,
     _retained_capacity,
     nearest_index,
-    not_unique_beside,
 )
 from .predictors import (
     across_geometries,
     extrapolated_fields,
+    not_unique_beside,
     parallelogram_partners,
     secant_partner,
 )
@@ -238,7 +238,7 @@ class ChainFeed:
         # geometry), both waited for: flagged not unique one hole position away, the case
         # starts from zero (``plan.not_unique_beside``)
         beside = {index, *self.extra.get(case.number, ())[:1]} & self.unsettled
-        flagged = not_unique_beside(case, beside) if beside else None
+        flagged = not_unique_beside(case.index, case.axes, beside) if beside else None
         if flagged is not None:
             log.info("case %d: not unique at the neighbouring hole position %s; started from "
                      "zero", case.number, flagged)
