@@ -247,12 +247,14 @@ def test_a_batch_larger_than_the_memory_is_solved_in_chunks(
 def test_multiresolution_on_torch_runs_a_wavefront_across_geometries(tmp_path: Path) -> None:
     """``start="neighbour"`` on torch: the k-th line of every geometry in one batch, each
     case warm-started from its own geometry's previous line; the answers those of the NumPy
-    study (its lines one geometry at a time) to the tolerance."""
+    study (its lines one geometry at a time) to the tolerance. (Nearest starts: with the
+    default ones a case beside a position flagged not unique starts from zero,
+    ``predictors.not_unique_beside``, tested in test_predictors.py.)"""
 
     model = ml.load_model("b3")
     grid = ml.Grid({"xc": [23.0, 26.0], "mu1": [0.1, 0.3], "mu2": [0.0, 0.2]})
     options = LatinOptions()  # the default η: R_stop within 0.1 % (docs/tolerance.md)
-    reference, got = _on_both_backends(model, grid, options)
+    reference, got = _on_both_backends(model, grid, options, start="nearest")
     assert {r["batch"] for r in got.records} == {4}  # 2 geometries × a line of 2
     for record in got.records:  # the second batch from the first, one grid step away
         if not record["start"].startswith("zero"):
