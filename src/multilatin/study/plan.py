@@ -479,7 +479,6 @@ def _retain(state: ChainState, case: Case, result: SolveResult) -> ChainState:
                                     result.interface.force_hat), not result.unique)
 
 
-
 def _retained_capacity(grid: Grid) -> int:
     """Enough converged neighbours to find one a single grid step away after a failure."""
     inner = max(grid.shape) if len(grid) else 1

@@ -31,7 +31,7 @@ never the task's own line, whose cases are solved together), else the nearest al
 
 from __future__ import annotations
 
-from collections.abc import Collection, Mapping, Sequence
+from collections.abc import Collection, Iterator, Mapping, Sequence
 
 from ..fem.elasticity import FloatArray
 from ..parameters import Grid
@@ -125,26 +125,31 @@ def across_geometries(index: Index, start: Index | None, axes: Collection[int],
     return None
 
 
+def beside(index: Index, start: Index, a: int, axes: Collection[int]
+           ) -> Iterator[tuple[Index, Index]]:
+    """The (Q, R) = (C − σ e_b, P − σ e_b) beside case C = ``index`` and P = ``start`` (one
+    step apart along axis ``a``), for every other axis b and σ = ±1, one of a and b
+    geometric (``axes``): the other corners of a parallelogram start."""
+    for b in range(len(index)):
+        if b == a or (a not in axes and b not in axes):
+            continue
+        for sigma in (1, -1):
+            yield (index[:b] + (index[b] - sigma,) + index[b + 1:],
+                   start[:b] + (start[b] - sigma,) + start[b + 1:])
+
+
 def held_square(index: Index, start: Index | None, axes: Collection[int],
                 held: Collection[Index]) -> tuple[Index, Index] | None:
     """(Q, R) of a parallelogram start ŝ_P + ŝ_Q − ŝ_R for case C from its start neighbour
     P one step away, among the converged cases ``held`` (the line batches' and Dask's line
     tasks' rule: which cases a task holds is fixed by the task graph,
-    ``waves.partner_lines``): Q = C − σ e_b, R = P − σ e_b on another axis b, one of the
-    two axes geometric (``axes``). None where there is no such pair."""
+    ``waves.partner_lines``): the first pair ``beside`` C and P that ``held`` has. None
+    where there is none."""
     a = _step_axis(index, start)
-    if a is None or not axes:
+    if a is None or start is None:
         return None
-    assert start is not None
-    for b in range(len(index)):
-        if b == a or (a not in axes and b not in axes):
-            continue
-        for sigma in (1, -1):
-            q = index[:b] + (index[b] - sigma,) + index[b + 1:]
-            r = start[:b] + (start[b] - sigma,) + start[b + 1:]
-            if q in held and r in held:
-                return q, r
-    return None
+    return next(((q, r) for q, r in beside(index, start, a, axes) if q in held and r in held),
+                None)
 
 
 def not_unique_beside(index: Index, axes: Collection[int], unsettled: Collection[Index]

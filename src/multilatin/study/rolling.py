@@ -192,7 +192,7 @@ class ChainFeed:
             for earlier in waits:
                 self.dependants.setdefault(earlier.number, []).append(case)
         self.state = state if state is not None else ChainState(_retained_capacity(grid))
-        #: the finished cases flagged not unique (``plan.not_unique_beside``)
+        #: the finished cases flagged not unique (``predictors.not_unique_beside``)
         self.unsettled: set[Index] = set(self.state.unsettled)
         #: the fields of finished cases that cases still to start from them need
         self.fields: dict[Index, tuple[FloatArray, FloatArray]] = {}
@@ -236,7 +236,7 @@ class ChainFeed:
             return None, None, ()
         # its start neighbour, or across geometries Q (its own frictions at the previous
         # geometry), both waited for: flagged not unique one hole position away, the case
-        # starts from zero (``plan.not_unique_beside``)
+        # starts from zero (``predictors.not_unique_beside``)
         beside = {index, *self.extra.get(case.number, ())[:1]} & self.unsettled
         flagged = not_unique_beside(case.index, case.axes, beside) if beside else None
         if flagged is not None:

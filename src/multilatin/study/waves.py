@@ -36,6 +36,7 @@ from ..latin import LatinOptions
 from ..model import Model
 from ..parameters import Grid
 from .plan import Case, ChainState, StudyPlan, _retained_capacity, run_batch
+from .predictors import beside
 from .store import StudyStore
 
 __all__ = ["LineGraph", "LineTask", "from_the_middle", "line_graph", "line_tasks",
@@ -72,6 +73,7 @@ class LineGraph:
     #: per line, its index in the grid's other dimensions (``dims``, in the grid's order)
     keys: list[tuple[int, ...]]
     dims: tuple[int, ...]
+    number_of: dict[tuple[int, ...], int]  # per key, its line
 
     def along(self, case: Case) -> int:
         """The case's index along the lines."""
@@ -117,7 +119,7 @@ def line_graph(plan: StudyPlan, chain: tuple[Case, ...]) -> LineGraph:
     for n in order[1:]:
         parent_line[n] = next(m for m in neighbours(n) if depth_of[m] == depth_of[n] - 1)
     dims = tuple(d for d in range(len(chain[0].index)) if d != inner)
-    return LineGraph(lines, root, order, depth_of, parent_line, inner, keys, dims)
+    return LineGraph(lines, root, order, depth_of, parent_line, inner, keys, dims, number_of)
 
 
 def partner_lines(graph: LineGraph, n: int, axes: Collection[int]) -> tuple[int, ...]:
@@ -133,28 +135,24 @@ def partner_lines(graph: LineGraph, n: int, axes: Collection[int]) -> tuple[int,
     if parent is None or not axes:
         return ()
     key, parent_key = graph.keys[n], graph.keys[parent]
-    number_of = {k: m for m, k in enumerate(graph.keys)}
     moved = [i for i, (k, p) in enumerate(zip(key, parent_key, strict=True)) if k != p]
     if len(moved) != 1:
         return ()
     (a,) = moved
 
     def earlier(k: tuple[int, ...]) -> int | None:
-        m = number_of.get(k)
+        m = graph.number_of.get(k)
         return m if m is not None and graph.depth[m] < graph.depth[n] else None
 
-    if graph.dims[a] in axes:
+    geometric = [i for i, d in enumerate(graph.dims) if d in axes]  # positions in a key
+    if a in geometric:
         beyond = earlier(tuple(2 * p - k for k, p in zip(key, parent_key, strict=True)))
         if beyond is not None:
             return (beyond,)
-    for b in range(len(key)):
-        if b == a or (graph.dims[a] not in axes and graph.dims[b] not in axes):
-            continue
-        for sigma in (1, -1):
-            q = earlier(key[:b] + (key[b] - sigma,) + key[b + 1:])
-            r = earlier(parent_key[:b] + (parent_key[b] - sigma,) + parent_key[b + 1:])
-            if q is not None and r is not None:
-                return (q, r)
+    for q_key, r_key in beside(key, parent_key, a, geometric):
+        q, r = earlier(q_key), earlier(r_key)
+        if q is not None and r is not None:
+            return (q, r)
     return ()
 
 
