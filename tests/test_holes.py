@@ -117,6 +117,9 @@ def test_a_friction_study_shares_its_geometry_and_a_new_hole_does_not():
               if len(x.sides) == 2]
     assert len(joined) > 40 and all(x.sides[0] is y.sides[0] and x.sides[1] is y.sides[1]
                                     for x, y in joined)
+    # ... and per set of faces: a hole moved inside its substructure changes no face
+    assert all(x.sides[0] is y.sides[0] and x.sides[1] is y.sides[1] for x, y in zip(
+        first.interfaces, moved.interfaces, strict=True) if len(x.sides) == 2)
     assert load_model("b3").assemble({"mu1": 0.4, "mu2": 0.2, "xc": 24.0}).interfaces \
         == again.interfaces != first.interfaces
     def frictions(assembly):
