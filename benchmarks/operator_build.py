@@ -1,4 +1,5 @@
-"""What a new b3 geometry's operators cost, as a study builds them: 15 hole positions, each
+"""What a new b3 geometry's assembly and operators cost, as a study builds them: 15 hole
+positions (the assembly of each from the model file, then its operators), each
 after a few iterations of the previous one (so that BLAS's state is a study's); with the
 previous geometry's operators reused (``study.plan._operators``) and built whole
 (``LatinOperators``, as a cold case does). Optionally side by side with another source tree.
@@ -26,19 +27,22 @@ def measure() -> str:
     model, options = ml.load_model("b3"), LatinOptions(max_iter=20, tol=1e-30)
     first = model.assemble({"xc": 25, "yc": 75, "rc": 3})
     solve_latin(first, options, operators=_operators(first, options)[0], check=False)
-    reused, whole = [], []
+    reused, whole, assembled = [], [], []
     for xc in (23, 24, 26, 27, 22):
         for yc in (73, 74, 76):
             before = model.assemble({"xc": xc, "yc": yc, "rc": 3})
             solve_latin(before, options, operators=_operators(before, options)[0], check=False)
+            t0 = time.perf_counter()
             assembly = model.assemble({"xc": xc + 0.5, "yc": yc, "rc": 3})
+            assembled.append(time.perf_counter() - t0)
             t0 = time.perf_counter()
             _operators(assembly, options)
             reused.append(time.perf_counter() - t0)
             t0 = time.perf_counter()
             LatinOperators(assembly, options)
             whole.append(time.perf_counter() - t0)
-    return (f"reused: median {1e3 * np.median(reused):.1f} ms, mean {1e3 * np.mean(reused):.1f}"
+    return (f"assembly: median {1e3 * np.median(assembled):.1f} ms; "
+            f"reused: median {1e3 * np.median(reused):.1f} ms, mean {1e3 * np.mean(reused):.1f}"
             f"; whole: median {1e3 * np.median(whole):.1f} ms, mean {1e3 * np.mean(whole):.1f}")
 
 

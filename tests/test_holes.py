@@ -9,7 +9,9 @@ import pytest
 from multilatin.cli import main
 from multilatin.errors import ModelError
 from multilatin.io.modelfile import ModelSpec
+from multilatin.kept import Kept
 from multilatin.latin import LatinOperators, LatinOptions, solve_latin
+from multilatin.latin import operators as operators_module
 from multilatin.model import load_model
 
 TIGHT = LatinOptions(tol=1e-8)
@@ -94,6 +96,20 @@ def test_a_new_hole_rebuilds_only_its_substructure():
     b = solve_latin(moved, operators=scratch)
     assert a.iterations == b.iterations
     assert a.qoi["R_stop"] == pytest.approx(b.qoi["R_stop"], rel=1e-12)
+    # what a hole moved inside its substructure leaves alone is kept, not formed again: Π,
+    # and Tᵀ M0 H T and Tᵀ M0 under the substructure's interface key; a fresh process (every
+    # kept map cleared) builds the same operators to the bit
+    assert reused.project is first.project
+    held = len(operators_module._INTERFACE_TERMS)
+    again = LatinOperators(model.assemble({"rc": 3.0, "xc": 26.0}), LatinOptions(), reuse=reused)
+    assert again.rebuilt == ("centre[1,1]",) and len(operators_module._INTERFACE_TERMS) == held
+    Kept.clear_all()
+    fresh = LatinOperators(moved, LatinOptions())
+    assert len(operators_module._INTERFACE_TERMS) > 0
+    for kept, built in zip(reused.substructure_operators, fresh.substructure_operators,
+                           strict=True):
+        np.testing.assert_array_equal(kept.condensed, built.condensed)
+        np.testing.assert_array_equal(kept.homogenised, built.homogenised)
 
 
 def test_a_friction_study_shares_its_geometry_and_a_new_hole_does_not():

@@ -26,6 +26,7 @@ from ..decomposition.interfaces import (
 from ..errors import ModelError
 from ..fem.elasticity import FloatArray, IntArray
 from ..fem.mesh import SIDES, normal_axis
+from ..kept import Kept
 from . import kernels
 from .condensation import SubstructureOperators, condense
 from .local_stage import MacroOnlyMap, macro_only_map
@@ -112,6 +113,7 @@ class LatinOperators:
     m0: FloatArray
     macro_basis: sp.csr_matrix | None
     interface_keys: tuple[str, ...]
+    project: sp.csr_matrix  # Π = Ẽᵀ M0 (with a macro basis)
 
     def __init__(self, assembly: Assembly, options: LatinOptions,
                  reuse: LatinOperators | None = None) -> None:
@@ -153,7 +155,7 @@ class LatinOperators:
                 coupling = self.two_scale.block(lo, hi) if self.two_scale is not None else None
                 block = self._substructure(sub.stiffness(), pts.traces[s], self.m0[lo:hi],
                                            k_flat[lo:hi], rows, key, coupling,
-                                           sub.stiffness_pattern())
+                                           sub.stiffness_pattern(), self.interface_keys[s])
                 rebuilt.append(sub.name)
             self.blocks[key] = block
             self.substructure_operators.append(block)
@@ -174,7 +176,9 @@ class LatinOperators:
             factor = self._factorise_macro(homogenised)
             # L⁻¹, dense (n_macro² is small): W̃ᴹ = L⁻¹ (F_dᴹ − Π F) (eq. [15])
             self.homogenised_inverse = sla.cho_solve(factor, np.eye(homogenised.shape[0]))
-            self.project = (basis.T @ sp.diags(self.m0)).tocsr()  # Π = Ẽᵀ M0
+            # Π = Ẽᵀ M0, taken over with the interfaces (a hole moved inside a substructure)
+            self.project = (reuse.project if reuse is not None and basis is reuse.macro_basis
+                            else (basis.T @ sp.diags(self.m0)).tocsr())
 
     def _build_interfaces(self, assembly: Assembly, options: LatinOptions
                           ) -> sp.csr_matrix | None:
@@ -219,14 +223,22 @@ class LatinOperators:
     def _substructure(stiffness: sp.csr_matrix, trace: sp.csr_matrix, m0: FloatArray,
                       k: FloatArray, basis_rows: sp.csr_matrix | None, key: str,
                       coupling: FloatArray | None = None,
-                      pattern: sp.csr_matrix | None = None) -> SubstructureOperators:
+                      pattern: sp.csr_matrix | None = None,
+                      interface_key: str | None = None) -> SubstructureOperators:
         """coupling: M0 (H − D) on the substructure's points (``TwoScaleDirection.block``),
-        H's part beyond its diagonal D = k; pattern: ``Substructure.stiffness_pattern``."""
-        m0_h = sp.diags(m0 * k) + (sp.csr_matrix(coupling) if coupling is not None else 0)
-        operator = (stiffness + trace.T @ m0_h @ trace).tocsc()
+        H's part beyond its diagonal D = k; pattern: ``Substructure.stiffness_pattern``;
+        interface_key: a digest of trace, M0 and H there (``interface_keys``), under which
+        Tᵀ M0 H T and Tᵀ M0 are kept: a hole moved inside the substructure changes neither."""
+        def interface_terms() -> tuple[sp.csr_matrix, sp.csc_matrix]:
+            m0_h = sp.diags(m0 * k) + (sp.csr_matrix(coupling) if coupling is not None else 0)
+            return (sp.csr_matrix(trace.T @ m0_h @ trace),
+                    sp.csc_matrix(trace.T @ sp.diags(m0)))
+
+        term, trace_rhs = (interface_terms() if interface_key is None
+                           else _INTERFACE_TERMS.get(interface_key, interface_terms))
+        operator = (stiffness + term).tocsc()
         # C_E = T S⁻¹ Tᵀ M0, dense, from the factorisation's last block (``condensation``)
         factor, condensed, recovery = condense(operator, trace, m0, pattern=pattern)
-        trace_rhs = sp.csc_matrix(trace.T @ sp.diags(m0))
         if basis_rows is None:
             empty = np.zeros((0, 0))
             return SubstructureOperators(key, factor, condensed, np.zeros(0, dtype=np.int64),
@@ -430,6 +442,10 @@ class LatinOperators:
             u_t = self.substructure_operators[s].interior(x[:, lo:hi])
             out[sub.name] = u_t.reshape(n_columns, -1, 2)
         return out
+
+
+#: Tᵀ M0 H T and Tᵀ M0 per substructure's interface data (``LatinOperators._substructure``)
+_INTERFACE_TERMS: Kept[str, tuple[sp.csr_matrix, sp.csc_matrix]] = Kept(64)
 
 
 def corner_factors(points: InterfacePoints, factor: float, reach: FloatArray) -> FloatArray:
