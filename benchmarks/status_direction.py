@@ -12,7 +12,8 @@ open; on a (frictionless) stop's tangent always, its normal too while it is open
 statuses are read from ŝ after every local stage ("dynamic"), or taken from the tightly
 converged solution ("oracle"). Each load step's columns of the linear stage then take the
 operators of their pattern of statuses (built once per pattern), and the coupled local
-stage takes each row's G: the fixed point is unchanged (tested against η < 1e-10). It wraps
+stage takes each row's G: the fixed point is unchanged (the R_stop errors against η <
+1e-10 in the table show it). It wraps
 ``iteration.make_engine`` and ``operators.two_scale_direction``; the library is not
 changed. Prints, per case (cold, or warm from the tightly converged neighbour at the third
 number), the iterations to η < 1e-6 with today's direction ("off") and the two others, and
