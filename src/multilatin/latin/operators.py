@@ -155,7 +155,8 @@ class LatinOperators:
                 coupling = self.two_scale.block(lo, hi) if self.two_scale is not None else None
                 block = self._substructure(sub.stiffness(), pts.traces[s], self.m0[lo:hi],
                                            k_flat[lo:hi], rows, key, coupling,
-                                           sub.stiffness_pattern(), self.interface_keys[s])
+                                           sub.stiffness_pattern(),
+                                           interface_key=self.interface_keys[s])
                 rebuilt.append(sub.name)
             self.blocks[key] = block
             self.substructure_operators.append(block)
@@ -223,8 +224,8 @@ class LatinOperators:
     def _substructure(stiffness: sp.csr_matrix, trace: sp.csr_matrix, m0: FloatArray,
                       k: FloatArray, basis_rows: sp.csr_matrix | None, key: str,
                       coupling: FloatArray | None = None,
-                      pattern: sp.csr_matrix | None = None,
-                      interface_key: str | None = None) -> SubstructureOperators:
+                      pattern: sp.csr_matrix | None = None, *,
+                      interface_key: str) -> SubstructureOperators:
         """coupling: M0 (H − D) on the substructure's points (``TwoScaleDirection.block``),
         H's part beyond its diagonal D = k; pattern: ``Substructure.stiffness_pattern``;
         interface_key: a digest of trace, M0 and H there (``interface_keys``), under which
@@ -234,8 +235,7 @@ class LatinOperators:
             return (sp.csr_matrix(trace.T @ m0_h @ trace),
                     sp.csc_matrix(trace.T @ sp.diags(m0)))
 
-        term, trace_rhs = (interface_terms() if interface_key is None
-                           else _INTERFACE_TERMS.get(interface_key, interface_terms))
+        term, trace_rhs = _INTERFACE_TERMS.get(interface_key, interface_terms)
         operator = (stiffness + term).tocsc()
         # C_E = T S⁻¹ Tᵀ M0, dense, from the factorisation's last block (``condensation``)
         factor, condensed, recovery = condense(operator, trace, m0, pattern=pattern)

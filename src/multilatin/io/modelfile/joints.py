@@ -11,7 +11,7 @@ import numpy as np
 from ...decomposition.assembly import ContactLaw, Interface, SideRef, Substructure
 from ...decomposition.mortar import face_distances
 from ...errors import ModelError
-from ...fem.mesh import SIDES, RectMesh
+from ...fem.mesh import SIDES
 from .checks import OPPOSITE, SectionReader, check_keys, pair, require
 
 #: an interface found where sides face each other, without its contact law: name, kind,
@@ -21,17 +21,6 @@ Joint = tuple[str, str, SideRef, SideRef, "frozenset[str] | None"]
 Declaration = tuple[str, "ContactLaw | None", str, float]
 #: geometries whose interfaces a model keeps found (``InterfaceSections._found``)
 INTERFACE_CACHE_SIZE = 8
-
-
-def _faces(sub: Substructure) -> tuple[str, str, object]:
-    """What the interfaces found between substructures depend on: name, body and mesh (a
-    structured mesh by its box and divisions, a mesh of its own as the object itself)."""
-    return sub.name, sub.body, repr(sub.mesh) if isinstance(sub.mesh, RectMesh) else sub.mesh
-
-
-def _same_faces(known: tuple[str, str, object], faces: tuple[str, str, object]) -> bool:
-    return known[:2] == faces[:2] and (known[2] is faces[2] or (
-        isinstance(known[2], str) and known[2] == faces[2]))
 
 
 class InterfaceSections(SectionReader):
@@ -81,20 +70,19 @@ class InterfaceSections(SectionReader):
     def _found(self, subs: list[Substructure], declared: dict[frozenset[str], Declaration]
                ) -> tuple[list[Interface], set[frozenset[str]]]:
         """The interfaces where sides face each other, and the declarations they used.
-        Kept between builds (the model's ``cache``) for substructures with the same faces
-        (``_faces``: names, bodies and meshes; a hole lies strictly inside its substructure
-        and changes none) and the same declared kinds and reaches: a study over frictions,
-        gaps or hole positions finds its interfaces once, and each case only puts its
-        contact laws on them."""
+        Kept between builds (the model's ``cache``) for substructures of the same
+        ``Substructure.description`` (name, body, mesh, material; a hole lies strictly inside
+        its substructure and changes no face) and the same declared kinds and reaches: a
+        study over frictions, gaps or hole positions finds its interfaces once, and each
+        case only puts its contact laws on them."""
         shape = frozenset((key, kind, reach) for key, (kind, _, _, reach) in declared.items())
         kept = getattr(self.cache, "interfaces", None)
         found = None
         if kept is not None:
             with self.cache.lock:  # type: ignore[union-attr]
-                faces = [_faces(sub) for sub in subs]
+                faces = tuple(sub.description for sub in subs)
                 for n, (known_faces, known_shape, joints, used) in enumerate(kept):
-                    if known_shape == shape and len(known_faces) == len(subs) and all(
-                            _same_faces(x, y) for x, y in zip(known_faces, faces, strict=True)):
+                    if known_shape == shape and known_faces == faces:
                         kept.insert(0, kept.pop(n))
                         found = joints, used
                         break
@@ -102,7 +90,7 @@ class InterfaceSections(SectionReader):
             found = self._joints(subs, declared)
             if kept is not None:
                 with self.cache.lock:  # type: ignore[union-attr]
-                    kept.insert(0, (tuple(_faces(sub) for sub in subs), shape, *found))
+                    kept.insert(0, (tuple(sub.description for sub in subs), shape, *found))
                     del kept[INTERFACE_CACHE_SIZE:]
         joints, used = found
         return [Interface(name, kind, (ref_a, ref_b),
