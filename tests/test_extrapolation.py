@@ -37,8 +37,8 @@ class AffineIterates:
         w, f = self.x[:half].reshape(self.shape), self.x[half:].reshape(self.shape)
         return w, f, w, f
 
-    def shift(self, cases: np.ndarray, dw: np.ndarray, df: np.ndarray) -> None:
-        self.x = self.x + np.concatenate([dw.ravel(), df.ravel()])
+    def shift(self, cases: np.ndarray, dw: list[np.ndarray], df: list[np.ndarray]) -> None:
+        self.x = self.x + np.concatenate([np.ravel(dw), np.ravel(df)])
 
     def local_stage(self) -> None:
         self.local_stages += 1

@@ -8,6 +8,7 @@ import pytest
 
 import multilatin as ml
 from multilatin.latin import LatinOperators, LatinOptions, solve_latin
+from multilatin.latin.engine import norms
 from multilatin.latin.local_stage import LocalStage
 from multilatin.latin.sliding import WINDOW, SlidingExtrapolation
 
@@ -16,8 +17,9 @@ class CrawlingFields:
     """A stand-in for the solver's field engine whose s moves by a fixed increment per
     iteration; records the shifts and local stages it is asked for."""
 
-    def __init__(self, w0: np.ndarray, dw: np.ndarray) -> None:
-        self.w, self.dw = w0.copy(), dw
+    def __init__(self, w0: np.ndarray, dw: np.ndarray,
+                 weights: tuple[np.ndarray, np.ndarray]) -> None:
+        self.w, self.dw, self.weights = w0.copy(), dw, weights
         self.f = np.zeros_like(w0)
         self.shifts: list[tuple[np.ndarray, np.ndarray, np.ndarray]] = []
         self.local_stages = 0
@@ -25,13 +27,22 @@ class CrawlingFields:
     def step(self) -> None:
         self.w = self.w + self.dw
 
-    def fields(self, cases: object = None) -> tuple[np.ndarray, ...]:
-        return self.w, self.f, self.w, self.f
+    def shift(self, cases: np.ndarray, dw: list[np.ndarray], df: list[np.ndarray]) -> None:
+        self.shifts.append((cases, np.stack(dw), np.stack(df)))
+        self.w[cases] += np.stack(dw)
+        self.f[cases] += np.stack(df)
 
-    def shift(self, cases: np.ndarray, dw: np.ndarray, df: np.ndarray) -> None:
-        self.shifts.append((cases, dw, df))
-        self.w[cases] += dw
-        self.f[cases] += df
+    def state(self, cases: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+        return self.w[cases], self.f[cases]
+
+    def take(self, rows: np.ndarray, index: np.ndarray) -> np.ndarray:
+        return rows[index]
+
+    def state_norms(self, dw: np.ndarray, df: np.ndarray) -> np.ndarray:
+        return norms(self.weights[0], self.weights[1], dw, df)
+
+    def host(self, rows: np.ndarray) -> np.ndarray:
+        return rows
 
     def local_stage(self) -> None:
         self.local_stages += 1
@@ -46,8 +57,12 @@ def b1_stage() -> tuple[LatinOperators, LocalStage]:
 
 
 def _watch(ops: LatinOperators, stage: LocalStage) -> SlidingExtrapolation:
+    return SlidingExtrapolation(stage, 1)
+
+
+def _weights(ops: LatinOperators) -> tuple[np.ndarray, np.ndarray]:
     k, weights = ops.search_direction, ops.points.weights[:, None]
-    return SlidingExtrapolation(stage, (weights * k).ravel(), (weights / k).ravel(), 1)
+    return (weights * k).ravel(), (weights / k).ravel()
 
 
 def test_a_steady_crawl_jumps_exactly_to_the_first_closing(b1_stage) -> None:
@@ -57,7 +72,7 @@ def test_a_steady_crawl_jumps_exactly_to_the_first_closing(b1_stage) -> None:
     w0 = np.zeros(shape)
     dw = np.zeros(shape)
     dw[0, 5, stage.stops] = 1e-4 * stage.n_stop  # step 5's stop points move toward the stop
-    engine = CrawlingFields(w0, dw)
+    engine = CrawlingFields(w0, dw, _weights(ops))
     watch = _watch(ops, stage)
     active = np.array([0])
     for iteration in range(1, 3 * WINDOW + 1):
@@ -81,7 +96,7 @@ def test_a_jump_that_raises_eta_is_taken_back_for_good(b1_stage) -> None:
     shape = (1, stage.prescribed.shape[1], ops.points.n_points, 2)
     dw = np.zeros(shape)
     dw[0, 5, stage.stops] = 1e-4 * stage.n_stop
-    engine = CrawlingFields(np.zeros(shape), dw)
+    engine = CrawlingFields(np.zeros(shape), dw, _weights(ops))
     watch = _watch(ops, stage)
     active = np.array([0])
     for iteration in range(1, 3 * WINDOW + 1):
@@ -125,7 +140,7 @@ def test_no_jump_without_a_closing_gap_or_a_steady_increment(b1_stage) -> None:
     toward = np.zeros(shape)
     toward[0, 5, stage.stops] = 1e-4 * stage.n_stop
     for dw, accelerating in ((-toward, False), (np.zeros(shape), False), (toward, True)):
-        engine = CrawlingFields(np.zeros(shape), dw)
+        engine = CrawlingFields(np.zeros(shape), dw, _weights(ops))
         watch = _watch(ops, stage)
         for iteration in range(1, 6 * WINDOW + 1):
             engine.step()

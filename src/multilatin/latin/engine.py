@@ -14,7 +14,8 @@ leave the batch.
 from __future__ import annotations
 
 import time
-from typing import Protocol
+from collections.abc import Sequence
+from typing import Any, Protocol
 
 import numpy as np
 
@@ -58,9 +59,22 @@ class FieldEngine(Protocol):
     def keep(self, cases: IntArray) -> None:
         """Only the active cases at positions ``cases`` go on."""
 
-    def shift(self, cases: IntArray, dw: FloatArray, df: FloatArray) -> None:
-        """s ← s + (dw, df) for the active cases at positions ``cases`` (host arrays of
-        shape ``(len(cases), n_steps, n_points, 2)``; ``sliding``)."""
+    def shift(self, cases: IntArray, dw: Sequence[Any], df: Sequence[Any]) -> None:
+        """s ← s + (dw, df) for the active cases at positions ``cases`` (one row
+        ``(n_steps, n_points, 2)`` per case, the engine's arrays; ``sliding``)."""
+
+    def state(self, cases: IntArray) -> tuple[Any, Any]:
+        """Copies of (W, F) of the active cases at positions ``cases``, kept where the
+        fields live (torch: on its device): the sliding extrapolation's marks."""
+
+    def take(self, rows: Any, index: IntArray) -> Any:
+        """The rows ``index`` of ``state``'s arrays (or of their differences)."""
+
+    def state_norms(self, dw: Any, df: Any) -> FloatArray:
+        """‖(dw, df)‖ per row in the indicator's norm (§4.3), on the host."""
+
+    def host(self, rows: Any) -> FloatArray:
+        """``state``'s arrays (or rows of them) as NumPy arrays on the host."""
 
 
 class NumpyFields:
@@ -205,12 +219,25 @@ class NumpyFields:
         chosen = slice(None) if cases is None else cases
         return self.w[chosen], self.f[chosen], self.w_hat[chosen], self.f_hat[chosen]
 
-    def shift(self, cases: IntArray, dw: FloatArray, df: FloatArray) -> None:
+    def shift(self, cases: IntArray, dw: Sequence[Any], df: Sequence[Any]) -> None:
         assert self.w is not None and self.f is not None
         self.w = np.array(self.w)  # its own array (not the linear stage's output)
         self.f = np.array(self.f)
-        self.w[cases] += dw
-        self.f[cases] += df
+        self.w[cases] += np.stack(dw)
+        self.f[cases] += np.stack(df)
+
+    def state(self, cases: IntArray) -> tuple[FloatArray, FloatArray]:
+        assert self.w is not None and self.f is not None
+        return self.w[cases], self.f[cases]  # indexed by an array: copies
+
+    def take(self, rows: FloatArray, index: IntArray) -> FloatArray:
+        return rows[index]
+
+    def state_norms(self, dw: FloatArray, df: FloatArray) -> FloatArray:
+        return norms(self.displacement_weight, self.force_weight, dw, df)
+
+    def host(self, rows: FloatArray) -> FloatArray:
+        return np.asarray(rows)
 
     def join(self, local: LocalStage, w_hat: FloatArray, f_hat: FloatArray,
              macro_data: FloatArray | None, functionals: list[QoiFunctionals] | None,

@@ -110,8 +110,8 @@ class ReducedRankExtrapolation:
             moved.append(case)
         if positions:
             shift = np.stack(shifts)
-            engine.shift(np.array(positions), shift[:, :half].reshape(-1, *shape),
-                         shift[:, half:].reshape(-1, *shape))
+            engine.shift(np.array(positions), list(shift[:, :half].reshape(-1, *shape)),
+                         list(shift[:, half:].reshape(-1, *shape)))
             engine.local_stage()
         return moved
 

@@ -178,7 +178,7 @@ class BatchIterations:
         self.relaxation = np.full(n_cases, options.relaxation)  # per active case
         self.anderson = options.acceleration == "anderson"
         weights = indicator_weights(ops.points.weights, ops.indicator_k)
-        self.sliding = (SlidingExtrapolation(local, *weights, n_cases)
+        self.sliding = (SlidingExtrapolation(local, n_cases)
                         if options.extrapolate_sliding and not self.anderson else None)
         self.rre = (ReducedRankExtrapolation(options.rre_cycle, *weights, n_cases)
                     if options.acceleration == "rre" else None)

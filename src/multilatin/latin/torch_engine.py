@@ -12,6 +12,7 @@ import importlib
 import logging
 import os
 import time
+from collections.abc import Sequence
 from typing import Any
 
 import numpy as np
@@ -58,8 +59,9 @@ def load_torch(device: str) -> Any:
 #: field-sized arrays (n_steps × n_points × 2 doubles) alive at once per case of a batch:
 #: s, ŝ, the new s, the linear stage's right-hand side and products, the macro correction,
 #: the local stage's temporaries and the solver's host copies; measured 20.6 on the CPU
-#: build (peak RSS growth, 400 b3 cases), taken with a margin
-FIELDS_PER_CASE = 24
+#: build (peak RSS growth, 400 b3 cases) and 31.8 on an H100 with the CUDA graphs' memory
+#: pools (the whole B3 study's batches of 4 225 cases: 29.4 GiB), taken with a margin
+FIELDS_PER_CASE = 34
 #: share of the free device memory a batch may take
 MEMORY_SHARE = 0.7
 #: the devices on which a batch keeps the rows of cases that left it until at most half
@@ -351,15 +353,16 @@ class TorchFields:
 
     def _norm_squares(self, w: Tensor, f: Tensor, w_hat: Tensor, f_hat: Tensor) -> Tensor:
         """‖s − ŝ‖², ‖s‖², ‖ŝ‖² of every row (§4.3), stacked (3, rows)."""
-
-        def squares(w: Tensor, f: Tensor) -> Tensor:
-            n_cases = w.shape[0]
-            dw, fw = self.displacement_weight, self.force_weight
-            return ((w * w).reshape(n_cases, -1, dw.numel()).sum(dim=1) @ dw
-                    + (f * f).reshape(n_cases, -1, fw.numel()).sum(dim=1) @ fw)
-
+        squares = self._squares
         return self.torch.stack([squares(w - w_hat, f - f_hat), squares(w, f),
                                  squares(w_hat, f_hat)])
+
+    def _squares(self, w: Tensor, f: Tensor) -> Tensor:
+        """‖(w, f)‖² per row in the indicator's norm (§4.3)."""
+        n_cases = w.shape[0]
+        dw, fw = self.displacement_weight, self.force_weight
+        return ((w * w).reshape(n_cases, -1, dw.numel()).sum(dim=1) @ dw
+                + (f * f).reshape(n_cases, -1, fw.numel()).sum(dim=1) @ fw)
 
     def indicator(self) -> tuple[FloatArray, FloatArray]:
         assert self.w is not None and self.f is not None
@@ -381,13 +384,36 @@ class TorchFields:
             out.append(np.asarray(chosen.cpu().numpy(), dtype=np.float64))
         return out[0], out[1], out[2], out[3]
 
-    def shift(self, cases: IntArray, dw: FloatArray, df: FloatArray) -> None:
+    def shift(self, cases: IntArray, dw: Sequence[Tensor], df: Sequence[Tensor]) -> None:
         self._settle()
         self._results = {}
         assert self.w is not None and self.f is not None
         index = self._index(self.slots[cases])
-        self.w = self.w.index_add(0, index, self._tensor(dw))
-        self.f = self.f.index_add(0, index, self._tensor(df))
+        self.w = self.w.index_add(0, index, self._stacked(dw))
+        self.f = self.f.index_add(0, index, self._stacked(df))
+
+    def _stacked(self, rows: Sequence[Any]) -> Tensor:
+        """Rows (tensors, or host arrays: ``extrapolation``) as one tensor on the device."""
+        return self.torch.stack([row if isinstance(row, self.torch.Tensor) else
+                                 self._tensor(row) for row in rows])
+
+    def state(self, cases: IntArray) -> tuple[Tensor, Tensor]:
+        self._settle()
+        assert self.w is not None and self.f is not None
+        index = self._index(self.slots[cases])
+        return self.w.index_select(0, index), self.f.index_select(0, index)
+
+    def take(self, rows: Tensor, index: IntArray) -> Tensor:
+        if index.size and np.all(np.diff(index) == 1):  # a run of rows: a view
+            return rows[int(index[0]):int(index[-1]) + 1]
+        return rows.index_select(0, self._index(index))
+
+    def state_norms(self, dw: Tensor, df: Tensor) -> FloatArray:
+        out: FloatArray = np.sqrt(self._squares(dw, df).cpu().numpy())
+        return out
+
+    def host(self, rows: Tensor) -> FloatArray:
+        return np.asarray(rows.cpu().numpy(), dtype=np.float64)
 
     def keep(self, cases: IntArray) -> None:
         """The active cases at positions ``cases`` go on; padded (``PADDED_DEVICES``), the

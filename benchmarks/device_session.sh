@@ -1,0 +1,33 @@
+#!/usr/bin/env bash
+# One prepared call on a lent GPU machine with 16 cores (issues 19 and 16), about 9 minutes:
+# the GPU's answers against NumPy (it stops the call where one differs), the B1 and B3 rows
+# side by side, the whole 21 125-case B3 study from zero sampled by py-spy (where the host's
+# time goes, the waits for the GPU included), then the 16 cores: N copies of a serial study
+# at once (no Dask) and the 845-case B3 study on 16 Dask workers against the serial one.
+# Logs go to $OUT (the device tool's folder) or ./device-session.
+#
+#   WHEELS=.whl bash benchmarks/device_session.sh   # + wheels for what the machine lacks
+#                                                   #   (meshio, dask, py-spy: docs/gpu.md)
+#   WHEELS=.whl CORES=0 bash benchmarks/device_session.sh   # the GPU part alone (~4 min)
+set -uo pipefail
+source "$(dirname "$0")/device_env.sh" device-session
+export PATH="/tmp/site/bin:$PATH"
+nvidia-smi --query-gpu=name,memory.total,driver_version --format=csv,noheader | tee "$out/device.log"
+lscpu | grep -E "^(Model name|CPU\(s\)|Thread|Core|Socket|L3)" | tee -a "$out/device.log"
+python3 -c "import torch, numpy, numba; print('torch', torch.__version__, 'numpy', \
+numpy.__version__, 'numba', numba.__version__)" | tee -a "$out/device.log"
+timeout 90 python3 benchmarks/gpu_check.py --device cuda 2>&1 | tee "$out/check.log" || exit 2
+timeout 80 python3 benchmarks/gpu.py --device cuda --no-tight --only "B1,B3 5" 2>&1 \
+    | tee "$out/rows.log"
+spy=()
+if py-spy record -d 1 -o /tmp/spy-test.txt -f raw -- python3 -c "import time; time.sleep(2)" \
+    > /dev/null 2>&1; then
+    spy=(py-spy record -r 20 --nonblocking -f raw -o "$out/full-spy.txt" --)
+fi
+timeout 270 "${spy[@]}" python3 benchmarks/gpu.py --device cuda --no-tight --only none --full \
+    --full-start zero 2>&1 | tee "$out/full.log"
+if [ "${CORES:-1}" = 0 ]; then echo "device session done (GPU part)"; exit 0; fi
+timeout 120 python3 benchmarks/core_contention.py --copies 1 16 2>&1 | tee "$out/contention.log"
+timeout 150 python3 benchmarks/dask_waves.py --study b3 --no-predict --dask 16 2>&1 \
+    | grep -v Warning | tee "$out/dask.log"
+echo "device session done"
