@@ -10,7 +10,9 @@ post-processing of a batch (``solve_latin_batch``'s ``timings["postprocess"]``: 
 QoIs, free motions, results; the better of 2 solves) for B1's 13 × 13 frictions (169
 cases) and a 5 × 5 B3 grid (25 cases), both at ``qoi_rtol = 1e-3``: with the interior
 displacements recovered (what ``solve`` does) and without (what a study does,
-``LatinOptions.recover_displacements``; a tree without that option recovers them). With
+``LatinOptions.recover_displacements``; a tree without that option recovers them). Then a
+b3 geometry's 169 frictions as one batch, as a GPU study runs them: its macro force data
+and its free motions. With
 ``--baseline``: fresh processes alternately with ``PYTHONPATH`` set to that tree and to
 this one, ``--rounds`` times.
 """
@@ -67,7 +69,45 @@ def measure() -> dict[str, float]:
                        for _ in range(2))
             label = "recovered" if recover else "study (no recovery)"
             out[f"{name} post-processing, {label}"] = 1e3 * post / len(batch)
+    out.update(geometry_batch())
     return out
+
+
+def geometry_batch() -> dict[str, float]:
+    """A b3 geometry's 169 frictions as one batch (how a GPU study runs them): the batch's
+    macro force data F_dᴹ (``BatchIterations._macro_data``) and the free motions of its 169
+    states (``free_motions_batch``, on the states after 40 iterations), best of 3."""
+    import numpy as np
+
+    import multilatin as ml
+    from multilatin.decomposition.interfaces import with_contact_data
+    from multilatin.decomposition.uniqueness import free_motions_batch
+    from multilatin.latin import LatinOperators, LatinOptions, solve_latin_batch
+    from multilatin.latin.iteration import BatchIterations
+    from multilatin.latin.local_stage import LocalStage
+
+    model, values = ml.load_model("b3"), np.linspace(0.0, 0.6, 13)
+    batch = [model.assemble({"mu1": a, "mu2": b}) for a in values for b in values]
+    ops = LatinOperators(batch[0], LatinOptions())
+    local = LocalStage(batch, [ops.points] * len(batch), ops.search_direction,
+                       macro_only=ops.macro_only)
+    iterations = BatchIterations.__new__(BatchIterations)
+    iterations.ops = ops
+    states = [r.interface for r in solve_latin_batch(batch, LatinOptions(max_iter=40),
+                                                     check=False)]
+    points = [with_contact_data(ops.points, assembly) for assembly in batch]
+    best = {"b3 169-case batch: macro force data": float("inf"),
+            "b3 169-case batch: free motions": float("inf")}
+    for _ in range(3):
+        t0 = time.process_time()
+        iterations._macro_data(local, len(batch))
+        t1 = time.process_time()
+        free_motions_batch(batch, points, [s.displacement_hat for s in states],
+                           [s.force_hat for s in states])
+        t2 = time.process_time()
+        for key, value in zip(best, (t1 - t0, t2 - t1), strict=True):
+            best[key] = min(best[key], 1e3 * value / len(batch))
+    return best
 
 
 def main() -> None:

@@ -121,3 +121,26 @@ def test_without_recovery_the_qois_come_from_the_interface_fields(name: str) -> 
             expected = np.atleast_1d(value)
             assert np.max(np.abs(np.atleast_1d(b.qoi[key]) - expected)) <= (
                 1e-12 * np.max(np.abs(expected))), key
+
+
+@pytest.mark.parametrize("name", ["b1", "b3"])
+def test_macro_force_data_from_the_boundary_points_equals_the_whole_field(name: str) -> None:
+    """A batch's F_dᴹ = Π F_d is taken from Π's columns at the boundary points (where F_d
+    is not zero): the same as Π applied to the whole field, case by case and step by step."""
+    from multilatin.latin.iteration import BatchIterations
+
+    model = ml.load_model(name)
+    batch = [model.assemble({"mu1": mu, "mu2": 0.2}) for mu in (0.0, 0.3)]
+    ops = LatinOperators(batch[0], LatinOptions())
+    local = LocalStage(batch, [ops.points] * 2, ops.search_direction,
+                       macro_only=ops.macro_only)
+    iterations = BatchIterations.__new__(BatchIterations)
+    iterations.ops = ops
+    found = iterations._macro_data(local, 2)
+    field = local.prescribed_force_field(ops.points.n_points)
+    assert np.abs(field).max() > 0.0
+    for c in range(2):
+        for t in range(field.shape[1]):
+            expected = ops.project @ field[c, t].ravel()
+            np.testing.assert_allclose(found[c, t], expected, rtol=1e-13,
+                                       atol=1e-13 * np.abs(expected).max())

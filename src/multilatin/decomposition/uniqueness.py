@@ -177,23 +177,24 @@ def free_motions_batch(assemblies: Sequence[Assembly], points: Sequence[Interfac
         groups.setdefault(id(clusters), (clusters, []))[1].append(c)
     for clusters, members in groups.values():
         found = _motions_of(clusters, [points[c] for c in members],
-                            np.stack([displacement_hats[c] for c in members]),
-                            np.stack([force_hats[c] for c in members]), reserve_tol)
+                            [displacement_hats[c] for c in members],
+                            [force_hats[c] for c in members], reserve_tol)
         for c, motions in zip(members, found, strict=True):
             out[c] = sorted(motions, key=lambda motion: motion.step)
     return out
 
 
 def _motions_of(clusters: list[_Cluster], points: Sequence[InterfacePoints],
-                displacement_hat: FloatArray, force_hat: FloatArray, reserve_tol: float
-                ) -> list[list[FreeMotion]]:
-    """``free_motions_batch`` for cases of the same ``clusters``, their fields stacked
-    (n_cases, n_steps, n_points, 2)."""
-    n_cases, n_steps = force_hat.shape[:2]
+                displacement_hats: Sequence[FloatArray], force_hats: Sequence[FloatArray],
+                reserve_tol: float) -> list[list[FreeMotion]]:
+    """``free_motions_batch`` for cases of the same ``clusters`` (fields (n_steps,
+    n_points, 2) each); only the clusters' points of the fields are gathered (on b3 108 of
+    955: stacking whole fields was most of the time)."""
+    n_cases, n_steps = len(force_hats), force_hats[0].shape[0]
     out: list[list[FreeMotion]] = [[] for _ in range(n_cases)]
-    force_scale = np.abs(force_hat).reshape(n_cases, -1).max(axis=1)
+    force_scale = np.array([_largest(force) for force in force_hats])
     force_scale[force_scale == 0.0] = 1.0
-    displacement_scale = np.abs(displacement_hat).reshape(n_cases, -1).max(axis=1)
+    displacement_scale = np.array([_largest(w) for w in displacement_hats])
     displacement_scale[displacement_scale == 0.0] = 1.0
     near = 1e-4 * displacement_scale[:, None, None]  # (C, 1, 1)
     for cluster in clusters:
@@ -204,19 +205,22 @@ def _motions_of(clusters: list[_Cluster], points: Sequence[InterfacePoints],
                                              pts.stop_friction[own_stops]]) for pts in points])
         gap = np.stack([np.concatenate([pts.contact_gap[own_a], pts.contact_gap[own_b],
                                         pts.stop_gap[own_stops]]) for pts in points])
-        force = force_hat[:, :, p]  # (C, T, n, 2): the force on the cluster
+        force = np.stack([f[:, p] for f in force_hats])  # (C, T, n, 2): on the cluster
         normal_force = np.einsum("ctnd,nd->ctn", force, normal)
         # [Ŵ] = Ŵ_partner − Ŵ_own (a stop's side is fixed): opening and slip increments
-        jump = np.where(partner[:, None] >= 0, displacement_hat[:, :, np.maximum(partner, 0)],
-                        0.0) - displacement_hat[:, :, p]
+        other = np.maximum(partner, 0)
+        jump = (np.where(partner[:, None] >= 0, np.stack([w[:, other] for w in
+                                                          displacement_hats]), 0.0)
+                - np.stack([w[:, p] for w in displacement_hats]))
         opening = gap[:, None, :] + np.einsum("nd,ctnd->ctn", normal, jump)
         increment = np.diff(jump, axis=1, prepend=np.zeros((n_cases, 1, *jump.shape[2:])))
         slip = increment - np.einsum("ctnd,nd->ctn", increment, normal)[..., None] * normal
         moving = np.linalg.norm(slip, axis=3) > near  # (C, T, n)
         pressed = normal_force < -1e-9 * force_scale[:, None, None]  # no motion along n
         touching = ~pressed & (opening <= near)  # may only separate
-        gram = cluster.held + np.einsum("ctn,nk,nl->ctkl", pressed.astype(float),
-                                        cluster.along_normal, cluster.along_normal)
+        along = cluster.along_normal  # Σ_pressed a aᵀ, as one product over the points
+        outer = (along[:, :, None] * along[:, None, :]).reshape(-1, 9)
+        gram = cluster.held + (pressed.astype(float) @ outer).reshape(*pressed.shape[:2], 3, 3)
         values, vectors = np.linalg.eigh(gram)  # ascending
         free = values <= 1e-10 * np.maximum(values[..., -1:], 1e-300)
         if not free.any():
@@ -248,6 +252,11 @@ def _motions_of(clusters: list[_Cluster], points: Sequence[InterfacePoints],
                                              t + 1 == n_steps or bool(with_friction[c])))
                     break
     return out
+
+
+def _largest(x: FloatArray) -> float:
+    """max |x| without an array of |x|."""
+    return float(max(x.max(), -x.min())) if x.size else 0.0
 
 
 def _friction_reserve(velocity: FloatArray, normal: FloatArray, tangential_force: FloatArray,
