@@ -114,6 +114,35 @@ def test_a_warm_batch_equals_the_numpy_one(acceleration: str, padded: bool,
         assert _relative(one.qoi["u_A"], other.qoi["u_A"]) < limit
 
 
+@pytest.mark.parametrize("padded", [False, True])
+def test_sliding_jumps_on_the_device_equal_the_numpy_ones(
+        padded: bool, monkeypatch: pytest.MonkeyPatch) -> None:
+    """B1 at κ = 1, (μ1, μ2) = (0, 0.05): the centre block crawls toward the stop and only
+    the sliding extrapolation's jump lets it converge before the drift check (200
+    iterations; ``test_sliding``). Its marks and test stay on the torch device: the same
+    jump, iterations and answer as NumPy's, beside a case that does not crawl."""
+    from dataclasses import replace
+
+    from multilatin.latin import torch_engine
+
+    if padded:
+        monkeypatch.setattr(torch_engine, "PADDED_DEVICES", ("cuda", "cpu"))
+        monkeypatch.setattr(torch_engine, "FUSED_DEVICES", ("cuda", "cpu"))
+    model, options = ml.load_model("b1"), LatinOptions(kappa=1.0)
+    batch = [model.assemble({"mu1": 0.0, "mu2": 0.05}), model.assemble({"mu1": 0.3,
+                                                                        "mu2": 0.0})]
+    reference = solve_latin_batch(batch, options)
+    got = solve_latin_batch(batch, replace(options, backend="torch", device=DEVICE))
+    assert reference[0].iterations < 200
+    if not padded:  # without the jump: not converged (stopped on its drift)
+        assert not solve_latin_batch(batch[:1], replace(options, extrapolate_sliding=False,
+                                                        backend="torch", device=DEVICE),
+                                     check=False)[0].converged
+    for one, other in zip(reference, got, strict=True):
+        assert other.converged and one.iterations == other.iterations
+        assert _relative(one.qoi["R_stop"], other.qoi["R_stop"]) < 1e-9
+
+
 def test_a_small_study_equals_the_numpy_one(tmp_path: object) -> None:
     """The same strategy on both backends (every case from zero in one batch: on torch,
     multiresolution solves a grid's first lines from zero instead of case after case, see
