@@ -29,7 +29,8 @@ from .threads import one_blas_thread
 from .tracking import QoiFunctionals
 from .two_scale import compiled_local_stage, coupled_local_stage
 
-__all__ = ["FieldEngine", "NumpyFields", "indicator_weights", "norms", "one_blas_thread"]
+__all__ = ["FieldEngine", "NumpyFields", "as_run", "indicator_weights", "norms",
+           "one_blas_thread"]
 
 
 class FieldEngine(Protocol):
@@ -231,7 +232,8 @@ class NumpyFields:
         return self.w[cases], self.f[cases]  # indexed by an array: copies
 
     def take(self, rows: FloatArray, index: IntArray) -> FloatArray:
-        return rows[index]
+        run = as_run(index)
+        return rows[index] if run is None else rows[run]
 
     def state_norms(self, dw: FloatArray, df: FloatArray) -> FloatArray:
         return norms(self.displacement_weight, self.force_weight, dw, df)
@@ -296,6 +298,13 @@ class NumpyFields:
             self.side_macro = self.side_macro[cases]
         if self.mixer is not None:
             self.mixer.subset(cases)
+
+
+def as_run(index: IntArray) -> slice | None:
+    """``index`` as a slice where it is a run of consecutive rows (a view, no copy)."""
+    if index.size and np.all(np.diff(index) == 1):
+        return slice(int(index[0]), int(index[-1]) + 1)
+    return None
 
 
 def indicator_weights(weights: FloatArray, k: FloatArray) -> tuple[FloatArray, FloatArray]:

@@ -21,6 +21,7 @@ from ..errors import ModelError
 from ..fem.elasticity import FloatArray, IntArray
 from ..limits import MEMORY_ENVIRONMENT, memory_limit
 from .acceleration import Anderson, ArrayOps
+from .engine import as_run
 from .local_stage import LocalStage
 from .operators import LatinOperators
 from .options import LatinOptions
@@ -404,9 +405,8 @@ class TorchFields:
         return self.w.index_select(0, index), self.f.index_select(0, index)
 
     def take(self, rows: Tensor, index: IntArray) -> Tensor:
-        if index.size and np.all(np.diff(index) == 1):  # a run of rows: a view
-            return rows[int(index[0]):int(index[-1]) + 1]
-        return rows.index_select(0, self._index(index))
+        run = as_run(index)  # a run of rows: a view
+        return rows.index_select(0, self._index(index)) if run is None else rows[run]
 
     def state_norms(self, dw: Tensor, df: Tensor) -> FloatArray:
         out: FloatArray = np.sqrt(self._squares(dw, df).cpu().numpy())
