@@ -196,16 +196,11 @@ class BatchIterations:
         if ops.macro_basis is None:
             return None
         n_steps = local.prescribed.shape[1]
-        if np.unique(local.boundary).size < local.boundary.size:  # (not met): whole fields
-            prescribed = local.prescribed_force_field(ops.points.n_points)
-            return np.asarray((ops.project @ prescribed.reshape(n_cases * n_steps, -1).T
-                               ).T.reshape(n_cases, n_steps, -1))
-        # F_d is zero off the boundary points: Π's columns there only (b3: 0.2 ms a case
-        # with the whole fields)
+        # F_d is zero off the boundary points (each an interface's own): Π's columns there
+        # only (b3: 0.2 ms a case with the whole fields)
         columns = (2 * local.boundary[:, None] + np.arange(2)).ravel()
-        values = np.where(local.is_displacement, 0.0, local.prescribed)
-        return np.asarray((ops.project[:, columns] @ values.reshape(n_cases * n_steps, -1).T
-                           ).T.reshape(n_cases, n_steps, -1))
+        values = local.prescribed_forces().reshape(n_cases * n_steps, -1)
+        return np.asarray((ops.project[:, columns] @ values.T).T.reshape(n_cases, n_steps, -1))
 
     def join(self, local: LocalStage, w_hat: FloatArray, f_hat: FloatArray,
              functionals: list[QoiFunctionals] | None, geometry: LatinOperators

@@ -149,8 +149,14 @@ class LocalStage:
     def prescribed_force_field(self, n_points: int) -> FloatArray:
         """F_d at every interface point (zero where no force is prescribed), per case."""
         field = np.zeros((*self.prescribed.shape[:2], n_points, 2))
-        field[:, :, self.boundary] = np.where(self.is_displacement, 0.0, self.prescribed)
+        field[:, :, self.boundary] = self.prescribed_forces()
         return field
+
+    def prescribed_forces(self) -> FloatArray:
+        """F_d at the boundary points (``boundary``; zero where a displacement is
+        prescribed), per case: (n_cases, n_steps, n_boundary, 2)."""
+        out: FloatArray = np.where(self.is_displacement, 0.0, self.prescribed)
+        return out
 
     def __call__(self, displacement: FloatArray, force: FloatArray) -> tuple[FloatArray,
                                                                                FloatArray]:

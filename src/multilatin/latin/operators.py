@@ -59,10 +59,8 @@ def interface_signature(assembly: Assembly, options: LatinOptions) -> str:
             text = repr((list(described[0]), list(interfaces), choices))
             return hashlib.sha1(text.encode()).hexdigest()
 
-        try:  # the cases of a study share it: by the (hashable) description itself
-            assembly.digests[key] = _INTERFACE_DIGESTS.get(described, digest)
-        except TypeError:  # something unhashable in it: the digest of its text
-            assembly.digests[key] = digest()
+        # the cases of a study share it: kept by the description itself
+        assembly.digests[key] = _INTERFACE_DIGESTS.get(described, digest)
     return assembly.digests[key]
 
 
