@@ -9,6 +9,8 @@
 #   WHEELS=.whl bash benchmarks/device_session.sh   # + wheels for what the machine lacks
 #                                                   #   (meshio, dask, py-spy: docs/gpu.md)
 #   WHEELS=.whl CORES=0 bash benchmarks/device_session.sh   # the GPU part alone (~4 min)
+#   WHEELS=.whl CORES=0 FULL_WORKERS=0,4,8 bash ...   # the whole study also on 4 and 8
+#                                                   #   processes sharing the GPU (~7 min)
 set -uo pipefail
 source "$(dirname "$0")/device_env.sh" device-session
 export PATH="/tmp/site/bin:$PATH"
@@ -24,8 +26,10 @@ if py-spy record -d 1 -o /tmp/spy-test.txt -f raw -- python3 -c "import time; ti
     > /dev/null 2>&1; then
     spy=(py-spy record -r 20 --nonblocking -f raw -o "$out/full-spy.txt" --)
 fi
-timeout 270 "${spy[@]}" python3 benchmarks/gpu.py --device cuda --no-tight --only none --full \
-    --full-start zero 2>&1 | tee "$out/full.log"
+workers=${FULL_WORKERS:-0}  # e.g. 0,4,8: the study in this process, then on 4 and 8 processes
+timeout $((150 + 100 * $(tr -cd , <<< "$workers" | wc -c))) "${spy[@]}" python3 \
+    benchmarks/gpu.py --device cuda --no-tight --only none --full --full-start zero \
+    --full-workers "$workers" 2>&1 | grep -v Warning | tee "$out/full.log"
 if [ "${CORES:-1}" = 0 ]; then echo "device session done (GPU part)"; exit 0; fi
 timeout 120 python3 benchmarks/core_contention.py --copies 1 16 2>&1 | tee "$out/contention.log"
 timeout 150 python3 benchmarks/dask_waves.py --study b3 --no-predict --dask 16 2>&1 \

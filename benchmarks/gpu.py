@@ -20,6 +20,13 @@ Every study runs with the study defaults (QoI stopping at 1e-3). Rows:
 - with ``--full``, the B3 21 125-case study on torch, from zero and as a wavefront, in
   batches of ``--full-batch`` cases (25 geometries × 169 frictions by default); the NumPy
   figure is docs/performance.md's 2-worker run (28 min; running it here would take as long).
+  With ``--full-workers 0,4``: in this process, then on a local Dask cluster of 4 processes
+  sharing the GPU (each with its share of its memory, its batches as many and 4 × narrower:
+  their host work — assembly, set-up, free motions, records — side by side on 4 cores while
+  the GPU serves them in turn; each batch a task handed to the next free process, or with
+  ``4:chains`` each process a chain of batches), the R_stop difference from the first such
+  run, the device's peak memory over all processes (``torch.cuda.mem_get_info`` sampled
+  every 0.1 s), and when the batches came back.
 
 Columns: wall time, cases/s, iterations in all, the peak memory (CUDA's allocator on a GPU;
 the process's peak RSS on the CPU), the largest relative R_stop difference from NumPy with
@@ -29,8 +36,11 @@ the same strategy, and the largest relative R_stop error against tight solves (�
 from __future__ import annotations
 
 import argparse
+import contextlib
+import math
 import resource
 import tempfile
+import threading
 import time
 from dataclasses import replace
 from typing import Any
@@ -57,6 +67,32 @@ def peak_memory(torch: Any, device: str) -> str:
     return f"{resource.getrusage(resource.RUSAGE_SELF).ru_maxrss / 1024:.0f} MiB (RSS)"
 
 
+class DevicePeak:
+    """The device's peak used memory over all its processes (CUDA contexts included),
+    sampled every 0.1 s while the ``with`` block runs."""
+
+    def __init__(self, torch: Any, device: str) -> None:
+        self.torch, self.device, self.peak = torch, device, 0
+        self._stop = threading.Event()
+
+    def _sample(self) -> None:
+        while not self._stop.wait(0.1):
+            free, total = self.torch.cuda.mem_get_info(self.torch.device(self.device))
+            self.peak = max(self.peak, total - free)
+
+    def __enter__(self) -> DevicePeak:
+        self._thread = threading.Thread(target=self._sample, daemon=True)
+        self._thread.start()
+        return self
+
+    def __exit__(self, *exc: object) -> None:
+        self._stop.set()
+        self._thread.join()
+
+    def text(self) -> str:
+        return f"{self.peak / 2**30:.1f} GiB (device, all processes)"
+
+
 def study(model: ml.Model, grid: list[str], options: LatinOptions, **kwargs: Any
           ) -> tuple[float, np.ndarray, int, str]:
     """Wall time, R_stop over the grid (grid order), iterations in all, and where the time
@@ -75,6 +111,13 @@ def study(model: ml.Model, grid: list[str], options: LatinOptions, **kwargs: Any
     split = (f"  where the {wall:.1f} s went: set-up (assembly, operators, starts) "
              f"{setup:.1f} s, solves {cases - setup:.1f} s, records, store and the rest "
              f"{wall - cases:.1f} s")
+    workers = kwargs.get("workers", 0)
+    if workers:  # the processes' time side by side, and when their batches came back
+        done = sorted({r["elapsed_s"] for r in result.records})
+        split = (f"  the {workers} processes' time in their batches: set-up {setup:.1f} s, "
+                 f"solves {cases - setup:.1f} s ({cases / workers:.1f} s each on average); "
+                 f"{len(done)} batches came back from {done[0]:.1f} s to {done[-1]:.1f} s "
+                 f"after the start (wall {wall:.1f} s)")
     return wall, np.asarray(result.dataset["R_stop"].values, dtype=float), iterations, split
 
 
@@ -115,6 +158,10 @@ def main() -> None:
                              "4 225 cases)")
     parser.add_argument("--full-start", default="zero,neighbour",
                         help="the --full study's starts, in this order")
+    parser.add_argument("--full-workers", default="0",
+                        help="the --full study's processes, in this order (0: this one; W: "
+                             "a local Dask cluster of W, batches W × narrower, each batch "
+                             "a task; W:chains: each process a chain of batches)")
     parser.add_argument("--fuse", action="store_true",
                         help="torch rows with the compiled local stage (LatinOptions.fuse); "
                              "its compilation happens in the warm-up solves, not the rows")
@@ -198,15 +245,31 @@ def main() -> None:
         full = [*B3_FULL[:-1], f"rc={args.full_rc}"]
         n_full = int(np.prod([len(v) for v in ml.Grid.parse(full).values()]))
         for label, kwargs in (FULL_STARTS[name] for name in args.full_start.split(",")):
-            if args.device.startswith("cuda"):
-                torch.cuda.reset_peak_memory_stats()
-            wall, values, iterations, split = study(b3, full, device_options,
-                                             batch=args.full_batch, **kwargs)
-            row(f"B3 {n_full} cases", f"torch {args.device}, {label}, batch {args.full_batch}",
-                wall, values.size, iterations, peak_memory(torch, args.device), None, None,
-                None)
-            print(split, flush=True)
-
+            first = None
+            for item in args.full_workers.split(","):
+                workers, _, schedule = item.partition(":")
+                workers, schedule = int(workers), schedule or "waves"
+                batch = args.full_batch
+                if workers:  # each process's chain in as many batches as one process's
+                    batch = math.ceil(math.ceil(n_full / workers) / math.ceil(n_full / batch))
+                on_gpu = args.device.startswith("cuda")
+                if on_gpu:
+                    torch.cuda.reset_peak_memory_stats()
+                sampler = DevicePeak(torch, args.device) if on_gpu else None
+                with sampler or contextlib.nullcontext():
+                    wall, values, iterations, split = study(
+                        b3, full, device_options, batch=batch, workers=workers,
+                        schedule=schedule, **kwargs)
+                memory = (f"{peak_memory(torch, args.device)}; {sampler.text()}"
+                          if sampler is not None and not workers else
+                          sampler.text() if sampler is not None else "—")
+                where = (f"{workers} Dask processes ({schedule})" if workers else
+                         "this process")
+                row(f"B3 {n_full} cases", f"torch {args.device}, {label}, batch {batch}, "
+                    f"{where}", wall, values.size, iterations, memory,
+                    None if first is None else relative(first, values), None, None)
+                first = values if first is None else first
+                print(split, flush=True)
 
 if __name__ == "__main__":
     main()

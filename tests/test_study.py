@@ -240,6 +240,28 @@ def test_dask_cluster_gives_the_serial_results(b1: ml.Model, tmp_path: Path) -> 
     assert len({r["chain"] for r in distributed.records}) == 2
 
 
+def _device_share() -> str | None:
+    return os.environ.get("MULTILATIN_DEVICE_SHARE")
+
+
+def test_a_local_clusters_workers_size_their_batches_to_their_share() -> None:
+    """A local cluster's workers share one machine (and GPU): each is told their number
+    (``MULTILATIN_DEVICE_SHARE``, which ``limits.batch_memory`` divides the memory by), so
+    that workers starting their batches at once do not each take the whole device."""
+    pytest.importorskip("dask.distributed")
+    from dask.distributed import Client
+
+    from multilatin.study.cluster import local_cluster
+
+    cluster = local_cluster(2)
+    client = Client(cluster)
+    try:
+        assert set(client.run(_device_share).values()) == {"2"}
+    finally:
+        client.close()
+        cluster.close()
+
+
 def test_each_geometry_is_built_once_in_a_serial_study(tmp_path: Path) -> None:
     """A study whose batches hold lines of hole positions (b3: xc innermost of the geometric
     parameters, frictions outside) meets every geometry again at each line: each one's

@@ -168,6 +168,10 @@ def test_a_study_on_a_gpu_starts_from_zero_in_wide_batches() -> None:
     assert study_defaults(gpu, None, None) == (GPU_BATCH, "zero")
     assert study_defaults(gpu, 13, None) == (13, "zero")
     assert study_defaults(gpu, None, "neighbour") == (16, "neighbour")
+    # processes sharing the GPU: GPU_BATCHES_PER_WORKER batches each, none above GPU_BATCH
+    assert study_defaults(gpu, None, None, 8, 21125) == (529, "zero")
+    assert study_defaults(gpu, None, None, 2, 10**6) == (GPU_BATCH, "zero")
+    assert study_defaults(gpu, None, None, 8, 3) == (1, "zero")
     for options in (LatinOptions(backend="torch"), LatinOptions()):
         assert study_defaults(options, None, None) == (16, "neighbour")
 
@@ -250,7 +254,7 @@ def test_a_batch_larger_than_the_memory_is_solved_in_chunks(
     an error naming the device, never an out-of-memory crash."""
     from dataclasses import replace
 
-    from multilatin.latin.torch_engine import FIELDS_PER_CASE, MEMORY_SHARE
+    from multilatin.latin.torch_engine import FIELDS_PER_CASE, MEMORY_SHARE, cases_per_chunk
 
     model = ml.load_model("b1")
     assemblies = [model.assemble({"mu1": mu}) for mu in (0.1, 0.2, 0.3)]
@@ -271,6 +275,15 @@ def test_a_batch_larger_than_the_memory_is_solved_in_chunks(
     monkeypatch.setenv("MULTILATIN_MAX_MEMORY_GB", str(0.5 * per_case / MEMORY_SHARE / 1e9))
     with pytest.raises(ModelError, match="device: one case needs about"):
         solve_latin_batch(assemblies, replace(options, max_iter=5))
+    # processes sharing the memory (a local Dask cluster's workers) take a share each
+    n_points = whole[0].interface.coords.shape[0]
+    monkeypatch.setenv("MULTILATIN_MAX_MEMORY_GB", str(4.5 * per_case / MEMORY_SHARE / 1e9))
+    assert cases_per_chunk(assemblies[0].n_steps, n_points, DEVICE) == 4
+    monkeypatch.setenv("MULTILATIN_DEVICE_SHARE", "3")
+    assert cases_per_chunk(assemblies[0].n_steps, n_points, DEVICE) == 1
+    monkeypatch.setenv("MULTILATIN_DEVICE_SHARE", "none")
+    with pytest.raises(ModelError, match="MULTILATIN_DEVICE_SHARE: expected a number"):
+        cases_per_chunk(assemblies[0].n_steps, n_points, DEVICE)
 
 
 def test_multiresolution_on_torch_runs_a_wavefront_across_geometries(tmp_path: Path) -> None:

@@ -54,6 +54,27 @@ def test_every_piece_starts_from_neighbours_one_step_away(workers: int) -> None:
         assert max(len(task.cases) for task in tasks) < 5  # lines cut for the workers
 
 
+def test_from_zero_on_dask_each_batch_is_a_task_of_its_own(tmp_path: Path) -> None:
+    """``start="zero"``: no batch needs another's output, so on Dask (``schedule="waves"``,
+    the default) every batch is an independent task of one chain, handed to the workers as
+    they free up (a GPU's processes then finish together), with the serial answers."""
+    pytest.importorskip("dask.distributed")
+    b1 = ml.load_model("b1")
+    grid = Grid({"mu1": [0.1, 0.2, 0.3], "mu2": [0.0, 0.2, 0.4]})
+    serial = run_study(b1, grid, start="zero", batch=3, out=tmp_path / "serial",
+                       progress=False)
+    tasks = run_study(b1, grid, start="zero", batch=3, workers=2, out=tmp_path / "tasks",
+                      progress=False)
+    by_number = {r["number"]: r for r in serial.records}
+    assert {r["chain"] for r in tasks.records} == {0}
+    assert sorted(r["batch"] for r in tasks.records) == [3] * 9
+    for record in tasks.records:
+        same = by_number[record["number"]]
+        assert record["start"] == same["start"] == "zero" and record["converged"]
+        assert abs(record["iterations"] - same["iterations"]) <= 2  # BLAS threads' rounding
+        assert record["qoi"]["R_stop"] == pytest.approx(same["qoi"]["R_stop"], rel=1e-4)
+
+
 def test_waves_on_dask_give_the_serial_answers_with_one_cold_start(
         tmp_path: Path) -> None:
     pytest.importorskip("dask.distributed")

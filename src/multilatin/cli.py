@@ -162,7 +162,8 @@ def build_parser() -> argparse.ArgumentParser:
     study.add_argument("--json", action="store_true", help="print one JSON object")
     study.add_argument("--workers", type=int, default=0,
                        help="run on a local Dask cluster of N processes (default: 0, in "
-                            "this process)")
+                            "this process); on a GPU they share it, each with its share of "
+                            "its memory (8: the whole B3 study 2 x faster, docs/gpu.md)")
     study.add_argument("--scheduler", help="run on the Dask cluster at this address")
     study.add_argument("--chains", type=int, default=None,
                        help="independent multiresolution chains (default: 1; with "
@@ -170,8 +171,9 @@ def build_parser() -> argparse.ArgumentParser:
     # as --start's: study.plan.SCHEDULES, spelt out (the command line loads no solver early)
     study.add_argument("--schedule", choices=["waves", "chains"], default="waves",
                        help="with --workers/--scheduler: grid lines as tasks, each from the "
-                            "neighbour line nearer the middle one (waves), or contiguous "
-                            "chains from zero (default: %(default)s)")
+                            "neighbour line nearer the middle one (waves; with --start zero "
+                            "every batch a task), or contiguous chains from zero (default: "
+                            "%(default)s)")
     study.add_argument("--start", choices=["neighbour", "nearest", "zero"], default=None,
                        help="multiresolution: start each case from its nearest converged "
                        "neighbour (along hole positions, neighbours extrapolated: secant, "

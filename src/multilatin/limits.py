@@ -34,6 +34,9 @@ if TYPE_CHECKING:  # types only: the solver's modules import this one
     from .latin.local_stage import LocalStage
 
 MEMORY_ENVIRONMENT = "MULTILATIN_MAX_MEMORY_GB"
+#: how many processes share this machine's memory and device for their batches (a local Dask
+#: cluster's workers get their number): each batch then takes its share of the budget
+DEVICE_SHARE_ENVIRONMENT = "MULTILATIN_DEVICE_SHARE"
 #: a grid parameter may take at most this many values (a guard against a typo in a count)
 MAX_VALUES_PER_PARAMETER = 1_000_000
 #: bytes a study keeps per case and mode (its plan entry, journal record and dataset cells),
@@ -71,6 +74,41 @@ def memory_limit() -> tuple[float, str]:
             raise ModelError(f"{MEMORY_ENVIRONMENT}: must be a number > 0, got {text!r}")
         return value * 1e9, f"{MEMORY_ENVIRONMENT} = {text}"
     return 0.8 * available_memory(), "80 % of the memory available now"
+
+
+def device_share() -> int:
+    """How many processes share the memory a batch's fields are sized against
+    (``MULTILATIN_DEVICE_SHARE``, 1 when unset)."""
+    text = os.environ.get(DEVICE_SHARE_ENVIRONMENT, "").strip()
+    if not text:
+        return 1
+    try:
+        share = int(text)
+    except ValueError:
+        share = 0
+    if share < 1:
+        raise ModelError(f"{DEVICE_SHARE_ENVIRONMENT}: expected a number of processes >= 1, "
+                         f"got {text!r}")
+    return share
+
+
+def batch_memory(free: float, total: float, source: str) -> tuple[float, str]:
+    """The memory one process's batch may size its fields against: ``free`` bytes (from
+    ``source``) of ``total``, at most ``MULTILATIN_MAX_MEMORY_GB`` where set, and at most
+    its share of the whole (``total`` or that limit) where ``device_share()`` processes
+    share it: they start their batches at once, and each seeing the whole free would
+    overfill it."""
+    if os.environ.get(MEMORY_ENVIRONMENT):
+        cap, cap_source = memory_limit()
+        total = min(total, cap)
+        if cap < free:
+            free, source = cap, cap_source
+    share = device_share()
+    if share > 1 and total / share < free:
+        free, source = total / share, (f"{total / share / 2**30:.1f} GiB, one process's "
+                                       f"share ({DEVICE_SHARE_ENVIRONMENT} = {share}) of "
+                                       f"{source}")
+    return free, source
 
 
 def _refuse(what: str, needed: float, seconds: float | None = None) -> None:

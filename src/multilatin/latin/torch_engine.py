@@ -10,7 +10,6 @@ from __future__ import annotations
 
 import importlib
 import logging
-import os
 import time
 from collections.abc import Sequence
 from typing import Any
@@ -19,7 +18,7 @@ import numpy as np
 
 from ..errors import ModelError
 from ..fem.elasticity import FloatArray, IntArray
-from ..limits import MEMORY_ENVIRONMENT, memory_limit
+from ..limits import batch_memory, memory_limit
 from .acceleration import Anderson, ArrayOps
 from .engine import as_run
 from .local_stage import LocalStage
@@ -83,19 +82,17 @@ GRAPH_CHECK_RTOL = 1e-9
 
 def cases_per_chunk(n_steps: int, n_points: int, device: str) -> int:
     """How many cases of this shape a batch may hold on ``device``: the free memory (CUDA's
-    own count on a GPU, capped by ``MULTILATIN_MAX_MEMORY_GB`` where set; the limit of
-    ``multilatin.limits`` on the CPU) over the fields' footprint. A ``ModelError`` when
-    not even one case fits."""
+    own count on a GPU; the limit of ``multilatin.limits`` on the CPU), at most this
+    process's share where several share it and ``MULTILATIN_MAX_MEMORY_GB`` where set
+    (``limits.batch_memory``), over the fields' footprint. A ``ModelError`` when not even
+    one case fits."""
     torch = load_torch(device)
     if device.startswith("cuda"):
-        free, _ = torch.cuda.mem_get_info(torch.device(device))
-        source = f"{free / 2**30:.1f} GiB free on {device}"
-        if os.environ.get(MEMORY_ENVIRONMENT):  # a user's cap holds on the GPU too
-            cap, cap_source = memory_limit()
-            if cap < free:
-                free, source = cap, cap_source
+        free, total = torch.cuda.mem_get_info(torch.device(device))
+        free, source = batch_memory(free, total, f"{free / 2**30:.1f} GiB free on {device}")
     else:
-        free, source = memory_limit()
+        limit, source = memory_limit()
+        free, source = batch_memory(limit, limit, source)
     per_case = FIELDS_PER_CASE * n_steps * n_points * 2 * 8
     fits = int(MEMORY_SHARE * free // per_case)
     if fits < 1:

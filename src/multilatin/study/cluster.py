@@ -9,6 +9,7 @@ from dataclasses import replace
 from typing import Any
 
 from ..latin import LatinOptions, kernels, solve_latin
+from ..limits import DEVICE_SHARE_ENVIRONMENT
 from ..model import Model
 from .plan import Case
 
@@ -70,13 +71,17 @@ def local_cluster(workers: int) -> Any:
     MALLOC_TRIM_THRESHOLD_ set, which turns off glibc's dynamic mmap threshold: every field
     array of an iteration is then mmapped and unmapped again (measured: the system time
     equal to the computing time, no gain from the second worker). The workers here keep
-    glibc's default; Dask's INFO chatter only with -v."""
+    glibc's default, and ``MULTILATIN_DEVICE_SHARE`` set to their number (a torch batch
+    sizes its fields to its share of the device, ``limits.batch_memory``); Dask's INFO
+    chatter only with -v."""
     import dask
     from dask.distributed import LocalCluster
 
     environ = {name: value for name, value in
                dask.config.get("distributed.nanny.pre-spawn-environ", {}).items()
                if name != "MALLOC_TRIM_THRESHOLD_"}
+    # the workers share this machine's memory and device: each sizes its batches to its share
+    environ[DEVICE_SHARE_ENVIRONMENT] = str(workers)
     if not log.isEnabledFor(logging.INFO):
         environ["DASK_LOGGING__DISTRIBUTED"] = "warning"
         logging.getLogger("distributed").setLevel(logging.WARNING)
