@@ -253,6 +253,7 @@ def test_a_local_clusters_workers_size_their_batches_to_their_share() -> None:
 
     from multilatin.study.cluster import local_cluster
 
+    environment = dict(os.environ)  # Dask's nanny writes its workers' into this process's
     cluster = local_cluster(2)
     client = Client(cluster)
     try:
@@ -260,6 +261,8 @@ def test_a_local_clusters_workers_size_their_batches_to_their_share() -> None:
     finally:
         client.close()
         cluster.close()
+        os.environ.clear()
+        os.environ.update(environment)
 
 
 def test_each_geometry_is_built_once_in_a_serial_study(tmp_path: Path) -> None:
