@@ -1,16 +1,16 @@
 #!/usr/bin/env bash
-# One prepared call on a lent GPU machine with 16 cores (issues 19 and 16), about 9 minutes:
+# One prepared call on a lent GPU machine with 16 cores (issues 19 and 16), about 6 minutes:
 # the GPU's answers against NumPy (it stops the call where one differs), the B1 and B3 rows
-# side by side, the whole 21 125-case B3 study from zero sampled by py-spy (where the host's
-# time goes, the waits for the GPU included), then the 16 cores: N copies of a serial study
-# at once (no Dask) and the 845-case B3 study on 16 Dask workers against the serial one.
-# Logs go to $OUT (the device tool's folder) or ./device-session.
+# side by side, the whole 21 125-case B3 study from zero in this process (sampled by py-spy:
+# where the host's time goes, the waits for the GPU included) and on 8 processes sharing the
+# GPU (`--workers 8`, the client sampled); with CORES=1 then the 16 cores (~4 minutes more):
+# N copies of a serial study at once (no Dask) and the 845-case B3 study on 16 Dask workers
+# against the serial one. Logs go to $OUT (the device tool's folder) or ./device-session.
 #
 #   WHEELS=.whl bash benchmarks/device_session.sh   # + wheels for what the machine lacks
 #                                                   #   (meshio, dask, py-spy: docs/gpu.md)
-#   WHEELS=.whl CORES=0 bash benchmarks/device_session.sh   # the GPU part alone (~4 min)
-#   WHEELS=.whl CORES=0 FULL_WORKERS=0,4,8 bash ...   # the whole study also on 4 and 8
-#                                                   #   processes sharing the GPU (~7 min)
+#   WHEELS=.whl FULL_WORKERS=0,4,8 bash ...         # the whole study on 1, 4 and 8 processes
+#   WHEELS=.whl CORES=1 bash ...                    # + the 16 cores
 set -uo pipefail
 source "$(dirname "$0")/device_env.sh" device-session
 export PATH="/tmp/site/bin:$PATH"
@@ -26,11 +26,11 @@ if py-spy record -d 1 -o /tmp/spy-test.txt -f raw -- python3 -c "import time; ti
     > /dev/null 2>&1; then
     spy=(py-spy record -r 20 --nonblocking -f raw -o "$out/full-spy.txt" --)
 fi
-workers=${FULL_WORKERS:-0}  # e.g. 0,4,8: the study in this process, then on 4 and 8 processes
+workers=${FULL_WORKERS:-0,8}  # the study in this process, then on 8 processes
 timeout $((150 + 100 * $(tr -cd , <<< "$workers" | wc -c))) "${spy[@]}" python3 \
     benchmarks/gpu.py --device cuda --no-tight --only none --full --full-start zero \
     --full-workers "$workers" 2>&1 | grep -v Warning | tee "$out/full.log"
-if [ "${CORES:-1}" = 0 ]; then echo "device session done (GPU part)"; exit 0; fi
+if [ "${CORES:-0}" = 0 ]; then echo "device session done (GPU part)"; exit 0; fi
 timeout 120 python3 benchmarks/core_contention.py --copies 1 16 2>&1 | tee "$out/contention.log"
 timeout 150 python3 benchmarks/dask_waves.py --study b3 --no-predict --dask 16 2>&1 \
     | grep -v Warning | tee "$out/dask.log"
