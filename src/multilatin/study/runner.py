@@ -39,7 +39,8 @@ SCHEDULER_TIMEOUT_S = 10.0
 #: of the 21 125-case study, 15 GiB of an H200 (docs/gpu.md)
 GPU_BATCH = 4225
 #: batches per process where several share a GPU (``workers``): the 21 125-case study on 8
-#: processes in batches of 529, 58–61 s on an H100 against 105 s in one (docs/gpu.md)
+#: processes in batches of 529, 56 s on an H100 (each batch a task; 58–61 s as chains)
+#: against 105 s in one (docs/gpu.md, session 29)
 GPU_BATCHES_PER_WORKER = 5
 
 
