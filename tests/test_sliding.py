@@ -133,6 +133,18 @@ def test_a_good_jump_is_kept_through_the_rise_of_eta_that_follows_it() -> None:
     assert result.qoi["R_stop"] == pytest.approx(tight.qoi["R_stop"], rel=1e-4)
 
 
+def test_jumps_are_not_read_as_a_slide_without_end() -> None:
+    """B1 at κ = 2 from zero, (0, 0.05): the crawls are slow (∝ 1/k) and jump three times
+    within 100 iterations; the drift check read those jumps as steady growth and stopped
+    the case as "no equilibrium" at 243 iterations (10 of the 13 × 13 grid's cases, before
+    session 29). The growth is now read from the last jump on; the answer is κ = 0.5's."""
+    assembly = ml.load_model("b1").assemble({"mu1": 0.0, "mu2": 0.05})
+    result = solve_latin(assembly, LatinOptions(kappa=2.0, qoi_rtol=1e-3))
+    assert result.converged
+    tight = solve_latin(assembly, LatinOptions(tol=1e-10, max_iter=3000))
+    assert result.qoi["R_stop"] == pytest.approx(tight.qoi["R_stop"], rel=1e-4)
+
+
 def test_warm_starts_are_not_slowed_by_jumps_that_overshoot() -> None:
     """A warm start whose block slides to a new equilibrium set by friction, not by the
     stop: a crawl that ends before the gap closes (before the take-back and leading rules,
