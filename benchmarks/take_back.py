@@ -9,7 +9,8 @@ Each row: a study (``run_study``, the studies' QoI rule) of a model at a κ and 
 per rule, in this process; its iterations in all (the slowest case's), the cases that did
 not converge, every checked jump's rise of η (η one window later / η at the jump), and with
 ``--tight`` R_stop's worst error against η < 1e-9 solves at the default κ (relative,
-floored at 1 N: R_stop is 0 where the block does not reach the stop).
+floored at 1 N: R_stop is 0 where the block does not reach the stop); ``--worst N``
+prints the N worst cases with their error estimates.
 """
 
 from __future__ import annotations
@@ -61,6 +62,8 @@ def main() -> None:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument("--rows", default=ROWS, help="model:kappa:start, comma-separated")
     parser.add_argument("--tight", action="store_true", help="R_stop's error against tight")
+    parser.add_argument("--worst", type=int, default=0,
+                        help="with --tight, print the N worst cases (value, estimate)")
     args = parser.parse_args()
     warnings.simplefilter("ignore")
     rises = Rises()
@@ -84,14 +87,25 @@ def main() -> None:
                                       start=start, on_failure="ignore")
             iterations = [r["iterations"] for r in result.records]
             failed = sum(not r["converged"] for r in result.records)
-            error = "—"
+            error, worst = "—", []
             if tight is not None:
                 values = np.asarray(result.dataset["R_stop"].values, dtype=float).ravel()
-                error = f"{np.nanmax(np.abs(values - tight) / np.maximum(np.abs(tight), 1.0)):.2e}"
+                errors = np.abs(values - tight) / np.maximum(np.abs(tight), 1.0)
+                error = f"{np.nanmax(errors):.2e}"
+                by_index = {tuple(r["index"]): r for r in result.records}
+                shape = [len(v) for v in ml.Grid.parse(GRID).values()]
+                for n in np.argsort(-np.nan_to_num(errors))[:args.worst]:
+                    record = by_index[tuple(int(i) for i in np.unravel_index(n, shape))]
+                    worst.append(f"    {record['params']}: R_stop {values[n]:.3f} N, tight "
+                                 f"{tight[n]:.3f}, off {abs(values[n] - tight[n]):.3f} "
+                                 f"({errors[n]:.2e}), estimate "
+                                 f"{record['qoi_error'].get('R_stop')}")
             shown = ", ".join(f"{r:.2f}" for r in sorted(rises.values) if r > 1.0)
             print(f"| {name} | {kappa:g} | {start} | {take_back:g} | {sum(iterations)} "
                   f"({max(iterations)}) | {failed} | {len(rises.values)} checks; above 1: "
                   f"{shown or 'none'} | {error} |", flush=True)
+            for line in worst:
+                print(line, flush=True)
 
 
 if __name__ == "__main__":
