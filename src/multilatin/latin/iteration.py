@@ -294,10 +294,9 @@ class BatchIterations:
             drifting = np.zeros_like(done)
             # a sliding jump moves s by a crawl's remaining iterations at once: the growth
             # is read from the last jump on (a slide without end has no gap ahead to jump to)
-            jumped = (np.maximum(self.sliding.jumped_at[active[due]], 0)
-                      if self.sliding is not None else np.zeros(due.sum(), dtype=np.int64))
-            drifting[due] = [drifts(out.sizes[c][start:])
-                             for c, start in zip(active[due], jumped.tolist(), strict=True)]
+            jumped = (self.sliding.jumped_at if self.sliding is not None
+                      else np.full(len(out.sizes), -1))
+            drifting[due] = [drifts(out.sizes[c][max(int(jumped[c]), 0):]) for c in active[due]]
             out.drifting[active[drifting]] = True
             done |= drifting
         if options.qoi_rtol is not None and self.tracked:

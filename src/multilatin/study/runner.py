@@ -5,6 +5,7 @@ from __future__ import annotations
 import functools
 import json
 import logging
+import math
 import os
 import sys
 import tempfile
@@ -147,7 +148,7 @@ def study_defaults(options: LatinOptions, batch: int | None, start: str | None,
     if batch is None:  # (a given 0 stays, for run_study's error)
         batch = GPU_BATCH if on_gpu and start == "zero" else 16
         if on_gpu and start == "zero" and workers > 1:
-            batch = min(batch, -(-n_cases // (GPU_BATCHES_PER_WORKER * workers)) or 1)
+            batch = min(batch, max(1, math.ceil(n_cases / (GPU_BATCHES_PER_WORKER * workers))))
     return batch, start
 
 
@@ -457,17 +458,21 @@ def _run_dask(model: Model, grid: Grid, plan: StudyPlan, mode: str, options: Lat
             n_workers = workers or len(worker_addresses(client))
             futures = submit_line_tasks(client, model_future, grid, plan, mode, options,
                                         store, batch, n_workers, start)
-        else:  # "chains": a batch after its chain's previous one; "waves" from zero: each
-            for chain_number, chain in enumerate(plan.chains):  # its own task, handed out
-                previous: Any = (store.chain_state(mode, chain_number)  # as workers free up
-                                 if mode != "cold" else None)
+        else:
+            # "chains": each batch takes its chain's previous one's output; "waves" from
+            # zero: the batches need no other's output, each a task handed out as workers
+            # free up
+            chained = schedule == "chains"
+            for chain_number, chain in enumerate(plan.chains):
+                previous: Any = (store.chain_state(mode, chain_number)
+                                 if chained and mode != "cold" else None)
                 for cases in _pending_batches(plan, chain, mode, store, batch, start,
                                               options.backend):
                     task = client.submit(run_chain_step, model_future, grid, cases, mode,
                                          options, previous, start, pure=False,
                                          key=f"{mode}-batch-{cases[0].number}-{id(store)}")
                     futures.append(task)
-                    previous = task if schedule == "chains" else previous
+                    previous = task if chained else None
             previous = task = None
         # as_completed holds each future until it is done; the client then drops it, so a
         # finished batch's chain state (tens of MB for b3) leaves the workers as soon as the
