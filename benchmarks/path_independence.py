@@ -22,7 +22,7 @@ import numpy as np
 
 import multilatin as ml
 from multilatin.parameters import Grid
-from multilatin.study import plan as study_module
+from multilatin.study import starts
 from multilatin.study.plan import clear_operator_cache
 from multilatin.study.runner import run_study
 
@@ -35,11 +35,13 @@ def main() -> None:
     parser.add_argument("--model", default="b1")
     parser.add_argument("--count", type=int, default=13, help="values per friction coefficient")
     parser.add_argument("--no-guard", action="store_true",
-                        help="keep warm answers of non-unique cases (the old behaviour)")
+                        help="keep warm answers of non-unique cases, and start no case "
+                             "from zero at the friction limit (the old behaviour)")
     args = parser.parse_args()
     if args.no_guard:
-        study_module._path_independent = (  # type: ignore[assignment]
-            lambda assembly, options, ops, result, start: (result, 0))
+        starts.solve_again = lambda result, start: False  # type: ignore[assignment]
+        starts.at_limit = (  # type: ignore[assignment]
+            lambda assemblies, ops, fields: [False] * len(assemblies))
     model = ml.load_model(args.model)
     values = [float(v) for v in np.round(np.linspace(0.0, 0.6, args.count), 12)]
     paths = {

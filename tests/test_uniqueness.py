@@ -17,7 +17,7 @@ import multilatin as ml
 from multilatin.decomposition.uniqueness import clusters
 from multilatin.latin import LatinOptions, solve_latin
 from multilatin.parameters import Grid
-from multilatin.study import plan as study_module
+from multilatin.study import starts
 from multilatin.study.plan import clear_operator_cache
 from multilatin.study.runner import run_study
 
@@ -62,7 +62,9 @@ def test_a_warm_start_alone_picks_another_solution(b1: ml.Model, tmp_path: Path,
     """What the study guards against, shown with the guard removed: warm-started from
     (0.05, 0.2), case (0.05, 0.25) converges to a state 1.2 % away from the reference's, and
     the state is flagged as not unique."""
-    monkeypatch.setattr(study_module, "solve_again", lambda result, start: False)
+    monkeypatch.setattr(starts, "solve_again", lambda result, start: False)
+    monkeypatch.setattr(starts, "at_limit",  # and no start from zero foreseen
+                        lambda assemblies, ops, fields: [False] * len(assemblies))
     clear_operator_cache()
     result = run_study(b1, Grid({"mu2": [0.15, 0.2, 0.25], "mu1": [0.05]}), out=tmp_path,
                        progress=False)  # from the middle case outward
@@ -109,3 +111,64 @@ def test_solve_reports_a_state_that_is_not_unique(b1: ml.Model) -> None:
     data = result.to_json_dict()
     assert data["unique"] is False
     assert "step 10: centre is free to move" in data["free_motions"][0]
+
+
+def test_a_case_at_the_friction_limit_is_predicted_from_a_neighbour_s_state(
+        b1: ml.Model) -> None:
+    """``predictors.at_friction_limit`` on B1 (push 750 N at step 10): read with (0.05,
+    0.25)'s friction coefficients (capacity 0.3 × 2500 N = 750 N), the converged state of
+    (0.05, 0.3) (the block sticks) and that of (0.05, 0.2) (it slid onto the stop, which
+    holds 125 N) both leave the block at its friction limit at step 10: the case is not
+    unique, as its own solve says. Not predicted: (0.05, 0.35) from (0.05, 0.3) (12.5 % of
+    the capacity left), nor (0.45, 0.15) from (0.4, 0.15), at its limit at step 15 but
+    on the stop since step 13 (unique)."""
+    from multilatin.study.predictors import at_friction_limit
+
+    def predicted(case: tuple[float, float], neighbour: tuple[float, float]
+                  ) -> ml.FreeMotion | None:
+        result = b1.solve({"mu1": neighbour[0], "mu2": neighbour[1]})
+        assert result.interface is not None
+        assembly = b1.assemble({"mu1": case[0], "mu2": case[1]})
+        ops = ml.LatinOperators(assembly, LatinOptions())
+        fields = (result.interface.displacement_hat, result.interface.force_hat)
+        return at_friction_limit([assembly], [ops.points], [fields])[0]
+
+    for neighbour in ((0.05, 0.3), (0.05, 0.2)):
+        motion = predicted((0.05, 0.25), neighbour)
+        assert motion is not None and motion.step == 10 and motion.bodies == ("centre",)
+        assert motion.velocity == pytest.approx((1.0, 0.0), abs=1e-9)
+        assert abs(motion.reserve) < 1e-3
+    assert b1.solve({"mu1": 0.05, "mu2": 0.25}).unique is False
+    assert predicted((0.05, 0.35), (0.05, 0.3)) is None
+    assert b1.solve({"mu1": 0.05, "mu2": 0.35}).unique is True
+    assert predicted((0.45, 0.15), (0.4, 0.15)) is None
+    assert b1.solve({"mu1": 0.45, "mu2": 0.15}).unique is True
+
+
+def test_a_study_starts_a_case_at_the_friction_limit_from_zero(
+        b1: ml.Model, tmp_path: Path, monkeypatch: pytest.MonkeyPatch) -> None:
+    """B1, μ1 = 0.05, μ2 from 0.35 down to 0.25 (a line, case after case): (0.05, 0.25)
+    is at the friction limit and not unique; predicted from (0.05, 0.3)'s state it starts
+    from zero at once, where without the prediction its warm attempt is set aside and it is
+    solved again from zero. Fewer iterations, the same answers; ``start`` says zero, the
+    record is still flagged."""
+    grid = Grid({"mu1": [0.05], "mu2": [0.35, 0.3, 0.25]})
+    runs = {}
+    for name in ("predicted", "without"):
+        if name == "without":
+            monkeypatch.setattr(starts, "at_limit",
+                                lambda assemblies, ops, fields: [False] * len(assemblies))
+        clear_operator_cache()
+        result = run_study(b1, grid, out=tmp_path / name, progress=False,
+                           modes=("multiresolution",))
+        runs[name] = {r["params"]["mu2"]: r for r in result.records}
+    limit, without = runs["predicted"][0.25], runs["without"][0.25]
+    assert without["start"] == "zero (not unique: the warm start was set aside)"
+    assert limit["start"] == "zero" and limit["unique"] is False
+    assert limit["iterations"] < without["iterations"]
+    assert sum(r["iterations"] for r in runs["predicted"].values()) < sum(
+        r["iterations"] for r in runs["without"].values())
+    for mu2, record in runs["predicted"].items():
+        assert record["qoi"]["R_stop"] == pytest.approx(
+            runs["without"][mu2]["qoi"]["R_stop"], rel=1e-4)
+    assert runs["predicted"][0.3]["start"] == "mu1=0.05, mu2=0.35"

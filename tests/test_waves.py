@@ -87,7 +87,11 @@ def test_waves_on_dask_give_the_serial_answers_with_one_cold_start(
     by_number = {r["number"]: r for r in serial.records}
     assert {r["chain"] for r in waves.records} == {0}
     assert len({r["chain"] for r in chains.records}) == 2
-    (cold,) = [r for r in waves.records if r["start"] == "zero"]
+    # one cold start; the other cases from zero are at the friction limit, foreseen from
+    # their neighbour's state (``starts.at_limit``: (0.1, 0.2), not unique)
+    zero = [r for r in waves.records if r["start"] == "zero"]
+    (cold,) = [r for r in zero if r["unique"]]
+    assert len(zero) == 2
     assert cold["index"][0] == 1  # in the middle line
     for record in waves.records:  # the serial study starts by the waves' rule too
         same = by_number[record["number"]]
@@ -168,8 +172,8 @@ def test_a_task_hands_on_its_own_cases_only() -> None:
         records, state = outputs[id(task)]
         assert state is not None
         assert set(state.retained) == {case.index for case in task.cases}
-        if task.depth:
-            assert all(r["start"] != "zero" for r in records)
+        if task.depth:  # from zero only at the friction limit ((0.1, 0.2): ``starts.at_limit``)
+            assert all(r["start"] != "zero" or not r["unique"] for r in records)
 
 
 def test_hole_positions_are_batched_as_lines_on_numpy_only(tmp_path: Path) -> None:

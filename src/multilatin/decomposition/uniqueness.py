@@ -286,3 +286,85 @@ def _rigid_rows(x: FloatArray, centre: FloatArray, size: float) -> FloatArray:
     rows[:, 0, 2] = -(x[:, 1] - centre[1]) / size
     rows[:, 1, 2] = (x[:, 0] - centre[0]) / size
     return rows
+
+
+def limit_motions_batch(assemblies: Sequence[Assembly], points: Sequence[InterfacePoints],
+                        displacement_hats: Sequence[FloatArray],
+                        force_hats: Sequence[FloatArray], reserve_tol: float = RESERVE_TOL
+                        ) -> list[list[FreeMotion]]:
+    """Per case, the rigid motions that a converged state ŝ = (Ŵ, F̂) of *another* case
+    (a study's neighbour) puts at the friction limit of ``points``' coefficients: a case
+    there is most likely not unique (``study.predictors.at_friction_limit``).
+
+    As ``free_motions``, but the stops yield: a motion may push into a stop, whose force
+    then counts in the load along it. The load along a rigid motion v is what the contact
+    forces hold, P·v = −Σ w F·v (the cluster in equilibrium), its capacity Σ w μ|N| |v_t|
+    with ``points``' μ; the reserve (capacity − P·v) / capacity. On a sliding neighbour
+    whose body rests on the stop (B1 at μ1 + μ2 = 0.25, step 10: 750 N held by 625 N of
+    friction and 125 N of the stop) read with μ1 + μ2 = 0.3, the reserve is zero, as on
+    a sticking one (0.35: 750 N held by friction alone). Not where the body already
+    rested on a stop (or another contact) along the motion at the step before: it then
+    reaches the limit on the stop, its answer unique (B1 (0.45, 0.15) at step 15, on the
+    stop since step 13). ``reserve`` is signed here."""
+    out: list[list[FreeMotion]] = [[] for _ in assemblies]
+    for c, (assembly, pts, w_hat, f_hat) in enumerate(zip(
+            assemblies, points, displacement_hats, force_hats, strict=True)):
+        force_scale = _largest(f_hat) or 1.0
+        near = 1e-4 * (_largest(w_hat) or 1.0)
+        for cluster in _clusters_of(assembly, pts):
+            p, partner, normal, modes = cluster.p, cluster.partner, cluster.normal, cluster.modes
+            own_a, own_b, own_stops = cluster.own
+            friction = np.concatenate([pts.contact_friction[own_a],
+                                       pts.contact_friction[own_b],
+                                       pts.stop_friction[own_stops]])
+            gap = np.concatenate([pts.contact_gap[own_a], pts.contact_gap[own_b],
+                                  pts.stop_gap[own_stops]])
+            between = partner >= 0  # contact points between bodies (not stops)
+            force = f_hat[:, p]  # (T, n, 2)
+            normal_force = np.einsum("tnd,nd->tn", force, normal)
+            jump = (np.where(between[:, None], w_hat[:, np.maximum(partner, 0)], 0.0)
+                    - w_hat[:, p])
+            opening = gap[None, :] + np.einsum("nd,tnd->tn", normal, jump)
+            closed = (normal_force < -1e-9 * force_scale) | (opening <= near)
+            increment = np.diff(jump, axis=0, prepend=np.zeros((1, *jump.shape[1:])))
+            slip = increment - np.einsum("tnd,nd->tn", increment, normal)[..., None] * normal
+            moving = np.linalg.norm(slip, axis=2) > near  # (T, n)
+            pressed = (normal_force < -1e-9 * force_scale) & between
+            touching = ~pressed & (opening <= near) & between
+            along = cluster.along_normal
+            outer = (along[:, :, None] * along[:, None, :]).reshape(-1, 9)
+            gram = cluster.held + (pressed.astype(float) @ outer).reshape(-1, 3, 3)
+            values, vectors = np.linalg.eigh(gram)
+            free = values <= 1e-10 * np.maximum(values[..., -1:], 1e-300)
+            limit = friction * np.abs(normal_force)  # (T, n)
+            with_friction = bool(np.any(friction > 0))
+            steps, columns = np.nonzero(free)  # every free direction of every step at once
+            before = np.maximum(steps - 1, 0)
+            for sign in (1.0, -1.0):
+                modes_p = sign * vectors[steps, :, columns]  # (P, 3)
+                velocity = np.einsum("nck,pk->pnc", modes, modes_p)
+                into = np.einsum("pnc,nc->pn", velocity, normal) > 1e-9
+                slide = velocity - np.einsum("pnc,nc->pn", velocity, normal)[..., None] * normal
+                holding = limit[steps] * np.linalg.norm(slide, axis=2)  # (P, n)
+                # not into a touching contact; not along a body that rested on a stop (or a
+                # contact) the step before; on a stop only where it slid there
+                blocked = (np.any(touching[steps] & into, axis=1)
+                           | ((steps > 0) & np.any(closed[before] & into, axis=1))
+                           | (np.any(closed[steps] & ~between & into, axis=1)
+                              & ~np.all(moving[steps] | (holding <= 0.0) | ~between, axis=1)))
+                capacity = holding @ cluster.weights
+                load = -np.einsum("pnc,pnc,n->p", force[steps], velocity, cluster.weights)
+                reserve = (capacity - load) / np.where(capacity > 0.0, capacity, 1.0)
+                at_limit = ~blocked & (capacity > 0.0) & (load > 0.0) & (
+                    np.abs(reserve) <= reserve_tol)
+                for n in np.flatnonzero(at_limit):
+                    t, mode = int(steps[n]), modes_p[n]
+                    if any(m.step == t + 1 and m.bodies == cluster.bodies for m in out[c]):
+                        continue  # one sign of one direction per step is enough
+                    out[c].append(FreeMotion(
+                        t + 1, cluster.bodies, (float(mode[0]), float(mode[1])),
+                        float(mode[2] / cluster.size),
+                        (float(cluster.centre[0]), float(cluster.centre[1])),
+                        float(reserve[n]), t + 1 == len(force) or with_friction))
+        out[c].sort(key=lambda motion: motion.step)
+    return out

@@ -20,7 +20,6 @@ from typing import Any
 
 import numpy as np
 
-from ..decomposition.assembly import Assembly
 from ..decomposition.result import SolveResult
 from ..errors import ModelError
 from ..fem.elasticity import FloatArray
@@ -29,7 +28,7 @@ from ..latin import LatinOptions, solve_latin, solve_latin_batch
 from ..latin.operators import LatinOperators, operator_signature
 from ..model import Model
 from ..parameters import Grid, Mu
-from .predictors import extrapolated_fields, held_square, not_unique_beside, secant_partner
+from . import starts
 from .records import case_record
 
 log = logging.getLogger(__name__)
@@ -322,46 +321,16 @@ def run_case(model: Model, grid: Grid, case: Case, mode: str, options: LatinOpti
     else:
         ops, built = _operators(assembly, options)
         state = state if state is not None else ChainState(_retained_capacity(grid))
-        start_index, initial, extra = _start(grid, state, case, assembly, ops)
+        start_index, initial, extra = starts.case_start(grid, state, case, assembly, ops)
     setup_s = time.perf_counter() - t0
     result = solve_latin(assembly, options, operators=ops, initial=initial, check=False)
-    [(result, spent)] = _path_independent([assembly], options, [ops], [result], [start_index])
+    [(result, spent)] = starts.path_independent([assembly], options, [ops], [result],
+                                                [start_index])
     wall_s = time.perf_counter() - t0
     if mode != "cold" and result.converged and state is not None:
         state = _retain(state, case, result)
     return case_record(grid, case, mode, result, wall_s, setup_s, built, start_index, 1,
                        spent, extra), state
-
-
-def solve_again(result: SolveResult, start_index: tuple[int, ...] | None) -> bool:
-    """A warm-started answer that the discrete problem does not determine: the case is
-    solved again from zero (``multilatin.uniqueness``; a warm start would pick the solution
-    nearest its neighbour's, and the study's answer would depend on its order)."""
-    return start_index is not None and result.converged and not result.unique
-
-
-def _path_independent(assemblies: Sequence[Assembly], options: LatinOptions,
-                      operators: Sequence[LatinOperators], results: Sequence[SolveResult],
-                      start_indices: Sequence[tuple[int, ...] | None]
-                      ) -> list[tuple[SolveResult, int]]:
-    """Warm-started cases whose discrete problem does not determine their answer
-    (``multilatin.uniqueness``) are solved again from zero with the same operators (all of
-    them as one batch): a warm start would pick the solution nearest its neighbour's, so
-    the study's answer would depend on the order of the grid. Returns per case the result
-    kept and the iterations spent on the warm attempt (0 when it is kept)."""
-    again = [n for n, (result, start) in enumerate(zip(results, start_indices, strict=True))
-             if solve_again(result, start)]
-    kept = [(result, 0) for result in results]
-    if not again:
-        return kept
-    for n in again:
-        log.info("%s: not unique from a warm start; solved again from zero",
-                 assemblies[n].name)
-    cold = solve_latin_batch([assemblies[n] for n in again], options,
-                             operators=[operators[n] for n in again], check=False)
-    for n, result in zip(again, cold, strict=True):
-        kept[n] = (result, results[n].iterations)
-    return kept
 
 
 def run_batch(model: Model, grid: Grid, cases: tuple[Case, ...], mode: str,
@@ -410,61 +379,32 @@ def _solve_together(model: Model, grid: Grid, cases: tuple[Case, ...], mode: str
         ops, built = _operators(assembly, options)
         per_case.append(ops)
         first_built.append(built)
-    starts = [_start(grid, state, case, assembly, ops) if state is not None
-              else (None, None, ())
+    chosen = [starts.case_start(grid, state, case, assembly, ops, limit=False)
+              if state is not None else starts.FROM_ZERO
               for case, assembly, ops in zip(cases, assemblies, per_case, strict=True)]
+    warm = [(n, index) for n, (index, _, _) in enumerate(chosen) if index is not None]
+    if warm and state is not None:  # the friction limit from the neighbours' states at once
+        limited = starts.at_limit([assemblies[n] for n, _ in warm],
+                                  [per_case[n] for n, _ in warm],
+                                  [state.retained[index] for _, index in warm])
+        for (n, _), zero in zip(warm, limited, strict=True):
+            chosen[n] = starts.FROM_ZERO if zero else chosen[n]
     setup_s = time.perf_counter() - t0
     results = solve_latin_batch(assemblies, options, operators=per_case,
-                                initial=[fields for _, fields, _ in starts], check=False)
-    kept = _path_independent(assemblies, options, per_case, results,
-                             [start_index for start_index, _, _ in starts])
+                                initial=[fields for _, fields, _ in chosen], check=False)
+    kept = starts.path_independent(assemblies, options, per_case, results,
+                                   [start_index for start_index, _, _ in chosen])
     wall_s = time.perf_counter() - t0
     total_iterations = sum(r.iterations + spent for r, spent in kept)
     records = []
     for case, (result, spent), (start_index, _, extra), built in zip(
-            cases, kept, starts, first_built, strict=True):
+            cases, kept, chosen, first_built, strict=True):
         share = (result.iterations + spent) / total_iterations
         records.append(case_record(grid, case, mode, result, share * wall_s, share * setup_s,
                                     built, start_index, len(cases), spent, extra))
         if result.converged and state is not None:
             state = _retain(state, case, result)
     return records, state
-
-
-def _start(grid: Grid, state: ChainState, case: Case, assembly: Assembly, ops: LatinOperators
-           ) -> tuple[tuple[int, ...] | None, tuple[FloatArray, FloatArray] | None,
-                      tuple[tuple[int, ...], ...]]:
-    """The nearest converged neighbour's index and interface fields to start ``case`` from,
-    and the other neighbours of an extrapolated start (``predictors``: a secant along a
-    geometric axis, where the case one step further back on the line is retained, else a
-    parallelogram whose other two corners are, ``held_square``; else none); none when its
-    interfaces are discretised otherwise (a geometric parameter that moves a part across a
-    substructure's boundary): the case then starts from zero."""
-    flagged = not_unique_beside(case.index, case.axes, state.unsettled)
-    if flagged is not None:
-        log.info("%s: not unique at the neighbouring hole position %s; started from zero",
-                 assembly.name, flagged)
-        return None, None, ()
-    start_index, initial = state.nearest(case.index)
-    shape = (assembly.n_steps, ops.points.n_points, 2)
-    if initial is not None and any(field.shape != shape for field in initial):
-        log.info("%s: its nearest converged neighbour has other interfaces; started from "
-                 "zero", assembly.name)
-        return None, None, ()
-    partner = secant_partner(case.index, start_index, case.axes, grid.shape)
-    if start_index is not None and initial is not None and partner in state.retained:
-        assert partner is not None
-        secant = extrapolated_fields(grid, case.index, start_index, initial, (partner,),
-                                     [state.retained[partner]])
-        if secant is not None:
-            return start_index, secant, (partner,)
-    square = held_square(case.index, start_index, case.axes, state.retained)
-    if start_index is not None and initial is not None and square is not None:
-        fields = extrapolated_fields(grid, case.index, start_index, initial, square,
-                                     [state.retained[i] for i in square])
-        if fields is not None:
-            return start_index, fields, square
-    return start_index, initial, ()
 
 
 def _has_neighbour(state: ChainState | None, case: Case) -> bool:

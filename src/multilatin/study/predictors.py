@@ -33,6 +33,9 @@ from __future__ import annotations
 
 from collections.abc import Collection, Iterator, Mapping, Sequence
 
+from ..decomposition.assembly import Assembly
+from ..decomposition.interfaces import InterfacePoints, with_contact_data
+from ..decomposition.uniqueness import RESERVE_TOL, FreeMotion, limit_motions_batch
 from ..fem.elasticity import FloatArray
 from ..parameters import Grid
 
@@ -159,12 +162,34 @@ def not_unique_beside(index: Index, axes: Collection[int], unsettled: Collection
     none. The case is then most likely not unique too (the friction limit is the load's, not
     the hole's: B3's studies flag the same friction pairs at every position), so it starts
     from zero rather than from a warm attempt that would be set aside
-    (``plan.solve_again``; docs/performance.md, session 26)."""
+    (``starts.solve_again``; docs/performance.md, session 26)."""
     for other in sorted(unsettled):
         d = _step_axis(index, other)
         if d is not None and d in axes:
             return other
     return None
+
+
+def at_friction_limit(assemblies: Sequence[Assembly], points: Sequence[InterfacePoints],
+                      neighbours: Sequence[Fields]) -> list[FreeMotion | None]:
+    """Per case, a free motion that makes it most likely not unique, read from its start
+    neighbour's converged fields (``neighbours``) with the case's own friction coefficients
+    and gaps (``points``: the case's geometry): a rigid motion of that state, reaching the
+    last step, whose friction reserve under the case's coefficients is within
+    ``RESERVE_TOL`` of zero either way — the load sits at the case's friction limit; None
+    if there is none.
+
+    Such a case starts from zero: its warm attempt would be set aside (``starts.solve_again``;
+    the main job: 512 of the study's 5 404 iterations). A neighbour on the sticking side
+    predicts it (B1: the reserve 1e-10 to 1e-5 at every such pair), one on the sliding side
+    does not (its body rests on a stop); a wrong guess costs a solve from zero, never an
+    answer that depends on the path (docs/performance.md, session 30)."""
+    case_points = [with_contact_data(pts, assembly) for pts, assembly
+                   in zip(points, assemblies, strict=True)]
+    found = limit_motions_batch(assemblies, case_points, [w for w, _ in neighbours],
+                                [f for _, f in neighbours], RESERVE_TOL)
+    return [next((motion for motion in motions if motion.reaches_last_step), None)
+            for motions in found]
 
 
 def extrapolated_fields(grid: Grid, index: Index, start: Index, fields: Fields,

@@ -18,7 +18,7 @@ grouping of the products changes. Ready cases join nearest the case from zero fi
 dependants are the most).
 
 A warm-started case whose answer the discrete problem does not determine is solved again
-from zero (``plan.solve_again``, the line batches' rule) inside the same rolling batch; the cases
+from zero (``starts.solve_again``, the line batches' rule) inside the same rolling batch; the cases
 that start from it wait for that answer.
 """
 
@@ -37,7 +37,7 @@ from ..latin import LatinOptions
 from ..latin.stream import StreamCase, solve_latin_stream
 from ..model import Model
 from ..parameters import Grid
-from . import plan as plan_module
+from . import starts
 from .plan import (
     Case,
     ChainState,
@@ -243,17 +243,21 @@ class ChainFeed:
             log.info("case %d: not unique at the neighbouring hole position %s; started from "
                      "zero", case.number, flagged)
             return None, None, ()
-        fields = self.fields.get(index) or self.state.retained.get(index)
+        fields = self._fields(index)
         if fields is None:
             return (*self.state.nearest(case.index), ())
         extra = self.extra.get(case.number, ())
-        others = [self.fields.get(i) or self.state.retained.get(i) for i in extra]
+        others = [self._fields(i) for i in extra]
         if extra and all(other is not None for other in others):
             moved = extrapolated_fields(self.grid, case.index, index, fields, extra,
                                         [o for o in others if o is not None])
             if moved is not None:
                 return index, moved, extra
         return index, fields, ()
+
+    def _fields(self, index: Index) -> tuple[FloatArray, FloatArray] | None:
+        """A converged case's interface fields, if still at hand."""
+        return self.fields.get(index) or self.state.retained.get(index)
 
     def _needs(self, number: int, essential: bool = False) -> list[Index]:
         """The cases whose fields case ``number`` starts from (``essential``: but its
@@ -284,6 +288,9 @@ class ChainFeed:
             log.info("%s: its neighbour has other interfaces; started from zero",
                      assembly.name)
             start_index, initial, extra = None, None, ()
+        neighbour = self._fields(start_index) if start_index is not None else None
+        if neighbour is not None and starts.at_limit([assembly], [ops], [neighbour])[0]:
+            start_index, initial, extra = None, None, ()
         key = (case.number, spent)
         self.running[key] = (case, start_index, extra, time.perf_counter() - t0, built,
                              spent, spent_s)
@@ -291,7 +298,7 @@ class ChainFeed:
 
     def done(self, key: Hashable, result: SolveResult, wall_s: float) -> None:
         case, start_index, extra, setup_s, built, spent, spent_s = self.running.pop(key)
-        if plan_module.solve_again(result, start_index):
+        if starts.solve_again(result, start_index):
             log.info("%s: not unique from a warm start; solved again from zero",
                      result.assembly.name)
             self.again.append((case, result.iterations, wall_s + setup_s))

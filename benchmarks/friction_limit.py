@@ -1,0 +1,86 @@
+"""Cases at the friction limit started from zero at once (issue 16, session 30), side by side
+with the rule before: a warm start whose answer is not unique is set aside and the case
+solved again from zero (``starts.solve_again``); now a case whose start neighbour's
+converged state, read with the case's friction coefficients, leaves a rigid motion at
+its friction limit (``predictors.at_friction_limit``) starts from zero without a warm
+attempt.
+
+    python benchmarks/friction_limit.py                     # the docs/performance.md table
+    python benchmarks/friction_limit.py --rows b1 --tight
+
+Each row: a multiresolution study (``run_study``'s defaults: the studies' QoI rule) over
+13 x 13 frictions (``--grid``), without and with the prediction, in this process: its
+iterations, the warm attempts set aside (their iterations), the cases predicted (of them
+not unique), and with ``--tight`` R_stop's worst error against η < 1e-9 solves
+(``take_back.tight_values``: relative, floored at 1 N).
+"""
+
+from __future__ import annotations
+
+import argparse
+import tempfile
+import warnings
+from typing import Any
+
+import numpy as np
+
+import multilatin as ml
+from multilatin.study import starts
+
+GRID = ["mu1=0:0.6:13", "mu2=0:0.6:13"]
+
+
+def main() -> None:
+    parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    parser.add_argument("--rows", default="b1,b1-4,b1-9,b3", help="models, comma-separated")
+    parser.add_argument("--grid", nargs="+", default=GRID)
+    parser.add_argument("--tight", action="store_true", help="R_stop's error against tight")
+    args = parser.parse_args()
+    warnings.simplefilter("ignore")
+    predicting = starts.at_limit
+    grid = ml.Grid.parse(args.grid)
+    print("| model | prediction | iterations (slowest) | warm attempts set aside "
+          "(their iterations in all) | cases predicted (zero starts not unique) | worst R_stop "
+          "error |")
+    print("|---|---|---|---|---|---|")
+    for name in args.rows.split(","):
+        model = ml.load_model(name)
+        tight = None
+        if args.tight:
+            from take_back import tight_values  # the same references as take_back.py
+
+            tight = tight_values(model) if args.grid == GRID else None
+        for label, rule in (("off", lambda a, o, f: [False] * len(a)), ("on", predicting)):
+            predicted: list[str] = []
+
+            def counted(assemblies: Any, operators: Any, fields: Any, rule: Any = rule,
+                        predicted: list[str] = predicted) -> list[bool]:
+                flags: list[bool] = rule(assemblies, operators, fields)
+                predicted.extend(a.name for a, flag in zip(assemblies, flags, strict=True)
+                                 if flag)
+                return flags
+
+            starts.at_limit = counted  # type: ignore[assignment]
+            try:
+                with tempfile.TemporaryDirectory() as folder:
+                    result = ml.run_study(model, grid, out=folder, progress=False,
+                                          modes=("multiresolution",))
+            finally:
+                starts.at_limit = predicting  # type: ignore[assignment]
+            records = result.records
+            iterations = [r["iterations"] for r in records]
+            set_aside = [r for r in records if "set aside" in str(r["start"])]
+            attempts = sum(r["iterations"] for r in set_aside)  # warm attempt + from zero
+            zero_starts = sum(r["start"] == "zero" and not r["unique"] for r in records)
+            error = "—"
+            if tight is not None:
+                values = np.asarray(result.dataset["R_stop"].values, dtype=float).ravel()
+                errors = np.abs(values - tight) / np.maximum(np.abs(tight), 1.0)
+                error = f"{np.nanmax(errors):.2e}"
+            print(f"| {name} | {label} | {sum(iterations)} ({max(iterations)}) | "
+                  f"{len(set_aside)} ({attempts}) | {len(predicted)} ({zero_starts}) | "
+                  f"{error} |", flush=True)
+
+
+if __name__ == "__main__":
+    main()

@@ -1,0 +1,121 @@
+"""Where a multiresolution case starts, and when it starts again: the start neighbour's
+fields (or an extrapolation from several, ``predictors``), zero where the case is most
+likely not unique (``at_limit``: a neighbour's state read with the case's friction
+coefficients, or a flag one hole position away), and a warm-started answer that the
+discrete problem does not determine solved again from zero (``path_independent``), so that
+no study's answer depends on its order."""
+
+from __future__ import annotations
+
+import logging
+from collections.abc import Sequence
+from typing import TYPE_CHECKING
+
+from ..decomposition.assembly import Assembly
+from ..decomposition.result import SolveResult
+from ..fem.elasticity import FloatArray
+from ..latin import LatinOptions, solve_latin_batch
+from ..latin.operators import LatinOperators
+from ..parameters import Grid
+from .predictors import (
+    at_friction_limit,
+    extrapolated_fields,
+    held_square,
+    not_unique_beside,
+    secant_partner,
+)
+
+if TYPE_CHECKING:
+    from .plan import Case, ChainState
+
+log = logging.getLogger(__name__)
+
+Index = tuple[int, ...]
+Fields = tuple[FloatArray, FloatArray]
+#: a case's start: its start neighbour (None: from zero), the fields it starts from, the
+#: other neighbours of an extrapolated start
+Start = tuple[Index | None, Fields | None, tuple[Index, ...]]
+FROM_ZERO: Start = (None, None, ())
+
+
+def case_start(grid: Grid, state: ChainState, case: Case, assembly: Assembly,
+               ops: LatinOperators, limit: bool = True) -> Start:
+    """The nearest converged neighbour's index and interface fields to start ``case`` from,
+    and the other neighbours of an extrapolated start (``predictors``: a secant along a
+    geometric axis, where the case one step further back on the line is retained, else a
+    parallelogram whose other two corners are, ``held_square``; else none); from zero when
+    its interfaces are discretised otherwise (a geometric parameter that moves a part across
+    a substructure's boundary) or when it is most likely not unique (``at_limit``;
+    ``limit=False``: the caller checks that, for a batch of cases at once)."""
+    flagged = not_unique_beside(case.index, case.axes, state.unsettled)
+    if flagged is not None:
+        log.info("%s: not unique at the neighbouring hole position %s; started from zero",
+                 assembly.name, flagged)
+        return FROM_ZERO
+    start_index, initial = state.nearest(case.index)
+    shape = (assembly.n_steps, ops.points.n_points, 2)
+    if initial is not None and any(field.shape != shape for field in initial):
+        log.info("%s: its nearest converged neighbour has other interfaces; started from "
+                 "zero", assembly.name)
+        return FROM_ZERO
+    if start_index is None or initial is None:
+        return start_index, initial, ()
+    if limit and at_limit([assembly], [ops], [initial])[0]:
+        return FROM_ZERO
+    partner = secant_partner(case.index, start_index, case.axes, grid.shape)
+    if partner in state.retained:
+        assert partner is not None
+        secant = extrapolated_fields(grid, case.index, start_index, initial, (partner,),
+                                     [state.retained[partner]])
+        if secant is not None:
+            return start_index, secant, (partner,)
+    square = held_square(case.index, start_index, case.axes, state.retained)
+    if square is not None:
+        fields = extrapolated_fields(grid, case.index, start_index, initial, square,
+                                     [state.retained[i] for i in square])
+        if fields is not None:
+            return start_index, fields, square
+    return start_index, initial, ()
+
+
+def at_limit(assemblies: Sequence[Assembly], operators: Sequence[LatinOperators],
+             neighbours: Sequence[Fields]) -> list[bool]:
+    """Per case: most likely not unique, read from its start neighbour's converged fields
+    (``predictors.at_friction_limit``, the cases of one geometry together); such a case
+    starts from zero, as its warm attempt would be set aside (``solve_again``)."""
+    motions = at_friction_limit(assemblies, [ops.points for ops in operators], neighbours)
+    for assembly, motion in zip(assemblies, motions, strict=True):
+        if motion is not None:
+            log.info("%s: at the friction limit from its neighbour's state (%s); started "
+                     "from zero", assembly.name, motion.describe())
+    return [motion is not None for motion in motions]
+
+
+def solve_again(result: SolveResult, start_index: Index | None) -> bool:
+    """A warm-started answer that the discrete problem does not determine: the case is
+    solved again from zero (``multilatin.uniqueness``; a warm start would pick the solution
+    nearest its neighbour's, and the study's answer would depend on its order)."""
+    return start_index is not None and result.converged and not result.unique
+
+
+def path_independent(assemblies: Sequence[Assembly], options: LatinOptions,
+                     operators: Sequence[LatinOperators], results: Sequence[SolveResult],
+                     start_indices: Sequence[Index | None]) -> list[tuple[SolveResult, int]]:
+    """Warm-started cases whose discrete problem does not determine their answer
+    (``multilatin.uniqueness``) are solved again from zero with the same operators (all of
+    them as one batch): a warm start would pick the solution nearest its neighbour's, so
+    the study's answer would depend on the order of the grid. Returns per case the result
+    kept and the iterations spent on the warm attempt (0 when it is kept)."""
+    again = [n for n, (result, start) in enumerate(zip(results, start_indices, strict=True))
+             if solve_again(result, start)]
+    kept = [(result, 0) for result in results]
+    if not again:
+        return kept
+    for n in again:
+        log.info("%s: not unique from a warm start; solved again from zero",
+                 assemblies[n].name)
+    cold = solve_latin_batch([assemblies[n] for n in again], options,
+                             operators=[operators[n] for n in again], check=False)
+    for n, result in zip(again, cold, strict=True):
+        kept[n] = (result, results[n].iterations)
+    return kept
