@@ -66,9 +66,11 @@ def test_a_new_hole_rebuilds_only_its_substructure():
     model = load_model("b3")
     first = LatinOperators(model.assemble({"rc": 3.0}), LatinOptions())
     assert len(first.rebuilt) == 27
+    first_map = first.macro_only  # built by the first solve
     moved = model.assemble({"rc": 3.0, "xc": 24.0})
     reused = LatinOperators(moved, LatinOptions(), reuse=first)
     assert reused.rebuilt == ("centre[1,1]",)
+    assert reused.macro_only is first_map  # the macro-only interfaces' map taken over
     grown = LatinOperators(model.assemble({"rc": 4.0, "xc": 24.0}), LatinOptions(), reuse=reused)
     assert grown.rebuilt == ("centre[1,1]",)
     friction_only = LatinOperators(model.assemble({"rc": 4.0, "xc": 24.0, "mu1": 0.1}),
@@ -85,6 +87,9 @@ def test_a_new_hole_rebuilds_only_its_substructure():
         np.testing.assert_array_equal(getattr(reused.points, name),
                                       getattr(scratch.points, name), err_msg=name)
     np.testing.assert_array_equal(reused.search_direction, scratch.search_direction)
+    for name in ("points", "left", "right"):
+        np.testing.assert_array_equal(getattr(reused.macro_only, name),
+                                      getattr(scratch.macro_only, name), err_msg=name)
     assert (reused.macro_basis != scratch.macro_basis).nnz == 0
     np.testing.assert_array_equal(
         friction_only.points.contact_friction,

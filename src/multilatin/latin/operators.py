@@ -143,6 +143,8 @@ class LatinOperators:
             self.two_scale = reuse.two_scale
             self.m0, basis = reuse.m0, reuse.macro_basis
             self.interface_keys = reuse.interface_keys
+            if "macro_only" in reuse.__dict__:  # built (``macro_only``): the same points and k
+                self.__dict__["macro_only"] = reuse.macro_only
         else:
             basis = self._build_interfaces(assembly, options)
         pts = self.points
