@@ -9,6 +9,7 @@ states are detected (``multilatin.decomposition.uniqueness``), flagged, and solv
 
 from __future__ import annotations
 
+import logging
 from pathlib import Path
 
 import pytest
@@ -146,7 +147,8 @@ def test_a_case_at_the_friction_limit_is_predicted_from_a_neighbour_s_state(
 
 
 def test_a_study_starts_a_case_at_the_friction_limit_from_zero(
-        b1: ml.Model, tmp_path: Path, monkeypatch: pytest.MonkeyPatch) -> None:
+        b1: ml.Model, tmp_path: Path, monkeypatch: pytest.MonkeyPatch,
+        caplog: pytest.LogCaptureFixture) -> None:
     """B1, μ1 = 0.05, μ2 from 0.35 down to 0.25 (a line, case after case): (0.05, 0.25)
     is at the friction limit and not unique; predicted from (0.05, 0.3)'s state it starts
     from zero at once, where without the prediction its warm attempt is set aside and it is
@@ -159,9 +161,21 @@ def test_a_study_starts_a_case_at_the_friction_limit_from_zero(
             monkeypatch.setattr(starts, "at_limit",
                                 lambda assemblies, ops, fields: [False] * len(assemblies))
         clear_operator_cache()
-        result = run_study(b1, grid, out=tmp_path / name, progress=False,
-                           modes=("multiresolution",))
+        with caplog.at_level(logging.INFO, logger="multilatin"):
+            result = run_study(b1, grid, out=tmp_path / name, progress=False,
+                               modes=("multiresolution",))
         runs[name] = {r["params"]["mu2"]: r for r in result.records}
+        said = [r.getMessage() for r in caplog.records if "at the friction limit" in
+                r.getMessage()]
+        if name == "predicted":  # the log names the case, the motion and the step
+            [line] = said
+            assert line.startswith("b1 (gap=0.04, mu1=0.05, mu2=0.25): at the friction "
+                                   "limit from its neighbour's state (step 10: centre is "
+                                   "free to move (translation (+1, +0))")
+            assert line.endswith("started from zero")
+        else:
+            assert not said
+        caplog.clear()
     limit, without = runs["predicted"][0.25], runs["without"][0.25]
     assert without["start"] == "zero (not unique: the warm start was set aside)"
     assert limit["start"] == "zero" and limit["unique"] is False

@@ -200,6 +200,13 @@ class Assembly:
         return {}
 
     @property
+    def label(self) -> str:
+        """The model's name and the case's parameters, for log lines: ``b1 (mu1=0.3,
+        mu2=0.2)``."""
+        values = ", ".join(f"{name}={value:g}" for name, value in dict(self.mu).items())
+        return f"{self.name} ({values})" if values else self.name
+
+    @property
     def n_steps(self) -> int:
         return self.history.n_steps
 

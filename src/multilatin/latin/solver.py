@@ -202,15 +202,13 @@ def _outcome(history: FloatArray, qoi: dict[str, float | list[float]],
 def log_result(result: SolveResult, batch: int) -> None:
     """A solve's line in the log (its case, outcome, iterations, η, time), and what the
     discrete problem leaves undetermined."""
-    log.info("%s%s: %s after %d iterations, eta = %.2e, %.3f s%s", result.assembly.name,
-             _parameters_text(result.assembly),
+    log.info("%s: %s after %d iterations, eta = %.2e, %.3f s%s", result.assembly.label,
              "converged" if result.converged else "NOT converged", result.iterations,
              result.indicator, result.timings["total"],
              f" (batch of {batch})" if batch > 1 else "")
     for motion in result.free_motions:
         if motion.reaches_last_step:
-            log.info("%s%s: not unique: %s", result.assembly.name,
-                     _parameters_text(result.assembly), motion.describe())
+            log.info("%s: not unique: %s", result.assembly.label, motion.describe())
 
 
 def _recovered(state: IterationState, cases: Sequence[int],
@@ -347,12 +345,6 @@ def _per_qoi(assembly: Assembly, estimates: FloatArray) -> dict[str, float | lis
         else:
             out[q.name] = values[0] if len(values) == 1 else values
     return out
-
-
-def _parameters_text(assembly: Assembly) -> str:
-    """`` (mu1=0.3, mu2=0.2)``: the case's parameters, for log lines."""
-    values = ", ".join(f"{name}={value:g}" for name, value in dict(assembly.mu).items())
-    return f" ({values})" if values else ""
 
 
 def _reactions(assembly: Assembly, pts: InterfacePoints, force_hat: FloatArray

@@ -286,7 +286,7 @@ class ChainFeed:
         shape = (assembly.n_steps, ops.points.n_points, 2)
         if initial is not None and any(field.shape != shape for field in initial):
             log.info("%s: its neighbour has other interfaces; started from zero",
-                     assembly.name)
+                     assembly.label)
             start_index, initial, extra = None, None, ()
         neighbour = self._fields(start_index) if start_index is not None else None
         if neighbour is not None and starts.at_limit([assembly], [ops], [neighbour])[0]:
@@ -300,7 +300,7 @@ class ChainFeed:
         case, start_index, extra, setup_s, built, spent, spent_s = self.running.pop(key)
         if starts.solve_again(result, start_index):
             log.info("%s: not unique from a warm start; solved again from zero",
-                     result.assembly.name)
+                     result.assembly.label)
             self.again.append((case, result.iterations, wall_s + setup_s))
             return
         self.done_numbers.add(case.number)

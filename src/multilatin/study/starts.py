@@ -50,13 +50,13 @@ def case_start(grid: Grid, state: ChainState, case: Case, assembly: Assembly,
     flagged = not_unique_beside(case.index, case.axes, state.unsettled)
     if flagged is not None:
         log.info("%s: not unique at the neighbouring hole position %s; started from zero",
-                 assembly.name, flagged)
+                 assembly.label, flagged)
         return FROM_ZERO
     start_index, initial = state.nearest(case.index)
     shape = (assembly.n_steps, ops.points.n_points, 2)
     if initial is not None and any(field.shape != shape for field in initial):
         log.info("%s: its nearest converged neighbour has other interfaces; started from "
-                 "zero", assembly.name)
+                 "zero", assembly.label)
         return FROM_ZERO
     if start_index is None or initial is None:
         return start_index, initial, ()
@@ -87,7 +87,7 @@ def at_limit(assemblies: Sequence[Assembly], operators: Sequence[LatinOperators]
     for assembly, motion in zip(assemblies, motions, strict=True):
         if motion is not None:
             log.info("%s: at the friction limit from its neighbour's state (%s); started "
-                     "from zero", assembly.name, motion.describe())
+                     "from zero", assembly.label, motion.describe())
     return [motion is not None for motion in motions]
 
 
