@@ -7,6 +7,7 @@ attempt.
 
     python benchmarks/friction_limit.py                     # the docs/performance.md table
     python benchmarks/friction_limit.py --rows b1 --tight
+    python benchmarks/friction_limit.py --cost              # what the reading costs a case
 
 Each row: a multiresolution study (``run_study``'s defaults: the studies' QoI rule) over
 13 x 13 frictions (``--grid``), without and with the prediction, in this process: its
@@ -35,8 +36,13 @@ def main() -> None:
     parser.add_argument("--rows", default="b1,b1-4,b1-9,b3", help="models, comma-separated")
     parser.add_argument("--grid", nargs="+", default=GRID)
     parser.add_argument("--tight", action="store_true", help="R_stop's error against tight")
+    parser.add_argument("--cost", action="store_true",
+                        help="time the reading per case, one at a time and 200 together")
     args = parser.parse_args()
     warnings.simplefilter("ignore")
+    if args.cost:
+        cost(args.rows.split(","))
+        return
     predicting = starts.at_limit
     grid = ml.Grid.parse(args.grid)
     print("| model | prediction | iterations (slowest) | warm attempts set aside "
@@ -66,7 +72,7 @@ def main() -> None:
                     result = ml.run_study(model, grid, out=folder, progress=False,
                                           modes=("multiresolution",))
             finally:
-                starts.at_limit = predicting  # type: ignore[assignment]
+                starts.at_limit = predicting
             records = result.records
             iterations = [r["iterations"] for r in records]
             set_aside = [r for r in records if "set aside" in str(r["start"])]
@@ -80,6 +86,37 @@ def main() -> None:
             print(f"| {name} | {label} | {sum(iterations)} ({max(iterations)}) | "
                   f"{len(set_aside)} ({attempts}) | {len(predicted)} ({zero_starts}) | "
                   f"{error} |", flush=True)
+
+
+def cost(names: list[str]) -> None:
+    """``at_friction_limit`` on 200 cases read from one neighbour's state ((0.05, 0.3), the
+    cases at μ2 = 0.25 + 0…0.002: a third of them at the limit), one at a time as the
+    rolling batch asks and all together as a line batch does; best of three."""
+    import time
+
+    from multilatin.latin import LatinOperators, LatinOptions
+    from multilatin.study.predictors import at_friction_limit
+
+    for name in names:
+        model = ml.load_model(name)
+        result = model.solve({"mu1": 0.05, "mu2": 0.3})
+        assert result.interface is not None
+        fields = (result.interface.displacement_hat, result.interface.force_hat)
+        cases = [model.assemble({"mu1": 0.05, "mu2": 0.25 + 0.001 * (i % 3)})
+                 for i in range(200)]
+        points = LatinOperators(cases[0], LatinOptions()).points
+        alone, together = [], []
+        for _ in range(3):
+            t0 = time.perf_counter()
+            for case in cases:
+                at_friction_limit([case], [points], [fields])
+            alone.append((time.perf_counter() - t0) / len(cases))
+            t0 = time.perf_counter()
+            found = at_friction_limit(cases, [points] * len(cases), [fields] * len(cases))
+            together.append((time.perf_counter() - t0) / len(cases))
+        print(f"{name}: {1e3 * min(alone):.2f} ms a case one at a time, "
+              f"{1e3 * min(together):.2f} ms in a batch of {len(cases)} "
+              f"({sum(m is not None for m in found)} at the limit)", flush=True)
 
 
 if __name__ == "__main__":

@@ -204,3 +204,16 @@ def test_a_case_beside_a_flagged_hole_position_starts_from_zero(
     for got, nearest in zip(runs["neighbour"], runs["nearest"], strict=True):
         assert got["converged"] and got["unique"] == nearest["unique"]
         assert got["qoi"]["R_stop"] == pytest.approx(nearest["qoi"]["R_stop"], rel=1e-3)
+
+
+def test_a_step_along_hole_positions_only_is_not_read_for_the_friction_limit() -> None:
+    """``along_geometry``: the friction limit is read from a neighbour's state with the
+    case's coefficients only where they can differ (a step along a friction axis);
+    along hole positions alone ``not_unique_beside`` tells."""
+    from multilatin.study.predictors import along_geometry
+
+    assert along_geometry((1, 2, 3), (0, 2, 3), (0,))
+    assert along_geometry((1, 2, 3), (0, 1, 3), (0, 1))
+    assert not along_geometry((1, 2, 3), (1, 1, 3), (0,))  # a friction step
+    assert not along_geometry((1, 2, 3), (0, 1, 3), (0,))  # geometry and friction
+    assert along_geometry((1, 2, 3), (1, 2, 3), ())  # the same case: nothing differs

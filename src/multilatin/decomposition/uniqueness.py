@@ -40,6 +40,8 @@ from .interfaces import InterfacePoints
 #: a free motion is reported when less than this share of the friction capacity along it is
 #: left (the load is within 0.1 % of the sliding limit)
 RESERVE_TOL = 1e-3
+#: cases whose fields ``limit_motions_batch`` stacks at once
+LIMIT_CASES = 256
 
 
 @dataclass(frozen=True)
@@ -307,64 +309,92 @@ def limit_motions_batch(assemblies: Sequence[Assembly], points: Sequence[Interfa
     reaches the limit on the stop, its answer unique (B1 (0.45, 0.15) at step 15, on the
     stop since step 13). ``reserve`` is signed here."""
     out: list[list[FreeMotion]] = [[] for _ in assemblies]
-    for c, (assembly, pts, w_hat, f_hat) in enumerate(zip(
-            assemblies, points, displacement_hats, force_hats, strict=True)):
-        force_scale = _largest(f_hat) or 1.0
-        near = 1e-4 * (_largest(w_hat) or 1.0)
-        for cluster in _clusters_of(assembly, pts):
-            p, partner, normal, modes = cluster.p, cluster.partner, cluster.normal, cluster.modes
-            own_a, own_b, own_stops = cluster.own
-            friction = np.concatenate([pts.contact_friction[own_a],
-                                       pts.contact_friction[own_b],
-                                       pts.stop_friction[own_stops]])
-            gap = np.concatenate([pts.contact_gap[own_a], pts.contact_gap[own_b],
-                                  pts.stop_gap[own_stops]])
-            between = partner >= 0  # contact points between bodies (not stops)
-            force = f_hat[:, p]  # (T, n, 2)
-            normal_force = np.einsum("tnd,nd->tn", force, normal)
-            jump = (np.where(between[:, None], w_hat[:, np.maximum(partner, 0)], 0.0)
-                    - w_hat[:, p])
-            opening = gap[None, :] + np.einsum("nd,tnd->tn", normal, jump)
-            closed = (normal_force < -1e-9 * force_scale) | (opening <= near)
-            increment = np.diff(jump, axis=0, prepend=np.zeros((1, *jump.shape[1:])))
-            slip = increment - np.einsum("tnd,nd->tn", increment, normal)[..., None] * normal
-            moving = np.linalg.norm(slip, axis=2) > near  # (T, n)
-            pressed = (normal_force < -1e-9 * force_scale) & between
-            touching = ~pressed & (opening <= near) & between
-            along = cluster.along_normal
-            outer = (along[:, :, None] * along[:, None, :]).reshape(-1, 9)
-            gram = cluster.held + (pressed.astype(float) @ outer).reshape(-1, 3, 3)
-            values, vectors = np.linalg.eigh(gram)
-            free = values <= 1e-10 * np.maximum(values[..., -1:], 1e-300)
-            limit = friction * np.abs(normal_force)  # (T, n)
-            with_friction = bool(np.any(friction > 0))
-            steps, columns = np.nonzero(free)  # every free direction of every step at once
+    groups: dict[int, tuple[list[_Cluster], list[int]]] = {}
+    for c, (assembly, pts) in enumerate(zip(assemblies, points, strict=True)):
+        clusters = _clusters_of(assembly, pts)
+        groups.setdefault(id(clusters), (clusters, []))[1].append(c)
+    for clusters, members in groups.values():
+        for start in range(0, len(members), LIMIT_CASES):  # bounds the stacked fields
+            chunk = members[start:start + LIMIT_CASES]
+            found = _limit_motions_of(clusters, [points[c] for c in chunk],
+                                      [displacement_hats[c] for c in chunk],
+                                      [force_hats[c] for c in chunk], reserve_tol)
+            for c, motions in zip(chunk, found, strict=True):
+                out[c] = sorted(motions, key=lambda motion: motion.step)
+    return out
+
+
+def _limit_motions_of(clusters: list[_Cluster], points: Sequence[InterfacePoints],
+                      displacement_hats: Sequence[FloatArray],
+                      force_hats: Sequence[FloatArray], reserve_tol: float
+                      ) -> list[list[FreeMotion]]:
+    """``limit_motions_batch`` for cases of the same ``clusters``, vectorised over the
+    cases, their steps and free directions (the clusters' points of the fields only)."""
+    n_cases, n_steps = len(force_hats), force_hats[0].shape[0]
+    out: list[list[FreeMotion]] = [[] for _ in range(n_cases)]
+    force_scale = np.array([_largest(force) or 1.0 for force in force_hats])
+    near = 1e-4 * np.array([_largest(w) or 1.0 for w in displacement_hats])[:, None, None]
+    for cluster in clusters:
+        p, partner, normal, modes = cluster.p, cluster.partner, cluster.normal, cluster.modes
+        own_a, own_b, own_stops = cluster.own
+        friction = np.stack([np.concatenate([pts.contact_friction[own_a],
+                                             pts.contact_friction[own_b],
+                                             pts.stop_friction[own_stops]]) for pts in points])
+        gap = np.stack([np.concatenate([pts.contact_gap[own_a], pts.contact_gap[own_b],
+                                        pts.stop_gap[own_stops]]) for pts in points])
+        between = partner >= 0  # contact points between bodies (not stops)
+        force = np.stack([f[:, p] for f in force_hats])  # (C, T, n, 2)
+        normal_force = np.einsum("ctnd,nd->ctn", force, normal)
+        other = np.maximum(partner, 0)
+        jump = (np.where(between[:, None], np.stack([w[:, other] for w in displacement_hats]),
+                         0.0) - np.stack([w[:, p] for w in displacement_hats]))
+        opening = gap[:, None, :] + np.einsum("nd,ctnd->ctn", normal, jump)
+        pushed = normal_force < -1e-9 * force_scale[:, None, None]
+        shut = opening <= near
+        closed = pushed | shut  # (C, T, n)
+        increment = np.diff(jump, axis=1, prepend=np.zeros((n_cases, 1, *jump.shape[2:])))
+        slip = increment - np.einsum("ctnd,nd->ctn", increment, normal)[..., None] * normal
+        moving = np.linalg.norm(slip, axis=3) > near
+        pressed = pushed & between
+        touching = ~pressed & shut & between
+        along = cluster.along_normal
+        outer = (along[:, :, None] * along[:, None, :]).reshape(-1, 9)
+        gram = cluster.held + (pressed.astype(float) @ outer).reshape(n_cases, n_steps, 3, 3)
+        values, vectors = np.linalg.eigh(gram)
+        free = values <= 1e-10 * np.maximum(values[..., -1:], 1e-300)
+        limit = friction[:, None, :] * np.abs(normal_force)  # (C, T, n)
+        with_friction = np.any(friction > 0, axis=1)
+        found = np.nonzero(free)  # every free direction of every case and step
+        for sign in (1.0, -1.0):
+            cases, steps, columns = found
+            modes_p = sign * vectors[cases, steps, :, columns]  # (P, 3)
+            velocity = np.einsum("nck,pk->pnc", modes, modes_p)
+            along_n = np.einsum("pnc,nc->pn", velocity, normal)
+            slide = velocity - along_n[..., None] * normal
+            holding = limit[cases, steps] * np.linalg.norm(slide, axis=2)  # (P, n)
+            capacity = holding @ cluster.weights
+            load = -np.einsum("pnc,pnc,n->p", force[cases, steps], velocity, cluster.weights)
+            reserve = (capacity - load) / np.where(capacity > 0.0, capacity, 1.0)
+            near_limit = np.flatnonzero((capacity > 0.0) & (load > 0.0)
+                                        & (np.abs(reserve) <= reserve_tol))
+            cases, steps, modes_p = cases[near_limit], steps[near_limit], modes_p[near_limit]
+            into, holding = along_n[near_limit] > 1e-9, holding[near_limit]
             before = np.maximum(steps - 1, 0)
-            for sign in (1.0, -1.0):
-                modes_p = sign * vectors[steps, :, columns]  # (P, 3)
-                velocity = np.einsum("nck,pk->pnc", modes, modes_p)
-                into = np.einsum("pnc,nc->pn", velocity, normal) > 1e-9
-                slide = velocity - np.einsum("pnc,nc->pn", velocity, normal)[..., None] * normal
-                holding = limit[steps] * np.linalg.norm(slide, axis=2)  # (P, n)
-                # not into a touching contact; not along a body that rested on a stop (or a
-                # contact) the step before; on a stop only where it slid there
-                blocked = (np.any(touching[steps] & into, axis=1)
-                           | ((steps > 0) & np.any(closed[before] & into, axis=1))
-                           | (np.any(closed[steps] & ~between & into, axis=1)
-                              & ~np.all(moving[steps] | (holding <= 0.0) | ~between, axis=1)))
-                capacity = holding @ cluster.weights
-                load = -np.einsum("pnc,pnc,n->p", force[steps], velocity, cluster.weights)
-                reserve = (capacity - load) / np.where(capacity > 0.0, capacity, 1.0)
-                at_limit = ~blocked & (capacity > 0.0) & (load > 0.0) & (
-                    np.abs(reserve) <= reserve_tol)
-                for n in np.flatnonzero(at_limit):
-                    t, mode = int(steps[n]), modes_p[n]
-                    if any(m.step == t + 1 and m.bodies == cluster.bodies for m in out[c]):
-                        continue  # one sign of one direction per step is enough
-                    out[c].append(FreeMotion(
-                        t + 1, cluster.bodies, (float(mode[0]), float(mode[1])),
-                        float(mode[2] / cluster.size),
-                        (float(cluster.centre[0]), float(cluster.centre[1])),
-                        float(reserve[n]), t + 1 == len(force) or with_friction))
-        out[c].sort(key=lambda motion: motion.step)
+            # not into a touching contact; not along a body that rested on a stop (or a
+            # contact) the step before; on a stop only where it slid there
+            blocked = (np.any(touching[cases, steps] & into, axis=1)
+                       | ((steps > 0) & np.any(closed[cases, before] & into, axis=1))
+                       | (np.any(closed[cases, steps] & ~between & into, axis=1)
+                          & ~np.all(moving[cases, steps] | (holding <= 0.0) | ~between,
+                                    axis=1)))
+            reserve = reserve[near_limit]
+            for n in np.flatnonzero(~blocked):
+                c, t, mode = int(cases[n]), int(steps[n]), modes_p[n]
+                if any(m.step == t + 1 and m.bodies == cluster.bodies for m in out[c]):
+                    continue  # one sign of one direction per step is enough
+                out[c].append(FreeMotion(
+                    t + 1, cluster.bodies, (float(mode[0]), float(mode[1])),
+                    float(mode[2] / cluster.size),
+                    (float(cluster.centre[0]), float(cluster.centre[1])),
+                    float(reserve[n]), t + 1 == n_steps or bool(with_friction[c])))
     return out

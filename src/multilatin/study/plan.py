@@ -29,6 +29,7 @@ from ..latin.operators import LatinOperators, operator_signature
 from ..model import Model
 from ..parameters import Grid, Mu
 from . import starts
+from .predictors import along_geometry
 from .records import case_record
 
 log = logging.getLogger(__name__)
@@ -382,7 +383,8 @@ def _solve_together(model: Model, grid: Grid, cases: tuple[Case, ...], mode: str
     chosen = [starts.case_start(grid, state, case, assembly, ops, limit=False)
               if state is not None else starts.FROM_ZERO
               for case, assembly, ops in zip(cases, assemblies, per_case, strict=True)]
-    warm = [(n, index) for n, (index, _, _) in enumerate(chosen) if index is not None]
+    warm = [(n, index) for n, (index, _, _) in enumerate(chosen) if index is not None
+            and not along_geometry(cases[n].index, index, cases[n].axes)]
     if warm and state is not None:  # the friction limit from the neighbours' states at once
         limited = starts.at_limit([assemblies[n] for n, _ in warm],
                                   [per_case[n] for n, _ in warm],

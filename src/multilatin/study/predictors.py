@@ -170,6 +170,13 @@ def not_unique_beside(index: Index, axes: Collection[int], unsettled: Collection
     return None
 
 
+def along_geometry(index: Index, start: Index, axes: Collection[int]) -> bool:
+    """Whether ``index`` differs from ``start`` along geometric axes only (``Case.axes``):
+    the same friction coefficients and gaps, so ``at_friction_limit`` would read the
+    start's state with its own coefficients — where ``not_unique_beside`` already tells."""
+    return all(d in axes for d, (a, b) in enumerate(zip(index, start, strict=True)) if a != b)
+
+
 def at_friction_limit(assemblies: Sequence[Assembly], points: Sequence[InterfacePoints],
                       neighbours: Sequence[Fields]) -> list[FreeMotion | None]:
     """Per case, a free motion that makes it most likely not unique, read from its start

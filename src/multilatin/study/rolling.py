@@ -49,6 +49,7 @@ from .plan import (
 )
 from .predictors import (
     across_geometries,
+    along_geometry,
     extrapolated_fields,
     not_unique_beside,
     parallelogram_partners,
@@ -288,7 +289,8 @@ class ChainFeed:
             log.info("%s: its neighbour has other interfaces; started from zero",
                      assembly.label)
             start_index, initial, extra = None, None, ()
-        neighbour = self._fields(start_index) if start_index is not None else None
+        neighbour = (self._fields(start_index) if start_index is not None
+                     and not along_geometry(case.index, start_index, case.axes) else None)
         if neighbour is not None and starts.at_limit([assembly], [ops], [neighbour])[0]:
             start_index, initial, extra = None, None, ()
         key = (case.number, spent)

@@ -18,6 +18,7 @@ from ..latin import LatinOptions, solve_latin_batch
 from ..latin.operators import LatinOperators
 from ..parameters import Grid
 from .predictors import (
+    along_geometry,
     at_friction_limit,
     extrapolated_fields,
     held_square,
@@ -46,7 +47,8 @@ def case_start(grid: Grid, state: ChainState, case: Case, assembly: Assembly,
     parallelogram whose other two corners are, ``held_square``; else none); from zero when
     its interfaces are discretised otherwise (a geometric parameter that moves a part across
     a substructure's boundary) or when it is most likely not unique (``at_limit``;
-    ``limit=False``: the caller checks that, for a batch of cases at once)."""
+    ``limit=False``: the caller checks that, for a batch of cases at once; not asked along
+    geometric axes, ``along_geometry``)."""
     flagged = not_unique_beside(case.index, case.axes, state.unsettled)
     if flagged is not None:
         log.info("%s: not unique at the neighbouring hole position %s; started from zero",
@@ -60,7 +62,8 @@ def case_start(grid: Grid, state: ChainState, case: Case, assembly: Assembly,
         return FROM_ZERO
     if start_index is None or initial is None:
         return start_index, initial, ()
-    if limit and at_limit([assembly], [ops], [initial])[0]:
+    if (limit and not along_geometry(case.index, start_index, case.axes)
+            and at_limit([assembly], [ops], [initial])[0]):
         return FROM_ZERO
     partner = secant_partner(case.index, start_index, case.axes, grid.shape)
     if partner in state.retained:
