@@ -27,7 +27,7 @@ from __future__ import annotations
 import threading
 import weakref
 from collections import OrderedDict
-from collections.abc import Sequence
+from collections.abc import Callable, Sequence
 from dataclasses import dataclass
 from typing import Any
 
@@ -172,59 +172,114 @@ def free_motions_batch(assemblies: Sequence[Assembly], points: Sequence[Interfac
                        reserve_tol: float = RESERVE_TOL) -> list[list[FreeMotion]]:
     """``free_motions`` of several converged states, computed together for the cases that
     share their clusters (one geometry: a batch's cases), vectorised over cases and steps."""
+    return _by_geometry(assemblies, points, displacement_hats, force_hats,
+                        lambda clusters, pts, w, f: _motions_of(clusters, pts, w, f,
+                                                                reserve_tol))
+
+
+def _by_geometry(assemblies: Sequence[Assembly], points: Sequence[InterfacePoints],
+                 displacement_hats: Sequence[FloatArray], force_hats: Sequence[FloatArray],
+                 motions_of: Callable[[list[_Cluster], list[InterfacePoints],
+                                       list[FloatArray], list[FloatArray]],
+                                      list[list[FreeMotion]]],
+                 chunk: int | None = None) -> list[list[FreeMotion]]:
+    """Per case, ``motions_of`` its fields, for the cases that share their clusters (one
+    geometry) together, ``chunk`` of them at a time (None: all); motions by step."""
     out: list[list[FreeMotion]] = [[] for _ in assemblies]
     groups: dict[int, tuple[list[_Cluster], list[int]]] = {}
     for c, (assembly, pts) in enumerate(zip(assemblies, points, strict=True)):
         clusters = _clusters_of(assembly, pts)
         groups.setdefault(id(clusters), (clusters, []))[1].append(c)
     for clusters, members in groups.values():
-        found = _motions_of(clusters, [points[c] for c in members],
-                            [displacement_hats[c] for c in members],
-                            [force_hats[c] for c in members], reserve_tol)
-        for c, motions in zip(members, found, strict=True):
-            out[c] = sorted(motions, key=lambda motion: motion.step)
+        size = chunk or len(members)
+        for start in range(0, len(members), size):
+            part = members[start:start + size]
+            found = motions_of(clusters, [points[c] for c in part],
+                               [displacement_hats[c] for c in part],
+                               [force_hats[c] for c in part])
+            for c, motions in zip(part, found, strict=True):
+                out[c] = sorted(motions, key=lambda motion: motion.step)
     return out
+
+
+@dataclass(frozen=True)
+class _ClusterState:
+    """What both readings of a cluster take from cases' states ŝ (C cases, T steps, its
+    n points): μ per point, forces F̂, their normal part N, and where the contacts are
+    pushed (N < 0), shut (opening within ``near``) and slipping during the step."""
+
+    friction: FloatArray  # (C, n)
+    force: FloatArray  # (C, T, n, 2)
+    normal_force: FloatArray  # (C, T, n)
+    pushed: np.ndarray  # (C, T, n)
+    shut: np.ndarray
+    moving: np.ndarray
+
+
+def _scales(displacement_hats: Sequence[FloatArray], force_hats: Sequence[FloatArray]
+            ) -> tuple[FloatArray, FloatArray]:
+    """Per case, the largest |F̂| and 1e-4 × the largest |Ŵ| (1 where zero), shapes (C, 1,
+    1): a force below the first's 1e-9 is none, a gap or slip within the second is shut."""
+    force_scale = np.array([_largest(force) or 1.0 for force in force_hats])
+    near = 1e-4 * np.array([_largest(w) or 1.0 for w in displacement_hats])
+    return force_scale[:, None, None], near[:, None, None]
+
+
+def _cluster_state(cluster: _Cluster, points: Sequence[InterfacePoints],
+                   displacement_hats: Sequence[FloatArray], force_hats: Sequence[FloatArray],
+                   scales: tuple[FloatArray, FloatArray]) -> _ClusterState:
+    """``_ClusterState`` of ``cluster`` in these cases (``scales``: ``_scales`` of their
+    fields); only the cluster's points of the fields are gathered (on b3 108 of 955:
+    stacking whole fields was most of the time)."""
+    n_cases = len(force_hats)
+    force_scale, near = scales
+    p, partner, normal = cluster.p, cluster.partner, cluster.normal
+    own_a, own_b, own_stops = cluster.own
+    friction = np.stack([np.concatenate([pts.contact_friction[own_a],
+                                         pts.contact_friction[own_b],
+                                         pts.stop_friction[own_stops]]) for pts in points])
+    gap = np.stack([np.concatenate([pts.contact_gap[own_a], pts.contact_gap[own_b],
+                                    pts.stop_gap[own_stops]]) for pts in points])
+    force = np.stack([f[:, p] for f in force_hats])  # (C, T, n, 2): on the cluster
+    normal_force = np.einsum("ctnd,nd->ctn", force, normal)
+    # [Ŵ] = Ŵ_partner − Ŵ_own (a stop's side is fixed): opening and slip increments
+    other = np.maximum(partner, 0)
+    jump = (np.where(partner[:, None] >= 0, np.stack([w[:, other] for w in displacement_hats]),
+                     0.0) - np.stack([w[:, p] for w in displacement_hats]))
+    opening = gap[:, None, :] + np.einsum("nd,ctnd->ctn", normal, jump)
+    increment = np.diff(jump, axis=1, prepend=np.zeros((n_cases, 1, *jump.shape[2:])))
+    slip = increment - np.einsum("ctnd,nd->ctn", increment, normal)[..., None] * normal
+    return _ClusterState(friction, force, normal_force, normal_force < -1e-9 * force_scale,
+                         opening <= near, np.linalg.norm(slip, axis=3) > near)
+
+
+def _free_directions(cluster: _Cluster, pressed: np.ndarray
+                     ) -> tuple[FloatArray, np.ndarray]:
+    """The rigid modes' directions per case and step (``vectors``, (C, T, 3, 3)) and which
+    of them the ``pressed`` points (no motion along their normal) and the prescribed
+    displacements leave free (``free``, (C, T, 3))."""
+    along = cluster.along_normal  # Σ_pressed a aᵀ, as one product over the points
+    outer = (along[:, :, None] * along[:, None, :]).reshape(-1, 9)
+    gram = cluster.held + (pressed.astype(float) @ outer).reshape(*pressed.shape[:2], 3, 3)
+    values, vectors = np.linalg.eigh(gram)  # ascending
+    return vectors, values <= 1e-10 * np.maximum(values[..., -1:], 1e-300)
 
 
 def _motions_of(clusters: list[_Cluster], points: Sequence[InterfacePoints],
                 displacement_hats: Sequence[FloatArray], force_hats: Sequence[FloatArray],
                 reserve_tol: float) -> list[list[FreeMotion]]:
     """``free_motions_batch`` for cases of the same ``clusters`` (fields (n_steps,
-    n_points, 2) each); only the clusters' points of the fields are gathered (on b3 108 of
-    955: stacking whole fields was most of the time)."""
+    n_points, 2) each)."""
     n_cases, n_steps = len(force_hats), force_hats[0].shape[0]
     out: list[list[FreeMotion]] = [[] for _ in range(n_cases)]
-    force_scale = np.array([_largest(force) for force in force_hats])
-    force_scale[force_scale == 0.0] = 1.0
-    displacement_scale = np.array([_largest(w) for w in displacement_hats])
-    displacement_scale[displacement_scale == 0.0] = 1.0
-    near = 1e-4 * displacement_scale[:, None, None]  # (C, 1, 1)
+    scales = _scales(displacement_hats, force_hats)
     for cluster in clusters:
-        p, partner, normal, modes = cluster.p, cluster.partner, cluster.normal, cluster.modes
-        own_a, own_b, own_stops = cluster.own
-        friction = np.stack([np.concatenate([pts.contact_friction[own_a],
-                                             pts.contact_friction[own_b],
-                                             pts.stop_friction[own_stops]]) for pts in points])
-        gap = np.stack([np.concatenate([pts.contact_gap[own_a], pts.contact_gap[own_b],
-                                        pts.stop_gap[own_stops]]) for pts in points])
-        force = np.stack([f[:, p] for f in force_hats])  # (C, T, n, 2): on the cluster
-        normal_force = np.einsum("ctnd,nd->ctn", force, normal)
-        # [Ŵ] = Ŵ_partner − Ŵ_own (a stop's side is fixed): opening and slip increments
-        other = np.maximum(partner, 0)
-        jump = (np.where(partner[:, None] >= 0, np.stack([w[:, other] for w in
-                                                          displacement_hats]), 0.0)
-                - np.stack([w[:, p] for w in displacement_hats]))
-        opening = gap[:, None, :] + np.einsum("nd,ctnd->ctn", normal, jump)
-        increment = np.diff(jump, axis=1, prepend=np.zeros((n_cases, 1, *jump.shape[2:])))
-        slip = increment - np.einsum("ctnd,nd->ctn", increment, normal)[..., None] * normal
-        moving = np.linalg.norm(slip, axis=3) > near  # (C, T, n)
-        pressed = normal_force < -1e-9 * force_scale[:, None, None]  # no motion along n
-        touching = ~pressed & (opening <= near)  # may only separate
-        along = cluster.along_normal  # Σ_pressed a aᵀ, as one product over the points
-        outer = (along[:, :, None] * along[:, None, :]).reshape(-1, 9)
-        gram = cluster.held + (pressed.astype(float) @ outer).reshape(*pressed.shape[:2], 3, 3)
-        values, vectors = np.linalg.eigh(gram)  # ascending
-        free = values <= 1e-10 * np.maximum(values[..., -1:], 1e-300)
+        normal, modes = cluster.normal, cluster.modes
+        state = _cluster_state(cluster, points, displacement_hats, force_hats, scales)
+        friction, force, normal_force = state.friction, state.force, state.normal_force
+        moving, pressed = state.moving, state.pushed  # pressed: no motion along n
+        touching = ~pressed & state.shut  # may only separate
+        vectors, free = _free_directions(cluster, pressed)
         if not free.any():
             continue
         tangential_force = force - normal_force[..., None] * normal
@@ -308,20 +363,10 @@ def limit_motions_batch(assemblies: Sequence[Assembly], points: Sequence[Interfa
     rested on a stop (or another contact) along the motion at the step before: it then
     reaches the limit on the stop, its answer unique (B1 (0.45, 0.15) at step 15, on the
     stop since step 13). ``reserve`` is signed here."""
-    out: list[list[FreeMotion]] = [[] for _ in assemblies]
-    groups: dict[int, tuple[list[_Cluster], list[int]]] = {}
-    for c, (assembly, pts) in enumerate(zip(assemblies, points, strict=True)):
-        clusters = _clusters_of(assembly, pts)
-        groups.setdefault(id(clusters), (clusters, []))[1].append(c)
-    for clusters, members in groups.values():
-        for start in range(0, len(members), LIMIT_CASES):  # bounds the stacked fields
-            chunk = members[start:start + LIMIT_CASES]
-            found = _limit_motions_of(clusters, [points[c] for c in chunk],
-                                      [displacement_hats[c] for c in chunk],
-                                      [force_hats[c] for c in chunk], reserve_tol)
-            for c, motions in zip(chunk, found, strict=True):
-                out[c] = sorted(motions, key=lambda motion: motion.step)
-    return out
+    return _by_geometry(assemblies, points, displacement_hats, force_hats,
+                        lambda clusters, pts, w, f: _limit_motions_of(clusters, pts, w, f,
+                                                                      reserve_tol),
+                        LIMIT_CASES)  # bounds the stacked fields
 
 
 def _limit_motions_of(clusters: list[_Cluster], points: Sequence[InterfacePoints],
@@ -329,39 +374,20 @@ def _limit_motions_of(clusters: list[_Cluster], points: Sequence[InterfacePoints
                       force_hats: Sequence[FloatArray], reserve_tol: float
                       ) -> list[list[FreeMotion]]:
     """``limit_motions_batch`` for cases of the same ``clusters``, vectorised over the
-    cases, their steps and free directions (the clusters' points of the fields only)."""
+    cases, their steps and free directions."""
     n_cases, n_steps = len(force_hats), force_hats[0].shape[0]
     out: list[list[FreeMotion]] = [[] for _ in range(n_cases)]
-    force_scale = np.array([_largest(force) or 1.0 for force in force_hats])
-    near = 1e-4 * np.array([_largest(w) or 1.0 for w in displacement_hats])[:, None, None]
+    scales = _scales(displacement_hats, force_hats)
     for cluster in clusters:
-        p, partner, normal, modes = cluster.p, cluster.partner, cluster.normal, cluster.modes
-        own_a, own_b, own_stops = cluster.own
-        friction = np.stack([np.concatenate([pts.contact_friction[own_a],
-                                             pts.contact_friction[own_b],
-                                             pts.stop_friction[own_stops]]) for pts in points])
-        gap = np.stack([np.concatenate([pts.contact_gap[own_a], pts.contact_gap[own_b],
-                                        pts.stop_gap[own_stops]]) for pts in points])
-        between = partner >= 0  # contact points between bodies (not stops)
-        force = np.stack([f[:, p] for f in force_hats])  # (C, T, n, 2)
-        normal_force = np.einsum("ctnd,nd->ctn", force, normal)
-        other = np.maximum(partner, 0)
-        jump = (np.where(between[:, None], np.stack([w[:, other] for w in displacement_hats]),
-                         0.0) - np.stack([w[:, p] for w in displacement_hats]))
-        opening = gap[:, None, :] + np.einsum("nd,ctnd->ctn", normal, jump)
-        pushed = normal_force < -1e-9 * force_scale[:, None, None]
-        shut = opening <= near
-        closed = pushed | shut  # (C, T, n)
-        increment = np.diff(jump, axis=1, prepend=np.zeros((n_cases, 1, *jump.shape[2:])))
-        slip = increment - np.einsum("ctnd,nd->ctn", increment, normal)[..., None] * normal
-        moving = np.linalg.norm(slip, axis=3) > near
-        pressed = pushed & between
-        touching = ~pressed & shut & between
-        along = cluster.along_normal
-        outer = (along[:, :, None] * along[:, None, :]).reshape(-1, 9)
-        gram = cluster.held + (pressed.astype(float) @ outer).reshape(n_cases, n_steps, 3, 3)
-        values, vectors = np.linalg.eigh(gram)
-        free = values <= 1e-10 * np.maximum(values[..., -1:], 1e-300)
+        normal, modes = cluster.normal, cluster.modes
+        between = cluster.partner >= 0  # contact points between bodies (not stops)
+        state = _cluster_state(cluster, points, displacement_hats, force_hats, scales)
+        friction, force, normal_force = state.friction, state.force, state.normal_force
+        moving = state.moving
+        closed = state.pushed | state.shut  # (C, T, n)
+        pressed = state.pushed & between
+        touching = ~pressed & state.shut & between
+        vectors, free = _free_directions(cluster, pressed)
         limit = friction[:, None, :] * np.abs(normal_force)  # (C, T, n)
         with_friction = np.any(friction > 0, axis=1)
         found = np.nonzero(free)  # every free direction of every case and step
