@@ -7,7 +7,7 @@ attempt.
 
     python benchmarks/friction_limit.py                     # the docs/performance.md table
     python benchmarks/friction_limit.py --rows b1 --tight
-    python benchmarks/friction_limit.py --cost              # what the reading costs a case
+    python benchmarks/friction_limit.py --cost              # what the readings cost a case
 
 Each row: a multiresolution study (``run_study``'s defaults: the studies' QoI rule) over
 13 x 13 frictions (``--grid``), without and with the prediction, in this process: its
@@ -91,9 +91,13 @@ def main() -> None:
 def cost(names: list[str]) -> None:
     """``at_friction_limit`` on 200 cases read from one neighbour's state ((0.05, 0.3), the
     cases at μ2 = 0.25 + 0…0.002: a third of them at the limit), one at a time as the
-    rolling batch asks and all together as a line batch does; best of three."""
+    rolling batch asks and all together as a line batch does; then ``free_motions_batch``
+    of that state, 200 times, one at a time (a case leaving the rolling batch) and
+    together; best of three."""
     import time
 
+    from multilatin.decomposition.interfaces import with_contact_data
+    from multilatin.decomposition.uniqueness import free_motions_batch
     from multilatin.latin import LatinOperators, LatinOptions
     from multilatin.study.predictors import at_friction_limit
 
@@ -117,6 +121,20 @@ def cost(names: list[str]) -> None:
         print(f"{name}: {1e3 * min(alone):.2f} ms a case one at a time, "
               f"{1e3 * min(together):.2f} ms in a batch of {len(cases)} "
               f"({sum(m is not None for m in found)} at the limit)", flush=True)
+        # the free motions of a converged state, read as every case leaves a batch
+        own = with_contact_data(points, model.assemble({"mu1": 0.05, "mu2": 0.3}))
+        alone, together = [], []
+        for _ in range(3):
+            t0 = time.perf_counter()
+            for case in cases:
+                free_motions_batch([case], [own], [fields[0]], [fields[1]])
+            alone.append((time.perf_counter() - t0) / len(cases))
+            t0 = time.perf_counter()
+            free_motions_batch(cases, [own] * len(cases), [fields[0]] * len(cases),
+                               [fields[1]] * len(cases))
+            together.append((time.perf_counter() - t0) / len(cases))
+        print(f"{name}: free motions {1e3 * min(alone):.2f} ms a case one at a time, "
+              f"{1e3 * min(together):.2f} ms in a batch of {len(cases)}", flush=True)
 
 
 if __name__ == "__main__":

@@ -102,7 +102,9 @@ class _Cluster:
     held: FloatArray  # (3, 3): the prescribed displacements' Gram matrix on the modes
     p: IntArray  # the cluster's contact points (its side of contact pairs, then stops)
     partner: IntArray  # the other side's point, -1 for a stop
-    own: tuple[np.ndarray, np.ndarray, np.ndarray]  # own_a, own_b, stops inside
+    rows: tuple[IntArray, IntArray]  # its contact pairs' rows (a's side, b's), its stops'
+    partner_or_own: IntArray  # ``partner``, or the point itself on a stop
+    at_stop: np.ndarray  # partner < 0
     normal: FloatArray
     modes: FloatArray  # (n, 2, 3)
     along_normal: FloatArray  # (n, 3)
@@ -148,7 +150,10 @@ def _clusters_of(assembly: Assembly, points: InterfacePoints) -> list[_Cluster]:
         modes = _rigid_rows(points.coords[p], centre, size)  # (n, 2, 3)
         out.append(_Cluster(
             tuple(sorted({assembly.substructures[s].body for s in group})), centre, size,
-            held, p, partner, (own_a, own_b, own_stops), normal, modes,
+            held, p, partner,
+            (np.concatenate([np.flatnonzero(own_a), np.flatnonzero(own_b)]),
+             np.flatnonzero(own_stops)),
+            np.where(partner >= 0, partner, p), partner < 0, normal, modes,
             np.einsum("nc,nck->nk", normal, modes), points.weights[p]))
     with _GEOMETRIES_LOCK:
         _GEOMETRIES[key] = (weakref.ref(points.coords), out)
@@ -230,27 +235,42 @@ def _cluster_state(cluster: _Cluster, points: Sequence[InterfacePoints],
                    scales: tuple[FloatArray, FloatArray]) -> _ClusterState:
     """``_ClusterState`` of ``cluster`` in these cases (``scales``: ``_scales`` of their
     fields); only the cluster's points of the fields are gathered (on b3 108 of 955:
-    stacking whole fields was most of the time)."""
-    n_cases = len(force_hats)
+    stacking whole fields was most of the time). A study reads one case at a time, on
+    arrays of a few hundred entries: each NumPy call's overhead is most of the cost."""
     force_scale, near = scales
-    p, partner, normal = cluster.p, cluster.partner, cluster.normal
-    own_a, own_b, own_stops = cluster.own
-    friction = np.stack([np.concatenate([pts.contact_friction[own_a],
-                                         pts.contact_friction[own_b],
-                                         pts.stop_friction[own_stops]]) for pts in points])
-    gap = np.stack([np.concatenate([pts.contact_gap[own_a], pts.contact_gap[own_b],
-                                    pts.stop_gap[own_stops]]) for pts in points])
-    force = np.stack([f[:, p] for f in force_hats])  # (C, T, n, 2): on the cluster
-    normal_force = np.einsum("ctnd,nd->ctn", force, normal)
+    p, normal = cluster.p, cluster.normal
+    contact_rows, stop_rows = cluster.rows
+    friction = _stacked([np.concatenate([pts.contact_friction[contact_rows],
+                                         pts.stop_friction[stop_rows]]) for pts in points])
+    gap = _stacked([np.concatenate([pts.contact_gap[contact_rows], pts.stop_gap[stop_rows]])
+                    for pts in points])
+    force = _stacked([np.take(f, p, axis=1) for f in force_hats])  # (C, T, n, 2)
+    normal_force = _along(force, normal)
     # [Ŵ] = Ŵ_partner − Ŵ_own (a stop's side is fixed): opening and slip increments
-    other = np.maximum(partner, 0)
-    jump = (np.where(partner[:, None] >= 0, np.stack([w[:, other] for w in displacement_hats]),
-                     0.0) - np.stack([w[:, p] for w in displacement_hats]))
-    opening = gap[:, None, :] + np.einsum("nd,ctnd->ctn", normal, jump)
-    increment = np.diff(jump, axis=1, prepend=np.zeros((n_cases, 1, *jump.shape[2:])))
-    slip = increment - np.einsum("ctnd,nd->ctn", increment, normal)[..., None] * normal
+    jump = _stacked([np.take(w, cluster.partner_or_own, axis=1) for w in displacement_hats])
+    jump[:, :, cluster.at_stop] = 0.0
+    jump -= _stacked([np.take(w, p, axis=1) for w in displacement_hats])
+    opening = _along(jump, normal)  # less the gap
+    increment = jump.copy()
+    increment[:, 1:] -= jump[:, :-1]
+    normal_increment = opening.copy()
+    normal_increment[:, 1:] -= opening[:, :-1]
+    # |slip|² = |increment|² − (increment · n)², n a unit normal
+    slip_squared = (np.einsum("ctnd,ctnd->ctn", increment, increment)
+                    - normal_increment * normal_increment)
     return _ClusterState(friction, force, normal_force, normal_force < -1e-9 * force_scale,
-                         opening <= near, np.linalg.norm(slip, axis=3) > near)
+                         gap[:, None, :] + opening <= near, slip_squared > near * near)
+
+
+def _along(vectors: FloatArray, normal: FloatArray) -> FloatArray:
+    """x · n per point, ``vectors`` (…, n, 2) and ``normal`` (n, 2) (an einsum's overhead
+    is most of its cost on arrays this small)."""
+    return vectors[..., 0] * normal[:, 0] + vectors[..., 1] * normal[:, 1]
+
+
+def _stacked(per_case: list[FloatArray]) -> FloatArray:
+    """The cases' arrays stacked along a new first axis (one case: a view of it)."""
+    return per_case[0][None] if len(per_case) == 1 else np.stack(per_case)
 
 
 def _free_directions(cluster: _Cluster, pressed: np.ndarray
@@ -285,18 +305,19 @@ def _motions_of(clusters: list[_Cluster], points: Sequence[InterfacePoints],
         tangential_force = force - normal_force[..., None] * normal
         limit = friction[:, None, :] * np.abs(normal_force)  # (C, T, n): μ|N|
         with_friction = np.any(friction > 0, axis=1)
-        # every free direction of every case and step at once, each with both signs
+        # every free direction of every case and step at once, each with both signs (the
+        # motion −v: the velocities, their normal parts and frictions' work change sign)
         cases, steps, columns = np.nonzero(free)
         directions = vectors[cases, steps, :, columns]  # (P, 3)
-        admissible = []
-        for sign in (1.0, -1.0):
-            velocity = np.einsum("nck,pk->pnc", modes, sign * directions)  # (P, n, 2)
-            into = np.einsum("pnc,nc->pn", velocity, normal)  # along n: into the partner
-            pushes = np.any(touching[cases, steps] & (into > 1e-9), axis=1)
-            reserve = _friction_reserve(velocity, normal, tangential_force[cases, steps],
-                                        limit[cases, steps], moving[cases, steps],
-                                        cluster.weights)
-            admissible.append((~pushes & (reserve <= reserve_tol), reserve))
+        velocity = np.einsum("nck,pk->pnc", modes, directions)  # (P, n, 2)
+        into = _along(velocity, normal)  # along n: into the partner
+        near = touching[cases, steps]
+        reserves = _friction_reserve(velocity, into, normal, tangential_force[cases, steps],
+                                     limit[cases, steps], moving[cases, steps],
+                                     cluster.weights)
+        admissible = [(~np.any(near & (sign * into > 1e-9), axis=1)
+                       & (reserve <= reserve_tol), reserve)
+                      for sign, reserve in zip((1.0, -1.0), reserves, strict=True)]
         centre = (float(cluster.centre[0]), float(cluster.centre[1]))
         for i, (c, t) in enumerate(zip(cases.tolist(), steps.tolist(), strict=True)):
             for sign, (free_along, reserve) in zip((1.0, -1.0), admissible, strict=True):
@@ -316,22 +337,27 @@ def _largest(x: FloatArray) -> float:
     return float(max(x.max(), -x.min())) if x.size else 0.0
 
 
-def _friction_reserve(velocity: FloatArray, normal: FloatArray, tangential_force: FloatArray,
-                      limit: FloatArray, moving: np.ndarray, weights: FloatArray) -> FloatArray:
-    """Per motion p (``velocity`` (P, n, 2) at the n points, and the forces, limits and
-    slips of its step, (P, n, …)): the share of the friction capacity along it not yet
-    used, 0 when the motion changes no friction force. A point slipping during the step
-    (``moving``) keeps its force for a small motion either way if its force is at the
-    limit; a point at rest keeps it only for a motion against its force, at the limit."""
-    slide = velocity - np.sum(velocity * normal, axis=2)[..., None] * normal
-    speed = np.linalg.norm(slide, axis=2)
-    size = np.linalg.norm(tangential_force, axis=2)
-    against = -np.sum(tangential_force * slide, axis=2)  # = μ|N| speed when at the limit
-    used = np.where(moving, size * speed, against)
-    capacity = np.sum(weights * limit * speed, axis=1)
+def _friction_reserve(velocity: FloatArray, into: FloatArray, normal: FloatArray,
+                      tangential_force: FloatArray, limit: FloatArray, moving: np.ndarray,
+                      weights: FloatArray) -> tuple[FloatArray, FloatArray]:
+    """Per motion p (``velocity`` (P, n, 2) at the n points, ``into`` its normal part, and
+    the forces, limits and slips of its step, (P, n, …)): the share of the friction
+    capacity along it not yet used, 0 when the motion changes no friction force — for the
+    motion and for its opposite. A point slipping during the step (``moving``) keeps its
+    force for a small motion either way if its force is at the limit; a point at rest keeps
+    it only for a motion against its force, at the limit."""
+    slide = velocity - into[..., None] * normal
+    speed = np.hypot(slide[..., 0], slide[..., 1])
+    slipping = np.hypot(tangential_force[..., 0], tangential_force[..., 1]) * speed
+    against = -np.einsum("pnc,pnc->pn", tangential_force, slide)  # μ|N| speed at the limit
+    capacity = (limit * speed) @ weights
     positive = capacity > 0
-    return np.where(positive, (capacity - np.sum(weights * used, axis=1))
-                    / np.where(positive, capacity, 1.0), 0.0)
+    divisor = np.where(positive, capacity, 1.0)
+    forward, backward = (
+        np.where(positive, (capacity - np.where(moving, slipping, sign * against) @ weights)
+                 / divisor, 0.0)
+        for sign in (1.0, -1.0))
+    return forward, backward
 
 
 def _rigid_rows(x: FloatArray, centre: FloatArray, size: float) -> FloatArray:
@@ -390,21 +416,27 @@ def _limit_motions_of(clusters: list[_Cluster], points: Sequence[InterfacePoints
         vectors, free = _free_directions(cluster, pressed)
         limit = friction[:, None, :] * np.abs(normal_force)  # (C, T, n)
         with_friction = np.any(friction > 0, axis=1)
-        found = np.nonzero(free)  # every free direction of every case and step
+        # every free direction of every case and step, with both signs (the motion −v:
+        # its velocities and the load along it change sign, its capacity does not)
+        all_cases, all_steps, columns = np.nonzero(free)
+        directions = vectors[all_cases, all_steps, :, columns]  # (P, 3)
+        velocity = np.einsum("nck,pk->pnc", modes, directions)
+        along_n = _along(velocity, normal)
+        slide = velocity - along_n[..., None] * normal
+        all_holding = limit[all_cases, all_steps] * np.hypot(slide[..., 0], slide[..., 1])
+        capacity = all_holding @ cluster.weights
+        along_load = -np.einsum("pnc,pnc,n->p", force[all_cases, all_steps], velocity,
+                                cluster.weights)
         for sign in (1.0, -1.0):
-            cases, steps, columns = found
-            modes_p = sign * vectors[cases, steps, :, columns]  # (P, 3)
-            velocity = np.einsum("nck,pk->pnc", modes, modes_p)
-            along_n = np.einsum("pnc,nc->pn", velocity, normal)
-            slide = velocity - along_n[..., None] * normal
-            holding = limit[cases, steps] * np.linalg.norm(slide, axis=2)  # (P, n)
-            capacity = holding @ cluster.weights
-            load = -np.einsum("pnc,pnc,n->p", force[cases, steps], velocity, cluster.weights)
+            load = sign * along_load
             reserve = (capacity - load) / np.where(capacity > 0.0, capacity, 1.0)
             near_limit = np.flatnonzero((capacity > 0.0) & (load > 0.0)
                                         & (np.abs(reserve) <= reserve_tol))
-            cases, steps, modes_p = cases[near_limit], steps[near_limit], modes_p[near_limit]
-            into, holding = along_n[near_limit] > 1e-9, holding[near_limit]
+            if not near_limit.size:
+                continue
+            cases, steps = all_cases[near_limit], all_steps[near_limit]
+            modes_p = sign * directions[near_limit]
+            into, holding = sign * along_n[near_limit] > 1e-9, all_holding[near_limit]
             before = np.maximum(steps - 1, 0)
             # not into a touching contact; not along a body that rested on a stop (or a
             # contact) the step before; on a stop only where it slid there
