@@ -8,6 +8,7 @@ attempt.
     python benchmarks/friction_limit.py                     # the docs/performance.md table
     python benchmarks/friction_limit.py --rows b1 --tight
     python benchmarks/friction_limit.py --cost              # what the readings cost a case
+    python benchmarks/friction_limit.py --motions out.txt   # every reading, to compare trees
 
 Each row: a multiresolution study (``run_study``'s defaults: the studies' QoI rule) over
 13 x 13 frictions (``--grid``), without and with the prediction, in this process: its
@@ -38,10 +39,15 @@ def main() -> None:
     parser.add_argument("--tight", action="store_true", help="R_stop's error against tight")
     parser.add_argument("--cost", action="store_true",
                         help="time the reading per case, one at a time and 200 together")
+    parser.add_argument("--motions", default=None,
+                        help="write every reading of the grids' states to this file")
     args = parser.parse_args()
     warnings.simplefilter("ignore")
     if args.cost:
         cost(args.rows.split(","))
+        return
+    if args.motions:
+        motions(args.rows.split(","), ml.Grid.parse(args.grid), args.motions)
         return
     predicting = starts.at_limit
     grid = ml.Grid.parse(args.grid)
@@ -135,6 +141,46 @@ def cost(names: list[str]) -> None:
             together.append((time.perf_counter() - t0) / len(cases))
         print(f"{name}: free motions {1e3 * min(alone):.2f} ms a case one at a time, "
               f"{1e3 * min(together):.2f} ms in a batch of {len(cases)}", flush=True)
+
+
+def motions(names: list[str], grid: ml.Grid, path: str) -> None:
+    """Every case of the grid solved cold (η < 1e-6); its free motions read alone and all
+    together, and its friction limit read from each of up to six neighbours' states (the
+    four along the grid lines, two diagonals), written as text to ``path``: run with two
+    source trees (``PYTHONPATH``) and compare the files to check that a change of the
+    readings finds the same motions."""
+    from multilatin.decomposition.interfaces import with_contact_data
+    from multilatin.decomposition.uniqueness import free_motions_batch, limit_motions_batch
+    from multilatin.latin import LatinOperators, LatinOptions, solve_latin_batch
+
+    lines, found = [], 0
+    first, second = list(grid)
+    size = (len(grid[first]), len(grid[second]))
+    for name in names:
+        model = ml.load_model(name)
+        cases = [model.assemble({first: a, second: b}) for a in grid[first]
+                 for b in grid[second]]
+        operators = LatinOperators(cases[0], LatinOptions())
+        results = solve_latin_batch(cases, LatinOptions(), check=False)
+        w = [r.interface.displacement_hat for r in results if r.interface is not None]
+        f = [r.interface.force_hat for r in results if r.interface is not None]
+        points = [with_contact_data(operators.points, case) for case in cases]
+        together = free_motions_batch(cases, points, w, f)
+        lines.append(repr(together))
+        lines += [repr(free_motions_batch([c], [p], [a], [b]))
+                  for c, p, a, b in zip(cases, points, w, f, strict=True)]
+        found += sum(len(m) for m in together)
+        for i in range(size[0]):
+            for j in range(size[1]):
+                for di, dj in ((0, 1), (0, -1), (1, 0), (-1, 0), (1, 1), (-1, -1)):
+                    if 0 <= i + di < size[0] and 0 <= j + dj < size[1]:
+                        k, n = i * size[1] + j, (i + di) * size[1] + j + dj
+                        lines.append(repr(limit_motions_batch([cases[k]], [points[k]],
+                                                              [w[n]], [f[n]])))
+    with open(path, "w", encoding="utf-8") as out:
+        out.write("\n".join(lines) + "\n")
+    print(f"{len(lines)} readings, {found} free motions, "
+          f"{sum('FreeMotion' in line for line in lines)} readings with motions: {path}")
 
 
 if __name__ == "__main__":
