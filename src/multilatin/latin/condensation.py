@@ -159,6 +159,9 @@ class SubstructureOperators:
     recovery: FloatArray | None = None
     #: T_Eᵀ M0 (n_dofs × 2 P_E, sparse): the right-hand sides of the interior solves
     trace_rhs: sp.csc_matrix | None = None
+    #: H (Ẽ_E − Q_E) on ``macro_columns`` (2 P_E × n_E): the forces' share of the macro
+    #: correction, F += H (Ẽ − Q) W̃ᴹ (eq. [13]–[15]); None without a macro problem
+    force_response: FloatArray | None = None
     #: columns asked of ``interior`` so far, and ``recovery`` once built there
     _built: dict[str, Any] = field(default_factory=dict, init=False, repr=False,
                                    compare=False)
@@ -200,3 +203,10 @@ class SubstructureOperators:
     @functools.cached_property
     def macro_response_transposed(self) -> FloatArray:
         return np.ascontiguousarray(self.macro_response.T)
+
+    @functools.cached_property
+    def force_response_transposed(self) -> FloatArray:
+        """(H (Ẽ_E − Q_E))ᵀ, contiguous (zeros where there is none)."""
+        force = (self.force_response if self.force_response is not None
+                 else np.zeros_like(self.macro_response))
+        return np.ascontiguousarray(force.T)

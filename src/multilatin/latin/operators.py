@@ -259,8 +259,13 @@ class LatinOperators:
             mk_basis += coupling @ own_basis
         response = condensed @ (mk_basis / m0[:, None])  # Q_E = C_E H Ẽ_E
         homogenised = (own_basis.T @ mk_basis) - mk_basis.T @ response
+        # H (Ẽ_E − Q_E) = M0⁻¹ (M0 H Ẽ_E) − D Q_E − M0⁻¹ M0 (H − D) Q_E
+        force_response = mk_basis / m0[:, None] - k[:, None] * response
+        if coupling is not None:
+            force_response -= (coupling @ response) / m0[:, None]
         return SubstructureOperators(key, factor, condensed, columns, response,
-                                     np.asarray(homogenised), recovery, trace_rhs)
+                                     np.asarray(homogenised), recovery, trace_rhs,
+                                     force_response)
 
     def _search_direction(self) -> FloatArray:
         """k per interface point and component: κ E / L, with E and L per side as
@@ -413,31 +418,35 @@ class LatinOperators:
                          macro_force_data: FloatArray, geometries: Geometries | None = None
                          ) -> None:
         """The macro problem, in place: W̃ᴹ = L⁻¹ (F_dᴹ − Π F) (eq. [14]–[15]), then
-        W += Q W̃ᴹ substructure by substructure (Q_E acts on E's own macro unknowns) and
-        F += k (Ẽ W̃ᴹ − Q W̃ᴹ). geometries: as in ``micro_stage`` (L⁻¹ per geometry)."""
+        substructure by substructure (on E's own macro unknowns) W += Q W̃ᴹ and
+        F += H (Ẽ − Q) W̃ᴹ, by products with Qᵀ and (H (Ẽ − Q))ᵀ (an extension Ẽ W̃ᴹ
+        over every point and a pass of H over the fields cost B3 twice as much).
+        geometries: as in ``micro_stage`` (L⁻¹ per geometry). Fields C-contiguous
+        (``micro_stage``'s)."""
         shape = displacement.shape
-        residual = macro_force_data - (self.project @ force.reshape(shape[0], -1).T).T
+        flat_force = force.reshape(shape[0], -1)
+        residual = macro_force_data - (self.project @ flat_force.T).T
         if geometries is None:
             macro = residual @ self.homogenised_inverse
         else:
             macro = np.empty_like(residual)
             for ops, rows in geometries:
                 macro[rows] = residual[rows] @ ops.homogenised_inverse
-        correction = np.empty((shape[0], shape[1] * 2))
+        on_displacement = np.empty_like(flat_force)
+        on_force = np.empty_like(flat_force)
         for s, (lo, hi) in enumerate(self.flat_ranges):
             for block, columns in self._blocks(s, geometries):
                 if columns is None:
-                    np.matmul(macro[:, block.macro_columns], block.macro_response_transposed,
-                              out=correction[:, lo:hi])
+                    own = macro[:, block.macro_columns]
+                    np.matmul(own, block.macro_response_transposed,
+                              out=on_displacement[:, lo:hi])
+                    np.matmul(own, block.force_response_transposed, out=on_force[:, lo:hi])
                 else:
-                    correction[columns, lo:hi] = (macro[columns][:, block.macro_columns]
-                                                  @ block.macro_response_transposed)
-        # Ẽ as built (a transpose per iteration, a new SciPy matrix, cost ~70 µs), the
-        # product C-ordered, so that the compiled ``direction_update`` takes it
-        extension = np.ascontiguousarray((self.macro_basis @ macro.T).T).reshape(shape)
-        correction_field = correction.reshape(shape)
-        displacement += correction_field
-        self.direction_update(extension, correction_field, base=force, out=force)
+                    own = macro[columns][:, block.macro_columns]
+                    on_displacement[columns, lo:hi] = own @ block.macro_response_transposed
+                    on_force[columns, lo:hi] = own @ block.force_response_transposed
+        displacement += on_displacement.reshape(shape)
+        flat_force += on_force
 
     def recover(self, displacement: FloatArray, force: FloatArray) -> dict[str, FloatArray]:
         """Interior displacements u_E = S_E⁻¹ T_Eᵀ M0 (F + k W) of every substructure, for
