@@ -1,119 +1,158 @@
-"""A geometric (Aitken) jump of the slowest mode, beside the sliding crawl jump: tried in
-session 31 (issue 15), not adopted.
+"""The sliding extrapolation's geometric jump (issue 15, session 31) side by side with the
+rule before it (crawl jumps only), in one process: the same solves with
+``sliding.GEOMETRIC`` as it is and emptied.
 
-    python benchmarks/geometric_jump.py            # cold b1 at eight pairs, with and without
-    python benchmarks/geometric_jump.py --trace    # what the window increments look like
+    python benchmarks/geometric_jump.py                 # bundled models, B1 family, slide
+    python benchmarks/geometric_jump.py --studies       # B1 13 x 13 and B3 5 x 5 studies
+    python benchmarks/geometric_jump.py --trace         # r and the misfit at every mark
 
-The sliding extrapolation (``latin.sliding``) keeps a mark of every case's state s = (W, F)
-every ``WINDOW`` = 10 iterations and jumps where two windows' increments agree (a crawl,
-ratio 1). A mode that decays geometrically, ρ per iteration, gives increments
-d₂ ≈ r d₁ with r = ρ¹⁰; the jump s + r / (1 − r) d₂ would remove it (an affine
-combination of admissible fields, then a local stage, as the crawl jump). Here it is
-taken where 0.02 < r < 0.85 and ‖d₂ − r d₁‖ ≤ 5 % of ‖d₂‖ (in the indicator's norm), with
-the crawl jump's take-back check. ``--trace`` prints r and that misfit at every mark of
-two slow cold cases.
+Every ``WINDOW`` = 10 iterations the extrapolation compares the last two windows'
+increments d₁, d₂ of the state; where d₂ = r d₁ to 5 % with 0.02 < r < 0.85 — one slow
+mode left — it jumps by r / (1 − r) d₂ (``latin.sliding``; r > 0.2 when cases stop on
+their QoIs), and the case does not stop in the 15 iterations after a jump. Rows: each model at its
+defaults under the default stopping rule (η < 1e-6) and the studies' QoI rule
+(``qoi_rtol`` = 1e-3): iterations, and the QoIs' worst error against the monolithic
+reference (relative to each QoI's largest magnitude over the steps); the B1 family at
+issue 15's four friction pairs, R_stop against η < 1e-10 solves; the sliding block over
+κ and its foundation's stiffness. ``--studies``: ``run_study``'s defaults, R_stop against
+η < 1e-9 solves of every case. ``--trace``: the two slowest cold b1 pairs and the sliding
+block at κ = 0.1, r and ‖d₂ − r d₁‖ / ‖d₂‖ at every mark.
 """
 
 from __future__ import annotations
 
 import argparse
+import sys
+import warnings
+from collections.abc import Callable
+from dataclasses import replace
+from pathlib import Path
 from typing import Any
 
 import numpy as np
 
 import multilatin as ml
-from multilatin.latin import LatinOptions, iteration, sliding, solve_latin_batch
+from multilatin.latin import LatinOptions, sliding, solve_latin_batch
 from multilatin.latin.options import STUDY_QOI_RTOL
 
-PAIRS = [(0.3, 0.0), (0.1, 0.3), (0.35, 0.25), (0.3, 0.15), (0.1, 0.25), (0.05, 0.05),
-         (0.0, 0.1), (0.2, 0.05)]
-ALIGNED = 0.05
-RATIO = (0.02, 0.85)
-
-
-class GeometricJump(sliding.SlidingExtrapolation):
-    """The sliding extrapolation, and at each mark a geometric jump where it applies."""
-
-    trace = False
-    jumps = 0
-
-    def __call__(self, counts: Any, active: Any, eta: Any, engine: Any) -> list[int]:
-        moved = super().__call__(counts, active, eta, engine)
-        counts = np.broadcast_to(np.asarray(counts), active.shape)
-        positions, shifts_w, shifts_f = [], [], []
-        for i, case in enumerate(active.tolist()):
-            marks = self.marks.get(case, [])
-            if (counts[i] % sliding.WINDOW or case in moved or case in self.pending
-                    or self.taken_back[case] or len(marks) != 3):
-                continue
-            (w0, f0), (w1, f1), (w2, f2) = (
-                (engine.take(s[0], np.array([r])), engine.take(s[1], np.array([r])))
-                for s, r in marks)
-            d1w, d1f, d2w, d2f = w1 - w0, f1 - f0, w2 - w1, f2 - f1
-            size1 = engine.state_norms(d1w, d1f)[0]
-            if not size1 > 0.0:
-                continue
-            plus = engine.state_norms(d2w + d1w, d2f + d1f)[0]
-            minus = engine.state_norms(d2w - d1w, d2f - d1f)[0]
-            ratio = (plus ** 2 - minus ** 2) / 4.0 / size1 ** 2  # ⟨d₂, d₁⟩ / ‖d₁‖²
-            misfit = (engine.state_norms(d2w - ratio * d1w, d2f - ratio * d1f)[0]
-                      / max(engine.state_norms(d2w, d2f)[0], 1e-300))
-            if self.trace:
-                print(f"  iteration {int(counts[i])}: r = {ratio:.3f}, misfit {misfit:.3f}, "
-                      f"η = {eta[i]:.2e}")
-            if not (RATIO[0] < ratio < RATIO[1] and misfit <= ALIGNED):
-                continue
-            factor = ratio / (1.0 - ratio)
-            positions.append(i)
-            shifts_w.append(factor * d2w[0])
-            shifts_f.append(factor * d2f[0])
-            self.pending[case] = (float(eta[i]), shifts_w[-1], shifts_f[-1])
-            marks.clear()
-            moved.append(case)
-            self.jumped_at[case] = int(counts[i])
-            self.jumps[case] += 1
-            GeometricJump.jumps += 1
-        if positions:
-            engine.shift(np.array(positions), shifts_w, shifts_f)
-            engine.local_stage()
-        return moved
+PAIRS = [(0.3, 0.0), (0.1, 0.3), (0.35, 0.25), (0.3, 0.15)]
+NONE = (1.0, 0.0)  # an empty interval: no geometric jump
+RULES = {"η < 1e-6": LatinOptions(), "QoI rule": LatinOptions(qoi_rtol=STUDY_QOI_RTOL)}
 
 
 def main() -> None:
     parser = argparse.ArgumentParser(description=__doc__.split("\n")[0])
+    parser.add_argument("--studies", action="store_true")
     parser.add_argument("--trace", action="store_true")
     args = parser.parse_args()
-    model = ml.load_model("b1")
-    options = LatinOptions(qoi_rtol=STUDY_QOI_RTOL)
-    original = iteration.SlidingExtrapolation
+    warnings.simplefilter("ignore")
     if args.trace:
-        GeometricJump.trace = True
-        iteration.SlidingExtrapolation = GeometricJump  # type: ignore[misc]
-        for pair in [(0.1, 0.25), (0.0, 0.1)]:
-            print(f"b1 {pair}:")
-            result = solve_latin_batch([model.assemble({"mu1": pair[0], "mu2": pair[1]})],
-                                       options, check=False)[0]
-            print(f"  {result.iterations} iterations")
-        iteration.SlidingExtrapolation = original  # type: ignore[misc]
-        return
-    assemblies = [model.assemble({"mu1": a, "mu2": b}) for a, b in PAIRS]
-    tight = solve_latin_batch(assemblies, LatinOptions(tol=1e-9, max_iter=20000),
-                              check=False)
-    reference = np.array([r.qoi["R_stop"] for r in tight])
-    print("| variant | iterations (per pair) | jumps | R_stop's worst error |")
-    print("|---|---|---|---|")
-    for label, extrapolation in (("today", original), ("geometric jump", GeometricJump)):
-        iteration.SlidingExtrapolation = extrapolation  # type: ignore[misc]
+        trace()
+    elif args.studies:
+        studies()
+    else:
+        solves()
+
+
+def _both(solve: Callable[[], Any]) -> list[Any]:
+    """``solve()`` without the geometric jump, then with it."""
+    kept = sliding.GEOMETRIC
+    out = []
+    for interval in (NONE, kept):
+        sliding.GEOMETRIC = interval
         try:
-            results = [solve_latin_batch([a], options, check=False)[0] for a in assemblies]
+            out.append(solve())
         finally:
-            iteration.SlidingExtrapolation = original  # type: ignore[misc]
-        error = max(abs(r.qoi["R_stop"] - q) / max(abs(q), 1.0)
-                    for r, q in zip(results, reference, strict=True))
-        print(f"| {label} | {sum(r.iterations for r in results)} "
-              f"({', '.join(str(r.iterations) for r in results)}) | "
-              f"{GeometricJump.jumps if extrapolation is GeometricJump else '—'} | "
-              f"{error:.2e} |", flush=True)
+            sliding.GEOMETRIC = kept
+    return out
+
+
+def _qoi_error(result: Any, reference: Any) -> float:
+    return max(float(np.max(np.abs(np.asarray(result.qoi[k]) - np.asarray(reference.qoi[k])))
+                     / max(float(np.max(np.abs(np.asarray(reference.qoi[k])))), 1e-12))
+               for k in reference.qoi)
+
+
+def solves() -> None:
+    print("| model | case | rule | before: iterations, worst error | geometric jump |")
+    print("|---|---|---|---|---|")
+    for name in ("b0", "b2", "punch", "lug", "roller", "slide"):
+        model = ml.load_model(name)
+        reference = model.reference({})
+        for rule, options in RULES.items():
+            results = _both(lambda m=model, o=options: solve_latin_batch(
+                [m.assemble({})], o, check=False)[0])
+            cells = [f"{r.iterations}, {_qoi_error(r, reference):.1e}" for r in results]
+            print(f"| {name} | defaults | {rule} | {cells[0]} | {cells[1]} |", flush=True)
+    for name in ("b1", "b1-4", "b1-9", "b3"):
+        model = ml.load_model(name)
+        cases = [model.assemble({"mu1": a, "mu2": b}) for a, b in PAIRS]
+        tight = solve_latin_batch(cases, LatinOptions(tol=1e-10, max_iter=20000),
+                                  check=False)
+        reference = np.array([r.qoi["R_stop"] for r in tight])
+        for rule, options in RULES.items():
+            cells = []
+            for results in _both(lambda cs=cases, o=options: [
+                    solve_latin_batch([c], o, check=False)[0] for c in cs]):
+                error = max(abs(r.qoi["R_stop"] - q) / max(abs(q), 1.0)
+                            for r, q in zip(results, reference, strict=True))
+                cells.append(f"{' / '.join(str(r.iterations) for r in results)}, "
+                             f"{error:.1e}")
+            print(f"| {name} | four pairs | {rule} | {cells[0]} | {cells[1]} |", flush=True)
+    model = ml.load_model("slide")
+    for ratio in (10.0, 1000.0):
+        reference = model.reference({"stiffness_ratio": ratio})
+        for kappa in (0.1, 0.25, 0.5, 1.0, 2.0):
+            for rule, options in RULES.items():
+                chosen = replace(options, kappa=kappa)
+                results = _both(lambda r=ratio, o=chosen: solve_latin_batch(
+                    [model.assemble({"stiffness_ratio": r})], o, check=False)[0])
+                cells = [f"{r.iterations}, {_qoi_error(r, reference):.1e}" for r in results]
+                print(f"| slide | E ratio {ratio:g}, κ {kappa:g} | {rule} | {cells[0]} | "
+                      f"{cells[1]} |", flush=True)
+
+
+def studies() -> None:
+    sys.path.insert(0, str(Path(__file__).parent))
+    import study_anatomy
+
+    print("| study | before: iterations, R_stop's worst error, above 0.1 % | geometric jump |")
+    print("|---|---|---|")
+    for name in ("b1", "b3"):
+        model = ml.load_model(name)
+        grid = ml.Grid.parse(study_anatomy.GRIDS[name])
+        reference = study_anatomy._tight_r_stop(model, grid)
+        cells = []
+        for dataset in _both(lambda m=model, g=grid: study_anatomy._study(m, g).dataset):
+            data = dataset.sel(mode="multiresolution")
+            r_stop = np.asarray(data["R_stop"].values).ravel()
+            error = np.abs(r_stop - reference) / np.maximum(np.abs(reference), 1.0)
+            cells.append(f"{int(data['iterations'].values.sum())}, {error.max():.2e}, "
+                         f"{int((error > 1e-3).sum())}")
+        print(f"| {name} | {cells[0]} | {cells[1]} |", flush=True)
+
+
+def trace() -> None:
+    geometric = sliding.SlidingExtrapolation._geometric
+
+    def traced(engine: Any, dw: Any, df: Any, before_w: Any, before_f: Any, step: Any,
+               bend: Any, ratios: tuple[float, float] = sliding.GEOMETRIC) -> Any:
+        ratio, aligned = geometric(engine, dw, df, before_w, before_f, step, bend, ratios)
+        size = engine.state_norms(before_w, before_f)
+        misfit = np.sqrt(np.maximum(step * step - ratio * ratio * size * size, 0.0)) / step
+        for r, m, a in zip(ratio, misfit, aligned, strict=True):
+            print(f"  r = {r:.3f}, misfit {m:.3f}{' (jump)' if a else ''}")
+        return ratio, aligned
+
+    sliding.SlidingExtrapolation._geometric = staticmethod(traced)  # type: ignore[method-assign]
+    for name, parameters, kappa in (("b1", {"mu1": 0.1, "mu2": 0.25}, 0.5),
+                                    ("b1", {"mu1": 0.0, "mu2": 0.1}, 0.5),
+                                    ("slide", {}, 0.1)):
+        print(f"{name} {parameters} κ = {kappa} (marks every 10 iterations from the 30th):")
+        result = solve_latin_batch([ml.load_model(name).assemble(parameters)],
+                                   LatinOptions(kappa=kappa, qoi_rtol=STUDY_QOI_RTOL),
+                                   check=False)[0]
+        print(f"  {result.iterations} iterations")
 
 
 if __name__ == "__main__":

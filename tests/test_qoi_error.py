@@ -87,7 +87,10 @@ def test_b0_estimate_bounds_the_error_and_is_not_far_off(split) -> None:
     for name in ("v_tip", "R_clamp"):
         true = abs(result.qoi[name] - tight.qoi[name])
         estimate = result.qoi_error[name]
-        assert true <= estimate <= 20.0 * true, (name, estimate, true)
+        # the tight solve's own accuracy floors the true error (the geometric jump can
+        # leave the default one within rounding of it: v_tip's error 0.0 at split 10 × 1)
+        resolved = max(true, 1e-9 * abs(tight.qoi[name]))
+        assert true <= estimate <= 20.0 * resolved, (name, estimate, true)
 
 
 def test_b1_estimate_bounds_the_error_on_a_grid() -> None:

@@ -47,6 +47,9 @@ class CrawlingFields:
     def local_stage(self) -> None:
         self.local_stages += 1
 
+    def local_stage_of(self, cases: np.ndarray) -> None:
+        self.local_stage()
+
 
 @pytest.fixture(scope="module")
 def b1_stage() -> tuple[LatinOperators, LocalStage]:

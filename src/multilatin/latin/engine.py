@@ -64,6 +64,12 @@ class FieldEngine(Protocol):
         """s ← s + (dw, df) for the active cases at positions ``cases`` (one row
         ``(n_steps, n_points, 2)`` per case, the engine's arrays; ``sliding``)."""
 
+    def local_stage_of(self, cases: IntArray) -> None:
+        """The local stage again for the active cases at positions ``cases`` (after a
+        ``shift``), the others' ŝ left as it is where the backend can (NumPy: a case's
+        iterates then do not depend on its batch; the coupled local stage's inner passes
+        start from the last ŝ, so another pass would move them a little)."""
+
     def state(self, cases: IntArray) -> tuple[Any, Any]:
         """Copies of (W, F) of the active cases at positions ``cases``, kept where the
         fields live (torch: on its device): the sliding extrapolation's marks."""
@@ -226,6 +232,15 @@ class NumpyFields:
         self.f = np.array(self.f)
         self.w[cases] += np.stack(dw)
         self.f[cases] += np.stack(df)
+
+    def local_stage_of(self, cases: IntArray) -> None:
+        others = np.setdiff1d(np.arange(self.w_hat.shape[0]), cases)
+        kept = [None if x is None else x[others] for x in (self.w_hat, self.f_hat,
+                                                             self.side_macro)]
+        self.local_stage()
+        for name, rows in zip(("w_hat", "f_hat", "side_macro"), kept, strict=True):
+            if rows is not None:
+                getattr(self, name)[others] = rows
 
     def state(self, cases: IntArray) -> tuple[FloatArray, FloatArray]:
         assert self.w is not None and self.f is not None

@@ -178,7 +178,7 @@ class BatchIterations:
         self.relaxation = np.full(n_cases, options.relaxation)  # per active case
         self.anderson = options.acceleration == "anderson"
         weights = indicator_weights(ops.points.weights, ops.indicator_k)
-        self.sliding = (SlidingExtrapolation(local, n_cases)
+        self.sliding = (SlidingExtrapolation(local, n_cases, options.qoi_rtol is not None)
                         if options.extrapolate_sliding and not self.anderson else None)
         self.rre = (ReducedRankExtrapolation(options.rre_cycle, *weights, n_cases)
                     if options.acceleration == "rre" else None)
@@ -288,7 +288,13 @@ class BatchIterations:
             damp_stagnating(out.histories, active[due], damped, options)
             relaxation[due] = damped
         capped = counts >= options.max_iter
-        done = (eta < options.tol) | ~np.isfinite(eta) | capped
+        below_tol = eta < options.tol
+        if self.sliding is not None:
+            # not within ``RECENT`` iterations of a jump: its check one window later runs
+            # first, and the QoIs' estimate then reads iterates after it alone
+            below_tol &= (self.sliding.jumped_at[active] < 0) | (
+                counts - self.sliding.jumped_at[active] > RECENT)
+        done = below_tol | ~np.isfinite(eta) | capped
         due = (counts % DRIFT_WINDOW == 0) & ~done
         if due.any():
             drifting = np.zeros_like(done)

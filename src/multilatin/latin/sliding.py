@@ -1,4 +1,4 @@
-"""Extrapolation of a steady sliding (issue 15: the slow tail of low-friction cases).
+"""Extrapolation of a steady sliding, and of a last slow mode (issue 15: the slow tail).
 
 Where a body slides freely toward a stop or a contact that is still open (friction at its
 limit, the gap not yet closed), nothing but the search direction resists the motion, and
@@ -17,6 +17,20 @@ event. The jump is an affine combination of admissible fields (so s stays
 admissible) followed by a local stage (so ŝ is on Γ again); the iteration then resumes from
 there. The fixed point is unchanged — only the start of the rest of the iteration moves —
 so the converged answer is the same (``tests/test_sliding.py``).
+
+The same marks show a mode that decays *geometrically*: two windows' increments d₁, d₂
+aligned (d₂ = r d₁ to ``ALIGNED``, in the indicator's norm) with r = ρ¹⁰ inside
+``GEOMETRIC`` — one mode left, decaying by ρ per iteration, the others gone. The case
+then jumps by the sum of that mode's increments still ahead, r / (1 − r) d₂ (an Aitken
+step; an affine combination again, then a local stage). A case does not stop within
+``iteration.RECENT`` iterations of any jump: the take-back check below runs first, and the
+QoIs' error estimate then reads iterates after the jump alone. Measured
+(docs/convergence.md, session 31), at the default tolerance η < 1e-6: B0's v_tip 4e-5 →
+5e-10 off in the same 46 iterations (the relaxation's alternating mode, r = 0.107, taken
+out), the lug 257 → 160 iterations, the sliding block at κ = 0.5 … 2 64 → 46–56 and 10–100
+times closer to its reference; on B1's sliding cases it never applies (several modes at
+once, then a crawl). Cases that stop on their QoIs jump on slower modes only
+(``SLOW_ON_QOIS``).
 
 A crawl may also end before the gap closes — a warm start from a neighbour whose block slides
 to a new equilibrium that friction, not the stop, sets: the jump then overshoots. So a jump
@@ -40,8 +54,8 @@ from ..fem.elasticity import FloatArray, IntArray
 from .engine import FieldEngine
 from .local_stage import LocalStage
 
-__all__ = ["GROUP_ROWS", "LEADING", "MATERIAL", "MAX_JUMP", "STEADY", "TAKE_BACK", "WINDOW",
-           "SlidingExtrapolation"]
+__all__ = ["ALIGNED", "GEOMETRIC", "GROUP_ROWS", "LEADING", "MATERIAL", "MAX_JUMP",
+           "SLOW_ON_QOIS", "STEADY", "TAKE_BACK", "WINDOW", "SlidingExtrapolation"]
 
 #: iterations between two looks; a crawl must hold over two windows
 WINDOW = 10
@@ -60,25 +74,40 @@ LEADING = 0.5
 TAKE_BACK = 2.0
 #: cases tested at once (their marks' rows gathered): bounds the test's memory
 GROUP_ROWS = 256
+#: a geometric jump: the ratio r of two windows' increments (r = ρ¹⁰ for a mode decaying
+#: by ρ per iteration) within these bounds, and the increments aligned, ‖d₂ − r d₁‖ at
+#: most ``ALIGNED`` × ‖d₂‖ (docs/convergence.md, session 31)
+GEOMETRIC = (0.02, 0.85)
+ALIGNED = 0.05
+#: when cases stop on their QoIs' estimates, only slower modes jump (r above this, ρ ≥
+#: 0.85): a jump holds a case ``iteration.RECENT`` iterations, which a fast mode — the
+#: relaxation's alternating one, ρ = −0.8, r = 0.107 — does not repay there (B0, B2, the
+#: punch: 35–58 iterations without, 46–66 with it, QoIs already within the request)
+SLOW_ON_QOIS = 0.2
 
 
 class SlidingExtrapolation:
     """Watches the active cases of a batch and makes their steady crawls jump to the next
-    contact event (module docstring). ``jumped_at[c]``: the iteration of case c's last
-    jump (−1: none); ``jumps[c]``: how many.
+    contact event, and a last geometric mode to its limit (module docstring).
+    ``jumped_at[c]``: the iteration of case c's last jump (−1: none); ``jumps[c]``: how
+    many; ``geometric_jumps``: of all cases' jumps, the geometric ones.
 
     The marks stay where the fields live (``FieldEngine.state``: on a GPU, the device's
     memory): the crawl's test runs there, a few rows at a time, and only a crawling case's
     rows come to the host (its openings). Measured on an H100, the whole B3 study: copying
     every watched case's fields to the host and testing them there took half its time."""
 
-    def __init__(self, local: LocalStage, n_cases: int) -> None:
+    def __init__(self, local: LocalStage, n_cases: int, on_qois: bool = False) -> None:
         self.local = local  # the whole batch's (cases by their index in the batch)
+        #: the geometric jump's bounds on r (``SLOW_ON_QOIS`` when cases stop on QoIs)
+        self.ratios = (max(GEOMETRIC[0], SLOW_ON_QOIS) if on_qois else GEOMETRIC[0],
+                       GEOMETRIC[1])
         #: per case its last three marks: (a snapshot of (W, F) rows, its row)
         self.marks: dict[int, list[tuple[tuple[Any, Any], int]]] = {}
         self.jumped_at = np.full(n_cases, -1, dtype=np.int64)
         self.jumps = np.zeros(n_cases, dtype=np.int64)
         self.taken_back = np.zeros(n_cases, dtype=bool)  # then no further jump
+        self.geometric_jumps = 0  # of ``jumps``, those of a geometric mode
         #: per case with a jump under check: (η at the jump, its increments dw, df)
         self.pending: dict[int, tuple[float, Any, Any]] = {}
 
@@ -128,7 +157,7 @@ class SlidingExtrapolation:
                 moved.append(case)
         if positions:
             engine.shift(np.array(positions), shifts_w, shifts_f)
-            engine.local_stage()
+            engine.local_stage_of(np.array(positions))
             positions, shifts_w, shifts_f = [], [], []
         watched = [i for i, case in enumerate(active.tolist()) if due[i]
                    and not self.taken_back[case] and case not in self.pending]
@@ -155,17 +184,28 @@ class SlidingExtrapolation:
                     (engine.take(s[0], r), engine.take(s[1], r))
                     for s, r in zip((s0, s1, s2), rows, strict=True))
                 dw, df = w2 - w1, f2 - f1
+                before_w, before_f = w1 - w0, f1 - f0
                 step = engine.state_norms(dw, df)
-                bend = engine.state_norms(dw - (w1 - w0), df - (f1 - f0))
-                for k in np.flatnonzero((step > 0.0) & (bend <= STEADY * step)):
+                bend = engine.state_norms(dw - before_w, df - before_f)
+                crawls = (step > 0.0) & (bend <= STEADY * step)
+                ratio, aligned = self._geometric(engine, dw, df, before_w, before_f, step,
+                                                 bend, self.ratios)
+                for k in np.flatnonzero(crawls | aligned):
                     i, case, _ = chunk[k]
-                    ahead = self._ahead(case, engine.host(w1[k]), engine.host(w2[k]),
-                                        engine.host(dw[k]))
-                    if ahead is None:
+                    if crawls[k]:
+                        ahead = self._ahead(case, engine.host(w1[k]), engine.host(w2[k]),
+                                            engine.host(dw[k]))
+                        if ahead is None:
+                            continue
+                        factor = ahead / WINDOW
+                    elif aligned[k]:
+                        factor = ratio[k] / (1.0 - ratio[k])
+                        self.geometric_jumps += 1
+                    else:  # a crawl with no event ahead
                         continue
                     positions.append(i)
-                    shifts_w.append(ahead / WINDOW * dw[k])
-                    shifts_f.append(ahead / WINDOW * df[k])
+                    shifts_w.append(factor * dw[k])
+                    shifts_f.append(factor * df[k])
                     self.pending[case] = (float(eta[i]), shifts_w[-1], shifts_f[-1])
                     self.marks[case].clear()
                     moved.append(case)
@@ -173,8 +213,27 @@ class SlidingExtrapolation:
                     self.jumps[case] += 1
         if positions:
             engine.shift(np.array(positions), shifts_w, shifts_f)
-            engine.local_stage()
+            engine.local_stage_of(np.array(positions))
         return moved
+
+    @staticmethod
+    def _geometric(engine: FieldEngine, dw: Any, df: Any, before_w: Any, before_f: Any,
+                   step: FloatArray, bend: FloatArray, ratios: tuple[float, float] = GEOMETRIC
+                   ) -> tuple[FloatArray, np.ndarray]:
+        """Per row: r = ⟨d₂, d₁⟩ / ‖d₁‖² of the last two windows' increments d₁, d₂ (the
+        indicator's inner product, from the norms of d₂ ± d₁: ``bend`` is ‖d₂ − d₁‖), and
+        whether d₂ = r d₁ to ``ALIGNED`` (‖d₂ − r d₁‖² = ‖d₂‖² − r² ‖d₁‖²) with r inside
+        ``ratios``: one mode decaying by r per window, whose sum ahead is
+        r / (1 − r) d₂."""
+        size = engine.state_norms(before_w, before_f)
+        plus = engine.state_norms(dw + before_w, df + before_f)
+        positive = size > 0.0
+        ratio = np.where(positive, (plus * plus - bend * bend)
+                         / (4.0 * np.where(positive, size * size, 1.0)), 0.0)
+        misfit_squared = step * step - ratio * ratio * size * size
+        aligned = (positive & (step > 0.0) & (ratio > ratios[0]) & (ratio < ratios[1])
+                   & (misfit_squared <= ALIGNED * ALIGNED * step * step))
+        return ratio, aligned
 
     def _ahead(self, case: int, w1: FloatArray, w2: FloatArray, dw: FloatArray
                ) -> float | None:

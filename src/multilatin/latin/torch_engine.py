@@ -390,6 +390,16 @@ class TorchFields:
         self.w = self.w.index_add(0, index, self._stacked(dw))
         self.f = self.f.index_add(0, index, self._stacked(df))
 
+    def local_stage_of(self, cases: IntArray) -> None:
+        """The whole batch's local stage (its graphs replay whole batches), the others'
+        rows of ŝ put back (copies: a graph's outputs are its own buffers)."""
+        index = self._index(self.slots[cases])
+        names = ("w_hat", "f_hat") + (() if self.side_macro is None else ("side_macro",))
+        kept = [getattr(self, name).clone() for name in names]
+        self.local_stage()
+        for name, old in zip(names, kept, strict=True):
+            setattr(self, name, old.index_copy(0, index, getattr(self, name)[index]))
+
     def _stacked(self, rows: Sequence[Any]) -> Tensor:
         """Rows (tensors, or host arrays: ``extrapolation``) as one tensor on the device."""
         return self.torch.stack([row if isinstance(row, self.torch.Tensor) else
