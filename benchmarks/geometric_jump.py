@@ -5,6 +5,7 @@ rule before it (crawl jumps only), in one process: the same solves with
     python benchmarks/geometric_jump.py                 # bundled models, B1 family, slide
     python benchmarks/geometric_jump.py --studies       # B1 13 x 13 and B3 5 x 5 studies
     python benchmarks/geometric_jump.py --trace         # r and the misfit at every mark
+    python benchmarks/geometric_jump.py --slow-on-qois 0.02   # fast modes jump on QoIs too
 
 Every ``WINDOW`` = 10 iterations the extrapolation compares the last two windows'
 increments d₁, d₂ of the state; where d₂ = r d₁ to 5 % with 0.02 < r < 0.85 — one slow
@@ -44,8 +45,12 @@ def main() -> None:
     parser = argparse.ArgumentParser(description=__doc__.split("\n")[0])
     parser.add_argument("--studies", action="store_true")
     parser.add_argument("--trace", action="store_true")
+    parser.add_argument("--slow-on-qois", type=float, default=None,
+                        help="sliding.SLOW_ON_QOIS for this run (the library's: 0.2)")
     args = parser.parse_args()
     warnings.simplefilter("ignore")
+    if args.slow_on_qois is not None:
+        sliding.SLOW_ON_QOIS = args.slow_on_qois
     if args.trace:
         trace()
     elif args.studies:
