@@ -198,11 +198,9 @@ class SlidingExtrapolation:
                         if ahead is None:
                             continue
                         factor = ahead / WINDOW
-                    elif aligned[k]:
+                    else:  # aligned: r < 1, no crawl
                         factor = ratio[k] / (1.0 - ratio[k])
                         self.geometric_jumps += 1
-                    else:  # a crawl with no event ahead
-                        continue
                     positions.append(i)
                     shifts_w.append(factor * dw[k])
                     shifts_f.append(factor * df[k])
