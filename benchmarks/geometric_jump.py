@@ -6,6 +6,7 @@ rule before it (crawl jumps only), in one process: the same solves with
     python benchmarks/geometric_jump.py --studies       # B1 13 x 13 and B3 5 x 5 studies
     python benchmarks/geometric_jump.py --trace         # r and the misfit at every mark
     python benchmarks/geometric_jump.py --slow-on-qois 0.02   # fast modes jump on QoIs too
+    python benchmarks/geometric_jump.py --aligned 0.2   # a looser alignment test
 
 Every ``WINDOW`` = 10 iterations the extrapolation compares the last two windows'
 increments d₁, d₂ of the state; where d₂ = r d₁ to 5 % with 0.02 < r < 0.85 — one slow
@@ -47,8 +48,12 @@ def main() -> None:
     parser.add_argument("--trace", action="store_true")
     parser.add_argument("--slow-on-qois", type=float, default=None,
                         help="sliding.SLOW_ON_QOIS for this run (the library's: 0.2)")
+    parser.add_argument("--aligned", type=float, default=None,
+                        help="sliding.ALIGNED for this run (the library's: 0.05)")
     args = parser.parse_args()
     warnings.simplefilter("ignore")
+    if args.aligned is not None:
+        sliding.ALIGNED = args.aligned
     if args.slow_on_qois is not None:
         sliding.SLOW_ON_QOIS = args.slow_on_qois
     if args.trace:
