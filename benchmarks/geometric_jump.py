@@ -7,6 +7,7 @@ rule before it (crawl jumps only), in one process: the same solves with
     python benchmarks/geometric_jump.py --trace         # r and the misfit at every mark
     python benchmarks/geometric_jump.py --slow-on-qois 0.02   # fast modes jump on QoIs too
     python benchmarks/geometric_jump.py --aligned 0.2   # a looser alignment test
+    python benchmarks/geometric_jump.py --aligned-slow 0.2   # looser for r >= 0.5 only
 
 Every ``WINDOW`` = 10 iterations the extrapolation compares the last two windows'
 increments d₁, d₂ of the state; where d₂ = r d₁ to 5 % with 0.02 < r < 0.85 — one slow
@@ -50,10 +51,14 @@ def main() -> None:
                         help="sliding.SLOW_ON_QOIS for this run (the library's: 0.2)")
     parser.add_argument("--aligned", type=float, default=None,
                         help="sliding.ALIGNED for this run (the library's: 0.05)")
+    parser.add_argument("--aligned-slow", type=float, default=None,
+                        help="a looser alignment for slow modes (r >= 0.5) only")
     args = parser.parse_args()
     warnings.simplefilter("ignore")
     if args.aligned is not None:
         sliding.ALIGNED = args.aligned
+    if args.aligned_slow is not None:
+        loosen_for_slow_modes(args.aligned_slow)
     if args.slow_on_qois is not None:
         sliding.SLOW_ON_QOIS = args.slow_on_qois
     if args.trace:
@@ -62,6 +67,23 @@ def main() -> None:
         studies()
     else:
         solves()
+
+
+def loosen_for_slow_modes(aligned: float, slow: float = 0.5) -> None:
+    """Also jump where r ≥ ``slow`` and the increments are aligned to ``aligned`` (the
+    library's test: ``sliding.ALIGNED``, 5 %, for every r)."""
+    geometric = sliding.SlidingExtrapolation._geometric
+
+    def looser(engine: Any, dw: Any, df: Any, before_w: Any, before_f: Any, step: Any,
+               bend: Any, ratios: tuple[float, float] = sliding.GEOMETRIC) -> Any:
+        ratio, strict = geometric(engine, dw, df, before_w, before_f, step, bend, ratios)
+        size = engine.state_norms(before_w, before_f)
+        misfit_squared = step * step - ratio * ratio * size * size
+        loose = ((size > 0.0) & (step > 0.0) & (ratio >= max(slow, ratios[0]))
+                 & (ratio < ratios[1]) & (misfit_squared <= aligned * aligned * step * step))
+        return ratio, strict | loose
+
+    sliding.SlidingExtrapolation._geometric = staticmethod(looser)  # type: ignore[method-assign]
 
 
 def _both(solve: Callable[[], Any]) -> list[Any]:
