@@ -76,12 +76,11 @@ def loosen_for_slow_modes(aligned: float, slow: float = 0.5) -> None:
 
     def looser(engine: Any, dw: Any, df: Any, before_w: Any, before_f: Any, step: Any,
                bend: Any, ratios: tuple[float, float] = sliding.GEOMETRIC) -> Any:
-        ratio, strict = geometric(engine, dw, df, before_w, before_f, step, bend, ratios)
-        size = engine.state_norms(before_w, before_f)
-        misfit_squared = step * step - ratio * ratio * size * size
-        loose = ((size > 0.0) & (step > 0.0) & (ratio >= max(slow, ratios[0]))
-                 & (ratio < ratios[1]) & (misfit_squared <= aligned * aligned * step * step))
-        return ratio, strict | loose
+        ratio, misfit, strict = geometric(engine, dw, df, before_w, before_f, step, bend,
+                                          ratios)
+        loose = ((step > 0.0) & (ratio >= max(slow, ratios[0])) & (ratio < ratios[1])
+                 & (misfit <= aligned))
+        return ratio, misfit, strict | loose
 
     sliding.SlidingExtrapolation._geometric = staticmethod(looser)  # type: ignore[method-assign]
 
@@ -169,12 +168,11 @@ def trace() -> None:
 
     def traced(engine: Any, dw: Any, df: Any, before_w: Any, before_f: Any, step: Any,
                bend: Any, ratios: tuple[float, float] = sliding.GEOMETRIC) -> Any:
-        ratio, aligned = geometric(engine, dw, df, before_w, before_f, step, bend, ratios)
-        size = engine.state_norms(before_w, before_f)
-        misfit = np.sqrt(np.maximum(step * step - ratio * ratio * size * size, 0.0)) / step
+        ratio, misfit, aligned = geometric(engine, dw, df, before_w, before_f, step, bend,
+                                           ratios)
         for r, m, a in zip(ratio, misfit, aligned, strict=True):
             print(f"  r = {r:.3f}, misfit {m:.3f}{' (jump)' if a else ''}")
-        return ratio, aligned
+        return ratio, misfit, aligned
 
     sliding.SlidingExtrapolation._geometric = staticmethod(traced)  # type: ignore[method-assign]
     for name, parameters, kappa in (("b1", {"mu1": 0.1, "mu2": 0.25}, 0.5),

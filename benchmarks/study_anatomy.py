@@ -22,7 +22,7 @@ today's cost per case-iteration with nothing else on the clock.
 ``--widths``: ``solve_latin_batch`` of the first w cases of the B1 grid, 40 iterations each,
 sharing operators: the cost per case-iteration at widths 1 … 169 (is a wider batch cheaper
 per case?). ``--floors``: the study under the studies' QoI rule with the rule's floor
-(``qoi_settled``: rtol × max(|q|, floor × the largest |q|)) at each value; iterations in
+(``iteration.QOI_FLOOR``: rtol × max(|q|, floor × the largest |q|)) at each value; iterations in
 all, R_stop's worst error against η < 1e-9 solves of every case, relative (floored at 1 N).
 ``--windows``: the same with the QoI estimate's window (``tracking.WINDOW``, 10: a case
 stops on its QoIs after at least window + 5 iterations) at each value; ``--steady``: with
@@ -228,30 +228,6 @@ def widths() -> None:
               flush=True)
 
 
-def _with_floor(floor: float) -> Callable[..., Any]:
-    """``iteration.qoi_settled`` with another floor (the same rule otherwise)."""
-    def settled(state: Any, active: Any, counts: Any, rtol: float) -> Any:
-        recent = iteration.RECENT
-        values = state.qoi_recent[active, (counts - 1) % recent]
-        bound = rtol * np.maximum(np.abs(values), floor * state.qoi_scale[active][:, :, None])
-        ignored = ~state.qoi_reported[active]
-        out = np.all((np.abs(values - state.qoi_recent[active, (counts - 3) % recent])
-                      <= bound) | ignored, axis=(1, 2))
-        out &= iteration.state_settled(state, active, counts, rtol)
-        candidates = np.flatnonzero(out)
-        if candidates.size:
-            order = (counts[candidates, None] + np.arange(recent)) % recent
-            chosen = active[candidates]
-            history = state.qoi_recent[chosen[:, None], order].transpose(1, 0, 2, 3)
-            eta = state.eta_recent[chosen[:, None], order].T
-            estimates = iteration.error_estimates(history, eta[:, :, None, None])
-            out[candidates] = np.all((estimates <= bound[candidates]) | ignored[candidates],
-                                     axis=(1, 2))
-        return out
-
-    return settled
-
-
 def _tight_r_stop(model: Model, grid: ml.Grid) -> np.ndarray:
     """R_stop of every case of ``grid`` (in the study's order) at η < 1e-9."""
     names = list(grid)
@@ -274,15 +250,15 @@ def floors(values: list[float]) -> None:
     model = ml.load_model("b1")
     grid = ml.Grid.parse(GRIDS["b1"])
     reference = _tight_r_stop(model, grid)
-    original = iteration.qoi_settled
+    original = iteration.QOI_FLOOR
     print("| floor | iterations | R_stop's worst error | cases above 0.1 % |")
     print("|---|---|---|---|")
     try:
         for floor in values:
-            iteration.qoi_settled = _with_floor(floor)
+            iteration.QOI_FLOOR = floor
             _row(f"{floor:g}", model, grid, reference)
     finally:
-        iteration.qoi_settled = original
+        iteration.QOI_FLOOR = original
 
 
 def variants(name: str, title: str, settings: list[tuple[str, Any, str, Any]]) -> None:

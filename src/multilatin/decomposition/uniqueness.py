@@ -406,7 +406,7 @@ def _limit_motions_of(clusters: list[_Cluster], points: Sequence[InterfacePoints
     scales = _scales(displacement_hats, force_hats)
     for cluster in clusters:
         normal, modes = cluster.normal, cluster.modes
-        between = cluster.partner >= 0  # contact points between bodies (not stops)
+        between = ~cluster.at_stop  # contact points between bodies (not stops)
         state = _cluster_state(cluster, points, displacement_hats, force_hats, scales)
         friction, force, normal_force = state.friction, state.force, state.normal_force
         moving = state.moving

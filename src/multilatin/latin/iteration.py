@@ -108,13 +108,18 @@ def state_settled(state: IterationState, active: IntArray, counts: IntArray, rto
     return np.asarray(remaining_change(eta, before, WINDOW) <= rtol, dtype=bool)
 
 
+#: the QoI rule's floor: a QoI's error is asked below rtol × max(|value|, this share of the
+#: largest magnitude it took)
+QOI_FLOOR = 1e-2
+
+
 def qoi_settled(state: IterationState, active: IntArray, counts: IntArray, rtol: float
                 ) -> npt.NDArray[np.bool_]:
     """Per active case: every QoI's estimated error (``tracking.error_estimates``) below
-    ``rtol`` × max(|value|, 1 % of the largest magnitude it took), at the steps it reports.
-    ``counts``: each active case's own iterations."""
+    ``rtol`` × max(|value|, ``QOI_FLOOR`` (1 %) of the largest magnitude it took), at the
+    steps it reports. ``counts``: each active case's own iterations."""
     values = state.qoi_recent[active, (counts - 1) % RECENT]
-    bound = rtol * np.maximum(np.abs(values), 1e-2 * state.qoi_scale[active][:, :, None])
+    bound = rtol * np.maximum(np.abs(values), QOI_FLOOR * state.qoi_scale[active][:, :, None])
     ignored = ~state.qoi_reported[active]
     # the estimate is at least the latest two-iteration change: where that alone exceeds
     # the bound, the case goes on without the full estimate
@@ -288,13 +293,12 @@ class BatchIterations:
             damp_stagnating(out.histories, active[due], damped, options)
             relaxation[due] = damped
         capped = counts >= options.max_iter
-        below_tol = eta < options.tol
-        if self.sliding is not None:
-            # not within ``RECENT`` iterations of a jump: its check one window later runs
-            # first, and the QoIs' estimate then reads iterates after it alone
-            below_tol &= (self.sliding.jumped_at[active] < 0) | (
-                counts - self.sliding.jumped_at[active] > RECENT)
-        done = below_tol | ~np.isfinite(eta) | capped
+        # no stop within ``RECENT`` iterations of a jump: its check one window later runs
+        # first, and the QoIs' estimate then reads iterates after it alone
+        after_jumps = (np.ones_like(capped) if self.sliding is None else
+                       (self.sliding.jumped_at[active] < 0)
+                       | (counts - self.sliding.jumped_at[active] > RECENT))
+        done = ((eta < options.tol) & after_jumps) | ~np.isfinite(eta) | capped
         due = (counts % DRIFT_WINDOW == 0) & ~done
         if due.any():
             drifting = np.zeros_like(done)
@@ -313,10 +317,7 @@ class BatchIterations:
             # η < tol alone is no QoI accuracy
             done &= (settled | ~np.isfinite(eta) | (eta < ETA_STOP_UNDER * options.tol)
                      | capped | (counts < WINDOW + 5))
-            on_qoi = settled & ~done & np.isfinite(eta)
-            if self.sliding is not None:  # the QoIs' recent history spans a jump: not yet
-                on_qoi &= (self.sliding.jumped_at[active] < 0) | (
-                    counts - self.sliding.jumped_at[active] > RECENT)
+            on_qoi = settled & ~done & np.isfinite(eta) & after_jumps
             out.stopped_on_qoi[active[on_qoi]] = True
             done |= on_qoi
         leaving = active[done]

@@ -188,8 +188,8 @@ class SlidingExtrapolation:
                 step = engine.state_norms(dw, df)
                 bend = engine.state_norms(dw - before_w, df - before_f)
                 crawls = (step > 0.0) & (bend <= STEADY * step)
-                ratio, aligned = self._geometric(engine, dw, df, before_w, before_f, step,
-                                                 bend, self.ratios)
+                ratio, _, aligned = self._geometric(engine, dw, df, before_w, before_f,
+                                                    step, bend, self.ratios)
                 for k in np.flatnonzero(crawls | aligned):
                     i, case, _ = chunk[k]
                     if crawls[k]:
@@ -217,21 +217,22 @@ class SlidingExtrapolation:
     @staticmethod
     def _geometric(engine: FieldEngine, dw: Any, df: Any, before_w: Any, before_f: Any,
                    step: FloatArray, bend: FloatArray, ratios: tuple[float, float] = GEOMETRIC
-                   ) -> tuple[FloatArray, np.ndarray]:
+                   ) -> tuple[FloatArray, FloatArray, np.ndarray]:
         """Per row: r = ⟨d₂, d₁⟩ / ‖d₁‖² of the last two windows' increments d₁, d₂ (the
-        indicator's inner product, from the norms of d₂ ± d₁: ``bend`` is ‖d₂ − d₁‖), and
-        whether d₂ = r d₁ to ``ALIGNED`` (‖d₂ − r d₁‖² = ‖d₂‖² − r² ‖d₁‖²) with r inside
-        ``ratios``: one mode decaying by r per window, whose sum ahead is
-        r / (1 − r) d₂."""
+        indicator's inner product, from the norms of d₂ ± d₁: ``bend`` is ‖d₂ − d₁‖), the
+        misfit ‖d₂ − r d₁‖ / ‖d₂‖ (from ‖d₂ − r d₁‖² = ‖d₂‖² − r² ‖d₁‖²), and whether it is
+        at most ``ALIGNED`` with r inside ``ratios``: one mode decaying by r per window,
+        whose sum ahead is r / (1 − r) d₂."""
         size = engine.state_norms(before_w, before_f)
         plus = engine.state_norms(dw + before_w, df + before_f)
         positive = size > 0.0
         ratio = np.where(positive, (plus * plus - bend * bend)
                          / (4.0 * np.where(positive, size * size, 1.0)), 0.0)
-        misfit_squared = step * step - ratio * ratio * size * size
+        misfit = np.sqrt(np.maximum(step * step - ratio * ratio * size * size, 0.0)
+                         ) / np.where(step > 0.0, step, 1.0)
         aligned = (positive & (step > 0.0) & (ratio > ratios[0]) & (ratio < ratios[1])
-                   & (misfit_squared <= ALIGNED * ALIGNED * step * step))
-        return ratio, aligned
+                   & (misfit <= ALIGNED))
+        return ratio, misfit, aligned
 
     def _ahead(self, case: int, w1: FloatArray, w2: FloatArray, dw: FloatArray
                ) -> float | None:
