@@ -103,6 +103,11 @@ def _add_latin_arguments(parser: argparse.ArgumentParser, qoi_rtol: float | None
     parser.add_argument("--no-sliding-jumps", action="store_true",
                         help="do not extrapolate a block's steady sliding to the stop or "
                         "contact it closes (LatinOptions.extrapolate_sliding)")
+    parser.add_argument("--settled-steps", type=float, default=d.settled_steps,
+                        metavar="FACTOR", help="stop iterating a case's leading load steps "
+                        "once each one's share of eta has stayed below FACTOR x tol for 3 "
+                        "iterations; 0: every step every iteration (docs/performance.md) "
+                        "(default: %(default)s)")
     parser.add_argument("--interface-elements", default=d.interface_elements,
                         choices=["nodal", "edges", "edge-pairs"])
     parser.add_argument("--backend", default=d.backend, choices=list(BACKENDS),
@@ -291,6 +296,7 @@ def _latin_options(args: argparse.Namespace) -> LatinOptions:
                         qoi_rtol=args.qoi_rtol,
                         relaxation=args.relaxation, macro=not args.no_macro,
                         extrapolate_sliding=not args.no_sliding_jumps,
+                        settled_steps=args.settled_steps,
                         corner_stiffening=args.corner_stiffening,
                         micro_stiffening=args.micro_stiffening,
                         acceleration=args.acceleration,

@@ -27,10 +27,14 @@ from .operators import LatinOperators
 from .options import LatinOptions
 from .threads import one_blas_thread
 from .tracking import QoiFunctionals
-from .two_scale import compiled_local_stage, coupled_local_stage
+from .two_scale import compiled_local_stage, coupled_local_stage, keep_settled
 
-__all__ = ["FieldEngine", "NumpyFields", "as_run", "indicator_weights", "norms",
-           "one_blas_thread"]
+__all__ = ["SETTLE_ITERATIONS", "FieldEngine", "NumpyFields", "as_run", "indicator_weights",
+           "norms", "one_blas_thread"]
+
+#: iterations a leading step's ‖s − ŝ‖ stays under its bound before it settles
+#: (``NumpyFields.settle``)
+SETTLE_ITERATIONS = 3
 
 
 class FieldEngine(Protocol):
@@ -121,8 +125,19 @@ class NumpyFields:
                            .reshape(*w_hat.shape[:2], -1) if ops.two_scale is not None else None)
         #: the active cases' columns per geometry, for the linear stage (``_geometries``)
         self.geometries = self._geometries()
+        #: settled leading steps (``settle``): per active case its first step still
+        #: iterated, and per step the iterations its ‖s − ŝ‖ has stayed under the bound
+        self.settling = (options.settled_steps > 0 and self.mixer is None
+                         and options.acceleration == "relaxation" and local.fused
+                         and kernels.indicator_squares is not None)
+        self.first: IntArray = np.zeros(w_hat.shape[0], dtype=np.int64)
+        self.calm: IntArray = np.zeros(w_hat.shape[:2], dtype=np.int64)
+        self.step_gaps: FloatArray = np.zeros(w_hat.shape[:2])
 
     def linear_stage(self, relaxation: FloatArray) -> None:
+        if self.first.any():
+            self._live_linear_stage(relaxation)
+            return
         ta = time.perf_counter()
         ops, options = self.ops, self.options
         flat = (-1, ops.points.n_points, 2)
@@ -158,12 +173,68 @@ class NumpyFields:
         self.w, self.f = w, f
         self.t_linear += time.perf_counter() - ta
 
-    def _geometries(self) -> list[tuple[LatinOperators, slice | IntArray]] | None:
+    def _live_linear_stage(self, relaxation: FloatArray) -> None:
+        """``linear_stage`` on the rows (case, step) not settled alone (``settle``): the
+        linear stage is step by step, so the settled rows' s stays as it is."""
+        assert self.w is not None and self.f is not None
+        ta = time.perf_counter()
+        ops, n_points = self.ops, self.ops.points.n_points
+        n_steps = self.w_hat.shape[1]
+        live_steps = n_steps - self.first
+        case_of_row = np.repeat(np.arange(self.first.size), live_steps)
+        rows = (case_of_row * n_steps + np.arange(case_of_row.size)
+                - np.repeat(np.cumsum(live_steps) - live_steps, live_steps)
+                + self.first[case_of_row])
+        geometries = self._geometries(case_of_row)
+        w_new, f_new = ops.micro_stage(np.take(self.w_hat.reshape(-1, n_points, 2), rows, 0),
+                                       np.take(self.f_hat.reshape(-1, n_points, 2), rows, 0),
+                                       geometries)
+        tm = time.perf_counter()
+        if self.macro_data is not None:
+            ops.macro_correction(w_new, f_new,
+                                 self.macro_data.reshape(-1, self.macro_data.shape[2])[rows],
+                                 geometries)
+        self.t_macro += time.perf_counter() - tm
+        omega = np.ascontiguousarray(relaxation[case_of_row], dtype=np.float64)
+        for current, new in ((self.w, w_new), (self.f, f_new)):
+            assert kernels.relax_rows is not None and current.flags.c_contiguous
+            kernels.relax_rows(current.reshape(-1, 2 * n_points),
+                               new.reshape(-1, 2 * n_points), rows, omega)
+        self.t_linear += time.perf_counter() - ta
+
+    def settle(self, size: FloatArray, bound: float) -> None:
+        """Leading steps whose ‖s − ŝ‖ has stayed below ``bound`` × the case's ½(‖s‖ +
+        ‖ŝ‖) for ``SETTLE_ITERATIONS`` iterations, with every step before them, are no
+        longer iterated (their s and ŝ stay; the last step always is). A load step's
+        fields depend on the earlier steps' alone (the linear stage and the macro problem
+        are step by step, Coulomb's law acts on increments), so the later steps converge
+        as they would: the settled ones leave ‖s − ŝ‖ at most ``bound`` × √n_steps of the
+        size where η stops at ``tol``."""
+        if not self.settling:
+            return
+        calm = self.step_gaps < (bound * size)[:, None] ** 2
+        self.calm = np.where(calm, self.calm + 1, 0)
+        n_steps = int(self.step_gaps.shape[1])
+        leading = np.cumprod(self.calm >= SETTLE_ITERATIONS, axis=1).sum(axis=1)
+        self.first = np.maximum(self.first, np.minimum(leading, n_steps - 1))
+
+    def _geometries(self, case_of_row: IntArray | None = None
+                    ) -> list[tuple[LatinOperators, slice | IntArray]] | None:
         """Per geometry of the active cases, its operators and the columns (case × step)
         of its cases; None when they share one (``geometries``, set at the start and when
-        cases leave)."""
+        cases leave). case_of_row: the active case (position) of each column where they are
+        not every case's every step (``_live_linear_stage``)."""
         if self.geometry_of is None:
             return None
+        if case_of_row is not None:
+            by_row: dict[int, tuple[LatinOperators, list[IntArray]]] = {}
+            for position, case in enumerate(self.active):
+                ops = self.geometry_of[case]
+                by_row.setdefault(id(ops), (ops, []))[1].append(
+                    np.flatnonzero(case_of_row == position))
+            if len(by_row) == 1 and next(iter(by_row.values()))[0] is self.ops:
+                return None
+            return [(ops, np.concatenate(parts)) for ops, parts in by_row.values()]
         n_steps = self.w_hat.shape[1]
         by: dict[int, tuple[LatinOperators, list[int]]] = {}
         for position, case in enumerate(self.active):
@@ -188,11 +259,17 @@ class NumpyFields:
             assert self.ops.two_scale is not None
             if self.local.fused:
                 self.w_hat, self.f_hat, self.side_macro = compiled_local_stage(
-                    self.local, self.ops.two_scale, self.w, self.f, self.side_macro)
+                    self.local, self.ops.two_scale, self.w, self.f, self.side_macro,
+                    (self.first, self.w_hat, self.f_hat) if self.first.any() else None)
             else:
                 self.w_hat, self.f_hat, self.side_macro = coupled_local_stage(
                     self.local, self.local.contact_stage, self.ops.two_scale, self.w, self.f,
                     self.side_macro)
+        elif self.first.any():
+            w_hat, f_hat = self.local.without_contact(self.w, self.f, self.first)
+            keep_settled(self.first, (w_hat, f_hat), (self.w_hat, self.f_hat))
+            self.local.contact_stage(self.w, self.f, w_hat, f_hat, self.first)
+            self.w_hat, self.f_hat = w_hat, f_hat
         else:
             self.w_hat, self.f_hat = self.local(self.w, self.f)
         self.t_local += time.perf_counter() - tb
@@ -211,9 +288,11 @@ class NumpyFields:
         if kernels.indicator_squares is not None and self.local.compiled:
             # Anderson gives views
             self.w, self.f = np.ascontiguousarray(self.w), np.ascontiguousarray(self.f)
+            if self.step_gaps.shape != self.w.shape[:2]:
+                self.step_gaps = np.zeros(self.w.shape[:2])
             squares = np.sqrt(kernels.indicator_squares(
                 self.w, self.f, self.w_hat, self.f_hat, self.displacement_weight,
-                self.force_weight))
+                self.force_weight, self.step_gaps))
             return squares[:, 0], 0.5 * (squares[:, 1] + squares[:, 2])
         dw, fw = self.displacement_weight, self.force_weight
         gap = norms(dw, fw, self.w - self.w_hat, self.f - self.f_hat)
@@ -230,8 +309,9 @@ class NumpyFields:
         assert self.w is not None and self.f is not None
         self.w = np.array(self.w)  # its own array (not the linear stage's output)
         self.f = np.array(self.f)
-        self.w[cases] += np.stack(dw)
-        self.f[cases] += np.stack(df)
+        steps = np.arange(self.w.shape[1])[None, :] >= self.first[cases][:, None]
+        self.w[cases] += np.where(steps[..., None, None], np.stack(dw), 0.0)
+        self.f[cases] += np.where(steps[..., None, None], np.stack(df), 0.0)
 
     def local_stage_of(self, cases: IntArray) -> None:
         others = np.setdiff1d(np.arange(self.w_hat.shape[0]), cases)
@@ -275,6 +355,8 @@ class NumpyFields:
             self.f = np.concatenate([self.f, np.zeros_like(f_hat)])
         self.w_hat = np.concatenate([self.w_hat, w_hat])
         self.f_hat = np.concatenate([self.f_hat, f_hat])
+        self.first = np.concatenate([self.first, np.zeros(n_new, dtype=np.int64)])
+        self.calm = np.concatenate([self.calm, np.zeros(w_hat.shape[:2], dtype=np.int64)])
         if self.macro_data is not None and macro_data is not None:
             self.macro_data = np.concatenate([self.macro_data, macro_data])
         self.local = self.local.joined(local)
@@ -305,6 +387,7 @@ class NumpyFields:
         self.active = self.active[cases]
         self.w, self.f = self.w[cases], self.f[cases]
         self.w_hat, self.f_hat = self.w_hat[cases], self.f_hat[cases]
+        self.first, self.calm = self.first[cases], self.calm[cases]
         if self.macro_data is not None:
             self.macro_data = self.macro_data[cases]
         self.local = self.local.subset(cases)

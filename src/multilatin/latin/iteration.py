@@ -281,6 +281,8 @@ class BatchIterations:
         np.divide(gap, size, out=eta, where=finite & (size > 0))
         eta[finite & (size == 0)] = 0.0  # then gap = 0 too (gap ≤ ‖s‖ + ‖ŝ‖)
         out.eta_recent[active, (counts - 1) % RECENT] = eta
+        if isinstance(engine, NumpyFields):
+            engine.settle(size, options.settled_steps * options.tol)
         for c, value, norm in zip(active, eta, size, strict=True):
             out.histories[c].append(float(value))
             out.sizes[c].append(float(norm))

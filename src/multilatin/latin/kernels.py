@@ -14,8 +14,8 @@ agree to rounding (tests).
 - ``two_scale_correction``: out += (H − D) x row by row (``two_scale.TwoScaleDirection``);
 - ``direction_update``: out = base + H (a − b) in one pass (the linear stage's forces,
   ``LatinOperators.direction_update``);
-- ``relax``: s ← ω s_new + (1 − ω) s in place;
-- ``indicator_squares``: ‖s − ŝ‖², ‖s‖², ‖ŝ‖² per case (paper §4.3).
+- ``relax``: s ← ω s_new + (1 − ω) s in place; ``relax_rows`` the same on chosen rows;
+- ``indicator_squares``: ‖s − ŝ‖², ‖s‖², ‖ŝ‖² per case (paper §4.3), ‖s − ŝ‖² per step.
 """
 
 from __future__ import annotations
@@ -63,8 +63,11 @@ def _contact_and_stops(displacement: FloatArray, force: FloatArray, w_hat: Float
                        stops: IntArray, k_stop: FloatArray, n_stop: FloatArray,
                        mu_stop: FloatArray, gap_stop: FloatArray, corner_of_pair: IntArray,
                        corner_stops: IntArray, held_side: IntArray, held_boundary: IntArray,
-                       held_stop: IntArray, prescribed: FloatArray
+                       held_stop: IntArray, prescribed: FloatArray, first: IntArray
                        ) -> None:  # pragma: no cover - compiled
+    """Steps ``first[c]`` on of case c (the earlier ones settled, ``engine``): the
+    history they start from is the last settled step's Ŵ (each point's, which its update
+    carries) and F̂ (a held corner's force)."""
     n_cases, n_steps = displacement.shape[0], displacement.shape[1]
     n_pairs, n_stops = a.size, stops.size
     n_corners = corner_stops.shape[0]
@@ -74,7 +77,19 @@ def _contact_and_stops(displacement: FloatArray, force: FloatArray, w_hat: Float
         prev_stop = np.zeros((n_stops, 2))
         stop_closed = np.zeros(n_stops, dtype=np.bool_)
         corner_force = np.zeros((n_corners, 2))
-        for t in range(n_steps):
+        t0 = first[c]
+        if t0 > 0:
+            for i in range(n_stops):
+                for d in range(2):
+                    prev_stop[i, d] = w_hat[c, t0 - 1, stops[i], d]
+            for j in range(n_pairs):
+                for d in range(2):
+                    prev_a[j, d] = w_hat[c, t0 - 1, a[j], d]
+                    prev_b[j, d] = w_hat[c, t0 - 1, b[j], d]
+                if corner_of_pair[j] >= 0:  # the corner's last pair in order wrote it
+                    for d in range(2):
+                        corner_force[corner_of_pair[j], d] = f_hat[c, t0 - 1, a[j], d]
+        for t in range(t0, n_steps):
             for i in range(n_stops):
                 p = stops[i]
                 nx, ny = n_stop[i, 0], n_stop[i, 1]
@@ -173,11 +188,11 @@ def _perfect_and_boundary(displacement: FloatArray, force: FloatArray, w_hat: Fl
                           f_hat: FloatArray, a: IntArray, b: IntArray, k_pair: FloatArray,
                           k_pair_b: FloatArray, boundary: IntArray, k_boundary: FloatArray,
                           is_displacement: npt.NDArray[np.bool_], prescribed: FloatArray,
-                          pair_held_side: IntArray, pair_held_boundary: IntArray
-                          ) -> None:  # pragma: no cover - compiled
+                          pair_held_side: IntArray, pair_held_boundary: IntArray,
+                          first: IntArray) -> None:  # pragma: no cover - compiled
     n_cases, n_steps = displacement.shape[0], displacement.shape[1]
     for c in range(n_cases):
-        for t in range(n_steps):
+        for t in range(first[c], n_steps):
             for j in range(a.size):
                 pa, pb = a[j], b[j]
                 for d in range(2):
@@ -222,8 +237,9 @@ def _coupled_contact(displacement: FloatArray, force: FloatArray, w_hat: FloatAr
                      gap_contact: FloatArray, stops: IntArray, k_stop: FloatArray,
                      n_stop: FloatArray, mu_stop: FloatArray, gap_stop: FloatArray,
                      corner_of_pair: IntArray, corner_stops: IntArray, held_side: IntArray,
-                     held_boundary: IntArray, held_stop: IntArray, prescribed: FloatArray
-                     ) -> None:  # pragma: no cover - compiled
+                     held_boundary: IntArray, held_stop: IntArray, prescribed: FloatArray,
+                     first: IntArray) -> None:  # pragma: no cover - compiled
+    """Steps ``first[c]`` on of case c; ``macro`` keeps the earlier steps' rows."""
     n_cases, n_steps, n_points = displacement.shape[0], displacement.shape[1], \
         displacement.shape[2]
     r = coupling_starts.size - 1
@@ -247,44 +263,46 @@ def _coupled_contact(displacement: FloatArray, force: FloatArray, w_hat: FloatAr
     shifted = np.empty((1, n_steps, n_points, 2))
     shifted_rows = shifted.reshape(n_steps, 2 * n_points)
     for c in range(n_cases):
+        t0 = first[c]
+        live = n_steps - t0
         shifted[0] = force[c]
-        force_rows = force[c].reshape(n_steps, 2 * n_points)
-        projected = np.zeros((n_steps, r))  # Eᵀ M0 W
-        _project_columns(displacement[c].reshape(n_steps, 2 * n_points), support, slot,
+        force_rows = force[c].reshape(n_steps, 2 * n_points)[t0:]
+        projected = np.zeros((live, r))  # Eᵀ M0 W
+        _project_columns(displacement[c].reshape(n_steps, 2 * n_points)[t0:], support, slot,
                          starts, weighted, columns, sums, projected)
-        x = start[c] - projected  # Eᵀ M0 (Ŵ − W)
-        step = np.zeros((n_steps, r))
+        x = start[c, t0:] - projected  # Eᵀ M0 (Ŵ − W)
+        step = np.zeros((live, r))
         for inner in range(alphas.size):
-            shift = np.empty((n_steps, r))  # G x
-            for t in range(n_steps):
+            shift = np.empty((live, r))  # G x
+            for t in range(live):
                 _coupling_shift(x[t], coupling_starts, coupling_columns, coupling_values,
                                 shift[t])
             for j in range(r):
-                for t in range(n_steps):
+                for t in range(live):
                     shift_t[j, t] = shift[t, j]
             for u in range(n_support):  # F + E G x on the support
-                for t in range(n_steps):
+                for t in range(live):
                     columns[u, t] = force_rows[t, support[u]]
             for j in range(r):
                 for e in range(starts[j], starts[j + 1]):
                     u, value = slot[e], basis[e]
-                    for t in range(n_steps):
+                    for t in range(live):
                         columns[u, t] += value * shift_t[j, t]
             for u in range(n_support):
-                for t in range(n_steps):
-                    shifted_rows[t, support[u]] = columns[u, t]
+                for t in range(live):
+                    shifted_rows[t0 + t, support[u]] = columns[u, t]
             _contact_and_stops(displacement[c:c + 1], shifted, w_hat[c:c + 1], f_hat[c:c + 1],
                                a, b, k_contact, k_contact_b, n_contact, mu_contact[c:c + 1],
                                gap_contact[c:c + 1], stops, k_stop, n_stop, mu_stop[c:c + 1],
                                gap_stop[c:c + 1], corner_of_pair, corner_stops, held_side,
-                               held_boundary, held_stop, prescribed[c:c + 1])
+                               held_boundary, held_stop, prescribed[c:c + 1], first[c:c + 1])
             residual = -projected - x
-            _project_columns(w_hat[c].reshape(n_steps, 2 * n_points), support, slot, starts,
-                             weighted, columns, sums, residual)
+            _project_columns(w_hat[c].reshape(n_steps, 2 * n_points)[t0:], support, slot,
+                             starts, weighted, columns, sums, residual)
             # Chebyshev's steps (``two_scale.chebyshev_steps``)
             step[:] = residual + betas[inner] * step
             x += alphas[inner] * step
-        macro[c] = x + projected
+        macro[c, t0:] = x + projected
 
 
 def _project_columns(rows: FloatArray, support: IntArray, slot: IntArray, starts: IntArray,
@@ -384,22 +402,39 @@ def _relax(current: FloatArray, new: FloatArray, omega: float
         flat[i] = omega * flat_new[i] + (1.0 - omega) * flat[i]
 
 
+def _relax_rows(current: FloatArray, new: FloatArray, rows: IntArray, omega: FloatArray
+                ) -> None:  # pragma: no cover - compiled
+    """current[rows[i]] ← ω_i new[i] + (1 − ω_i) current[rows[i]], rows of 2-D arrays."""
+    for i in range(rows.size):
+        target, w = rows[i], omega[i]
+        for j in range(new.shape[1]):
+            current[target, j] = w * new[i, j] + (1.0 - w) * current[target, j]
+
+
 def _indicator_squares(w: FloatArray, f: FloatArray, w_hat: FloatArray, f_hat: FloatArray,
-                       displacement_weight: FloatArray, force_weight: FloatArray
-                       ) -> FloatArray:  # pragma: no cover - compiled
-    n_cases = w.shape[0]
+                       displacement_weight: FloatArray, force_weight: FloatArray,
+                       step_gaps: FloatArray) -> FloatArray:  # pragma: no cover - compiled
+    """Per case ‖s − ŝ‖², ‖s‖², ‖ŝ‖²; ``step_gaps`` (n_cases, n_steps) gets ‖s − ŝ‖² per
+    step (the same terms, summed in the same order)."""
+    n_cases, n_steps = w.shape[0], w.shape[1]
     n = displacement_weight.size
     w2, f2 = w.reshape(n_cases, -1), f.reshape(n_cases, -1)
     wh2, fh2 = w_hat.reshape(n_cases, -1), f_hat.reshape(n_cases, -1)
     out = np.zeros((n_cases, 3))
     for c in range(n_cases):
         gap = size = size_hat = 0.0
-        for i in range(w2.shape[1]):
-            kw, kf = displacement_weight[i % n], force_weight[i % n]
-            dw, df = w2[c, i] - wh2[c, i], f2[c, i] - fh2[c, i]
-            gap += kw * dw * dw + kf * df * df
-            size += kw * w2[c, i] * w2[c, i] + kf * f2[c, i] * f2[c, i]
-            size_hat += kw * wh2[c, i] * wh2[c, i] + kf * fh2[c, i] * fh2[c, i]
+        for t in range(n_steps):
+            step_gap = 0.0
+            for j in range(n):
+                i = t * n + j
+                kw, kf = displacement_weight[j], force_weight[j]
+                dw, df = w2[c, i] - wh2[c, i], f2[c, i] - fh2[c, i]
+                term = kw * dw * dw + kf * df * df
+                gap += term
+                step_gap += term
+                size += kw * w2[c, i] * w2[c, i] + kf * f2[c, i] * f2[c, i]
+                size_hat += kw * wh2[c, i] * wh2[c, i] + kf * fh2[c, i] * fh2[c, i]
+            step_gaps[c, t] = step_gap
         out[c, 0], out[c, 1], out[c, 2] = gap, size, size_hat
     return out
 
@@ -408,12 +443,13 @@ def _indicator_squares(w: FloatArray, f: FloatArray, w_hat: FloatArray, f_hat: F
 #: first use, so that importing the solver does not import Numba (0.4 s)
 contact_and_stops: Callable[..., Any] | None
 relax: Callable[..., Any] | None
+relax_rows: Callable[..., Any] | None
 indicator_squares: Callable[..., Any] | None
 perfect_and_boundary: Callable[..., Any] | None
 coupled_contact: Callable[..., Any] | None
 two_scale_correction: Callable[..., Any] | None
 direction_update: Callable[..., Any] | None
-_KERNELS = ("contact_and_stops", "relax", "indicator_squares", "perfect_and_boundary",
+_KERNELS = ("contact_and_stops", "relax", "relax_rows", "indicator_squares", "perfect_and_boundary",
             "coupled_contact", "two_scale_correction", "direction_update")
 
 
@@ -435,7 +471,8 @@ def _compile() -> None:
         _correction_row = jit_inline(_correction_row)
         compiled = {"contact_and_stops": _contact_and_stops,
                     "perfect_and_boundary": jit(_perfect_and_boundary),
-                    "relax": jit(_relax), "indicator_squares": jit(_indicator_squares),
+                    "relax": jit(_relax), "relax_rows": jit(_relax_rows),
+                    "indicator_squares": jit(_indicator_squares),
                     "coupled_contact": jit(_coupled_contact),
                     "two_scale_correction": jit(_two_scale_correction),
                     "direction_update": jit(_direction_update)}

@@ -129,8 +129,7 @@ class LocalStage:
         return int(self.prescribed.shape[0])
 
     def subset(self, cases: IntArray) -> LocalStage:
-        """The same local stage restricted to ``cases`` (cases leave a batch as they
-        converge)."""
+        """The same local stage restricted to ``cases`` (cases leave a batch)."""
         out = copy.copy(self)
         for name in _PER_CASE:
             setattr(out, name, getattr(self, name)[cases])
@@ -164,10 +163,10 @@ class LocalStage:
         self.contact_stage(displacement, force, w_hat, f_hat)
         return w_hat, f_hat
 
-    def without_contact(self, displacement: FloatArray, force: FloatArray
-                        ) -> tuple[FloatArray, FloatArray]:
+    def without_contact(self, displacement: FloatArray, force: FloatArray,
+                        first: IntArray | None = None) -> tuple[FloatArray, FloatArray]:
         """ŝ on perfect, prescribed and macro-only interfaces (the rest of the arrays
-        uninitialised: ``contact_stage`` fills them)."""
+        uninitialised: ``contact_stage`` fills them); first: as ``contact_stage``'s."""
         w_hat = np.empty(displacement.shape)  # C order: the flat views below are views
         f_hat = np.empty(force.shape)
         if self.tape is not None:
@@ -179,7 +178,8 @@ class LocalStage:
             kernels.perfect_and_boundary(
                 displacement, force, w_hat, f_hat, self.pairs[0], self.pairs[1], self.k_pair,
                 self.k_pair_b, self.boundary, self.k_boundary, self.is_displacement,
-                self.prescribed, self.pair_held_side, self.pair_held_boundary)
+                self.prescribed, self.pair_held_side, self.pair_held_boundary,
+                np.zeros(len(w_hat), np.int64) if first is None else first)
         else:
             self._perfect_and_boundary(displacement, force, w_hat, f_hat)
         if self.macro_points.size:  # macro-only interface (eq. [20]), see ``macro_only_map``
@@ -208,17 +208,18 @@ class LocalStage:
                 self.prescribed)
 
     def contact_stage(self, displacement: FloatArray, force: FloatArray, w_hat: FloatArray,
-                      f_hat: FloatArray) -> None:
+                      f_hat: FloatArray, first: IntArray | None = None) -> None:
         """The contact interfaces' and stops' part of the local stage, in place (after the
         rest: held nodes read the boundary's Ŵ, F̂); the two-scale direction's inner
-        iteration repeats it alone (``two_scale.coupled_local_stage``)."""
+        iteration repeats it alone (``two_scale.coupled_local_stage``). first: per case
+        its first step computed (compiled; the earlier ones' ŝ in place, ``engine``)."""
         if not (self.contact_pairs[0].size or self.stops.size):
             return
         if self.fused:
             assert kernels.contact_and_stops is not None
             kernels.contact_and_stops(
                 np.ascontiguousarray(displacement), np.ascontiguousarray(force), w_hat, f_hat,
-                *self.contact_data())
+                *self.contact_data(), np.zeros(len(w_hat), np.int64) if first is None else first)
         else:
             self._contact_and_stops(displacement, force, w_hat, f_hat)
 

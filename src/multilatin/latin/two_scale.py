@@ -41,7 +41,7 @@ import scipy.sparse as sp
 
 from ..decomposition.assembly import Assembly
 from ..decomposition.interfaces import InterfacePoints, interface_functions
-from ..fem.elasticity import FloatArray
+from ..fem.elasticity import FloatArray, IntArray
 from . import kernels
 
 if TYPE_CHECKING:
@@ -262,19 +262,37 @@ def chebyshev_steps(ratio: float) -> tuple[FloatArray, FloatArray]:
 
 
 def compiled_local_stage(local: LocalStage, direction: TwoScaleDirection,
-                         displacement: FloatArray, force: FloatArray, start: FloatArray
+                         displacement: FloatArray, force: FloatArray, start: FloatArray,
+                         settled: tuple[IntArray, FloatArray, FloatArray] | None = None
                          ) -> tuple[FloatArray, FloatArray, FloatArray]:
     """``coupled_local_stage`` with the compiled kernels (``local.fused``): the local stage
     off the contact interfaces once, then the inner passes of the contact part with their
     projections in one compiled loop (``kernels.coupled_contact``); the same answers to
-    rounding (tests)."""
+    rounding (tests). settled: per case its first step still iterated and the last ŝ
+    (``engine``'s settled steps): the steps before keep that ŝ and their ``start`` rows."""
     assert kernels.coupled_contact is not None
     displacement = np.ascontiguousarray(displacement)
     force = np.ascontiguousarray(force)
-    w_hat, f_hat = local.without_contact(displacement, force)
-    macro = np.empty((*displacement.shape[:2], direction.n_functions))
+    w_hat, f_hat = local.without_contact(displacement, force,
+                                         None if settled is None else settled[0])
+    if settled is None:
+        first = np.zeros(displacement.shape[0], dtype=np.int64)
+        macro = np.empty((*displacement.shape[:2], direction.n_functions))
+    else:
+        first = settled[0]
+        keep_settled(first, (w_hat, f_hat), settled[1:])
+        macro = np.array(start)
     kernels.coupled_contact(displacement, force, w_hat, f_hat,
                             np.ascontiguousarray(start), macro, *direction.entries,
                             *direction.coupling_entries,
-                            *chebyshev_steps(direction.ratio), *local.contact_data())
+                            *chebyshev_steps(direction.ratio), *local.contact_data(), first)
     return w_hat, f_hat, macro
+
+
+def keep_settled(first: IntArray, into: tuple[FloatArray, ...],
+                 source: tuple[FloatArray, ...]) -> None:
+    """Rows (case, step) before each case's ``first`` step copied from ``source`` into
+    ``into`` (arrays of shape (n_cases, n_steps, ...)): the settled steps keep their ŝ."""
+    rows = np.arange(into[0].shape[1])[None, :] < first[:, None]
+    for target, values in zip(into, source, strict=True):
+        target[rows] = values[rows]
