@@ -153,6 +153,11 @@ def test_another_study_in_the_same_folder_is_refused(b1: ml.Model, tmp_path: Pat
     run_study(b1, Grid({"mu2": [0.0]}), out=tmp_path, progress=False)
     with pytest.raises(ModelError, match="different study.*grid"):
         run_study(b1, Grid({"mu2": [0.1]}), out=tmp_path, progress=False)
+    # other solver options: the message names each one, with both values
+    with pytest.raises(ModelError, match=r"options\.settled_steps \(0\.0 here, 0\.01 in the "
+                       r"folder\)"):
+        run_study(b1, Grid({"mu2": [0.0]}), out=tmp_path, progress=False,
+                  options=LatinOptions(qoi_rtol=1e-3, settled_steps=0.0))
 
 
 def _comparable(dataset: xr.Dataset) -> xr.Dataset:

@@ -299,8 +299,20 @@ def _difference_message(folder: Path, existing: dict[str, Any],
     if differing == ["chains"]:
         return (f"--out {folder}: the folder holds this study run as {existing.get('chains')} "
                 f"chain(s); resume it with --schedule chains --chains {existing.get('chains')}")
+    named = []
+    for key in differing:
+        old, new = existing.get(key), identity.get(key)
+        if key == "options" and isinstance(old, dict) and isinstance(new, dict):
+            named += [f"options.{k} ({_given(new, k)} here, {_given(old, k)} in the folder)"
+                      for k in sorted(set(old) | set(new)) if old.get(k) != new.get(k)]
+        else:
+            named.append(key)
     return (f"--out {folder}: the folder holds a different study (differs in "
-            f"{', '.join(differing)}); use another folder or the same arguments")
+            f"{', '.join(named)}); use another folder or the same arguments")
+
+
+def _given(options: dict[str, Any], key: str) -> str:
+    return repr(options[key]) if key in options else "not set"
 
 
 def to_dataset(grid: Grid, records: Iterable[dict[str, Any]], attrs: dict[str, Any]
