@@ -152,6 +152,18 @@ def test_a_warm_solve_settles_its_first_steps_and_keeps_its_answer(
             scale = max(np.abs(expected).max(), 1e-12)
             assert np.abs(got - expected).max() <= 1e-3 * scale, name_q
     assert abs(on[0].iterations - off[0].iterations) <= 2
+    # a settled step's estimate is the one it had when it settled, not the zero its frozen
+    # values would read: it still bounds the error it keeps
+    settled = int(on[0].timings["settled_steps"])
+    assert settled > 0 and off[0].timings["settled_steps"] == 0
+    for name_q, value in tight.qoi.items():
+        if np.ndim(value) == 0:
+            continue  # R_stop: the last step, never settled
+        estimate = np.asarray(on[0].qoi_error[name_q], dtype=float)[:settled]
+        true = np.abs(np.asarray(on[0].qoi[name_q]) - np.asarray(value))[:settled]
+        assert np.all(estimate > 0.0), name_q
+        above = true > 1e-6 * np.abs(value).max()  # benchmarks/qoi_error.py's floor
+        assert np.all(estimate[above] >= true[above]), name_q
 
 
 def test_settled_steps_are_a_checked_option() -> None:

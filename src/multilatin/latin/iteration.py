@@ -12,7 +12,7 @@ from __future__ import annotations
 
 import logging
 from collections.abc import Callable, Sequence
-from dataclasses import dataclass
+from dataclasses import dataclass, field
 
 import numpy as np
 import numpy.typing as npt
@@ -59,6 +59,11 @@ class IterationState:
     stopped_on_qoi: npt.NDArray[np.bool_]  # per case: stopped by ``qoi_rtol`` before η < tol
     sizes: list[list[float]]  # per case, ½(‖s‖ + ‖ŝ‖) after each iteration
     drifting: npt.NDArray[np.bool_]  # per case: stopped as s grows without bound
+    #: per case, QoI and step: the estimate a settled step had when it settled (its QoIs
+    #: move no more, so the estimate from their increments would read zero; ``settled``)
+    qoi_settled_error: FloatArray = field(default_factory=lambda: np.zeros((0, 0, 0)))
+    #: per case: its leading steps settled (``engine.NumpyFields.settle``)
+    settled_steps: IntArray = field(default_factory=lambda: np.zeros(0, dtype=np.int64))
     t_linear: float = 0.0  # linear stage, macro problem included
     t_local: float = 0.0
     t_macro: float = 0.0
@@ -70,7 +75,8 @@ class IterationState:
         return cls({}, [[] for _ in range(n_cases)], np.zeros((n_cases, RECENT, n_qoi, n_steps)),
                    np.zeros((n_cases, RECENT)), np.zeros((n_cases, n_qoi)), reported,
                    np.zeros(n_cases, dtype=bool), [[] for _ in range(n_cases)],
-                   np.zeros(n_cases, dtype=bool))
+                   np.zeros(n_cases, dtype=bool), np.zeros(reported.shape),
+                   np.zeros(n_cases, dtype=np.int64))
 
     def extend(self, reported: npt.NDArray[np.bool_]) -> None:
         """Room for more cases after these (cases joining a rolling batch): the per-case
@@ -79,7 +85,7 @@ class IterationState:
         if first + n_new > self.stopped_on_qoi.size:
             capacity = max(2 * self.stopped_on_qoi.size, first + n_new)
             for name in ("qoi_recent", "eta_recent", "qoi_scale", "qoi_reported",
-                         "stopped_on_qoi", "drifting"):
+                         "stopped_on_qoi", "drifting", "qoi_settled_error", "settled_steps"):
                 old = getattr(self, name)
                 grown = np.zeros((capacity, *old.shape[1:]), dtype=old.dtype)
                 grown[:old.shape[0]] = old
@@ -93,6 +99,21 @@ class IterationState:
         held = min(iterations, RECENT)
         order = np.roll(np.arange(RECENT), -(iterations % RECENT))[RECENT - held:]
         return np.asarray(self.qoi_recent[case, order], dtype=np.float64)
+
+    def settled(self, case: int, iterations: int, steps: slice) -> None:
+        """The case's ``steps`` settled after ``iterations``: keep their QoIs' estimate
+        now (``tracking.error_estimates``; before 6 iterations, how far each moved over
+        them), which their frozen values would read as zero from here on."""
+        self.settled_steps[case] = steps.stop
+        if not self.qoi_recent.shape[2]:
+            return
+        series = self.recent_qoi(case, iterations)
+        held = min(iterations, RECENT)
+        order = np.roll(np.arange(RECENT), -(iterations % RECENT))[RECENT - held:]
+        estimate = error_estimates(series, self.eta_recent[case, order][:, None, None])
+        moved = series.max(axis=0) - series.min(axis=0)
+        self.qoi_settled_error[case][:, steps] = np.where(np.isnan(estimate), moved,
+                                                          estimate)[:, steps]
 
 
 def state_settled(state: IterationState, active: IntArray, counts: IntArray, rtol: float
@@ -133,7 +154,8 @@ def qoi_settled(state: IterationState, active: IntArray, counts: IntArray, rtol:
         chosen = active[candidates]
         recent = state.qoi_recent[chosen[:, None], order].transpose(1, 0, 2, 3)
         eta = state.eta_recent[chosen[:, None], order].T
-        estimates = error_estimates(recent, eta[:, :, None, None])  # (n, n_qoi, n_steps)
+        estimates = np.maximum(error_estimates(recent, eta[:, :, None, None]),  # (n, q, t)
+                               state.qoi_settled_error[chosen])
         settled[candidates] = np.all((estimates <= bound[candidates]) | ignored[candidates],
                                      axis=(1, 2))
     return np.asarray(settled, dtype=bool)
@@ -241,7 +263,7 @@ class BatchIterations:
         kept = self.active.copy()
         state = self.state
         for name in ("qoi_recent", "eta_recent", "qoi_scale", "qoi_reported",
-                     "stopped_on_qoi", "drifting"):
+                     "stopped_on_qoi", "drifting", "qoi_settled_error", "settled_steps"):
             setattr(state, name, getattr(state, name)[kept])
         state.histories = [state.histories[c] for c in kept]
         state.sizes = [state.sizes[c] for c in kept]
@@ -282,7 +304,11 @@ class BatchIterations:
         eta[finite & (size == 0)] = 0.0  # then gap = 0 too (gap ≤ ‖s‖ + ‖ŝ‖)
         out.eta_recent[active, (counts - 1) % RECENT] = eta
         if isinstance(engine, NumpyFields):
+            before = engine.first.copy()
             engine.settle(size, options.settled_steps * options.tol)
+            for position in np.flatnonzero(engine.first > before).tolist():
+                out.settled(int(active[position]), int(counts[position]),
+                            slice(int(before[position]), int(engine.first[position])))
         for c, value, norm in zip(active, eta, size, strict=True):
             out.histories[c].append(float(value))
             out.sizes[c].append(float(norm))

@@ -85,7 +85,8 @@ def solve_latin_batch(
     observer: see ``IterationObserver``.
     With the torch backend, a batch larger than the device's memory holds is solved in
     chunks (``torch_engine.cases_per_chunk``); the observer then sees each chunk's cases.
-    Results carry the batch's timings (``timings["batch_size"]``).
+    Results carry the batch's timings (``timings["batch_size"]``) and the leading steps
+    each case settled (``timings["settled_steps"]``).
     """
     if not assemblies:
         raise ModelError("a batch needs at least one case")
@@ -282,7 +283,8 @@ def _result(c: int, assembly: Assembly, pts: InterfacePoints, state: IterationSt
     # Anderson's and RRE's steps break the contraction the estimate reads, and a state
     # still changing by more than SETTLED may hold changes its QoIs have not begun: NaN (None)
     change = state_change(history)
-    estimates = (error_estimates(state.recent_qoi(c, history.size), history)
+    estimates = (np.maximum(error_estimates(state.recent_qoi(c, history.size), history),
+                            state.qoi_settled_error[c])  # settled steps: as they settled
                  if options.acceleration == "relaxation" and not change > SETTLED
                  else np.full(state.qoi_recent.shape[2:], np.nan))
     return SolveResult(
@@ -292,7 +294,9 @@ def _result(c: int, assembly: Assembly, pts: InterfacePoints, state: IterationSt
         iterations=history.size,
         indicator=float(history[-1]),
         history=history,
-        timings={},
+        # not a time: the leading load steps it stopped iterating (``LatinOptions.
+        # settled_steps``), beside ``batch_size``
+        timings={"settled_steps": float(state.settled_steps[c])},
         displacements=fields,
         reactions=reactions,
         qoi=qoi,
