@@ -96,9 +96,7 @@ class IterationState:
 
     def recent_qoi(self, case: int, iterations: int) -> FloatArray:
         """The tracked QoIs of the case's last iterations (at most ``RECENT``), oldest first."""
-        held = min(iterations, RECENT)
-        order = np.roll(np.arange(RECENT), -(iterations % RECENT))[RECENT - held:]
-        return np.asarray(self.qoi_recent[case, order], dtype=np.float64)
+        return np.asarray(self.qoi_recent[case, _held(iterations)], dtype=np.float64)
 
     def settled(self, case: int, iterations: int, steps: slice) -> None:
         """The case's ``steps`` settled after ``iterations``: keep their QoIs' estimate
@@ -108,12 +106,18 @@ class IterationState:
         if not self.qoi_recent.shape[2]:
             return
         series = self.recent_qoi(case, iterations)
-        held = min(iterations, RECENT)
-        order = np.roll(np.arange(RECENT), -(iterations % RECENT))[RECENT - held:]
-        estimate = error_estimates(series, self.eta_recent[case, order][:, None, None])
+        eta = self.eta_recent[case, _held(iterations)]
+        estimate = error_estimates(series, eta[:, None, None])
         moved = series.max(axis=0) - series.min(axis=0)
         self.qoi_settled_error[case][:, steps] = np.where(np.isnan(estimate), moved,
                                                           estimate)[:, steps]
+
+
+def _held(iterations: int) -> IntArray:
+    """Where the last iterations (at most ``RECENT``) sit in the ring buffers, oldest first
+    (iteration i at (i − 1) % RECENT)."""
+    held = min(iterations, RECENT)
+    return np.roll(np.arange(RECENT), -(iterations % RECENT))[RECENT - held:]
 
 
 def state_settled(state: IterationState, active: IntArray, counts: IntArray, rtol: float
