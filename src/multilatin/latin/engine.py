@@ -18,12 +18,13 @@ from collections.abc import Sequence
 from typing import Any, Protocol
 
 import numpy as np
+import numpy.typing as npt
 
 from ..fem.elasticity import FloatArray, IntArray
 from . import kernels
 from .acceleration import Anderson
 from .local_stage import LocalStage
-from .operators import LatinOperators
+from .operators import Geometries, LatinOperators
 from .options import LatinOptions
 from .threads import one_blas_thread
 from .tracking import QoiFunctionals
@@ -139,18 +140,9 @@ class NumpyFields:
             self._live_linear_stage(relaxation)
             return
         ta = time.perf_counter()
-        ops, options = self.ops, self.options
-        flat = (-1, ops.points.n_points, 2)
+        options = self.options
         shape = self.w_hat.shape
-        geometries = self.geometries
-        w_new, f_new = ops.micro_stage(self.w_hat.reshape(flat), self.f_hat.reshape(flat),
-                                       geometries)
-        tm = time.perf_counter()
-        if self.macro_data is not None:
-            ops.macro_correction(w_new, f_new,
-                                 self.macro_data.reshape(-1, self.macro_data.shape[2]),
-                                 geometries)
-        self.t_macro += time.perf_counter() - tm
+        w_new, f_new = self._admissible(slice(None), self.geometries)
         w_new, f_new = w_new.reshape(shape), f_new.reshape(shape)
         # held until the next linear stage replaces them, as the loop did before the
         # engine split: freed here, glibc gave the heap's top back to the system every
@@ -178,29 +170,36 @@ class NumpyFields:
         linear stage is step by step, so the settled rows' s stays as it is."""
         assert self.w is not None and self.f is not None
         ta = time.perf_counter()
-        ops, n_points = self.ops, self.ops.points.n_points
-        n_steps = self.w_hat.shape[1]
-        live_steps = n_steps - self.first
-        case_of_row = np.repeat(np.arange(self.first.size), live_steps)
-        rows = (case_of_row * n_steps + np.arange(case_of_row.size)
-                - np.repeat(np.cumsum(live_steps) - live_steps, live_steps)
-                + self.first[case_of_row])
-        geometries = self._geometries(case_of_row)
-        w_new, f_new = ops.micro_stage(np.take(self.w_hat.reshape(-1, n_points, 2), rows, 0),
-                                       np.take(self.f_hat.reshape(-1, n_points, 2), rows, 0),
-                                       geometries)
-        tm = time.perf_counter()
-        if self.macro_data is not None:
-            ops.macro_correction(w_new, f_new,
-                                 self.macro_data.reshape(-1, self.macro_data.shape[2])[rows],
-                                 geometries)
-        self.t_macro += time.perf_counter() - tm
+        rows = np.flatnonzero(self._live_steps())  # case × n_steps + step
+        case_of_row = rows // self.w_hat.shape[1]
+        w_new, f_new = self._admissible(rows, self._geometries(case_of_row))
         omega = np.ascontiguousarray(relaxation[case_of_row], dtype=np.float64)
+        width = 2 * self.ops.points.n_points
         for current, new in ((self.w, w_new), (self.f, f_new)):
             assert kernels.relax_rows is not None and current.flags.c_contiguous
-            kernels.relax_rows(current.reshape(-1, 2 * n_points),
-                               new.reshape(-1, 2 * n_points), rows, omega)
+            kernels.relax_rows(current.reshape(-1, width), new.reshape(-1, width), rows, omega)
         self.t_linear += time.perf_counter() - ta
+
+    def _admissible(self, rows: slice | IntArray, geometries: Geometries | None
+                    ) -> tuple[FloatArray, FloatArray]:
+        """The linear stage's s on the rows (case × n_steps + step) ``rows`` of ŝ: the
+        substructure problems, then the macro correction; fields (n_rows, n_points, 2)."""
+        flat = (-1, self.ops.points.n_points, 2)
+        w_hat, f_hat = self.w_hat.reshape(flat), self.f_hat.reshape(flat)
+        if not isinstance(rows, slice):
+            w_hat, f_hat = np.take(w_hat, rows, 0), np.take(f_hat, rows, 0)
+        w_new, f_new = self.ops.micro_stage(w_hat, f_hat, geometries)
+        tm = time.perf_counter()
+        if self.macro_data is not None:
+            self.ops.macro_correction(
+                w_new, f_new, self.macro_data.reshape(-1, self.macro_data.shape[2])[rows],
+                geometries)
+        self.t_macro += time.perf_counter() - tm
+        return w_new, f_new
+
+    def _live_steps(self, cases: IntArray | slice = slice(None)) -> npt.NDArray[np.bool_]:
+        """Per case at positions ``cases`` and step: still iterated (``settle``)."""
+        return np.arange(self.w_hat.shape[1])[None, :] >= self.first[cases][:, None]
 
     def settle(self, size: FloatArray, bound: float) -> None:
         """Leading steps whose ‖s − ŝ‖ has stayed below ``bound`` × the case's ½(‖s‖ +
@@ -309,9 +308,9 @@ class NumpyFields:
         assert self.w is not None and self.f is not None
         self.w = np.array(self.w)  # its own array (not the linear stage's output)
         self.f = np.array(self.f)
-        steps = np.arange(self.w.shape[1])[None, :] >= self.first[cases][:, None]
-        self.w[cases] += np.where(steps[..., None, None], np.stack(dw), 0.0)
-        self.f[cases] += np.where(steps[..., None, None], np.stack(df), 0.0)
+        live = self._live_steps(cases)[..., None, None]
+        self.w[cases] += np.where(live, np.stack(dw), 0.0)
+        self.f[cases] += np.where(live, np.stack(df), 0.0)
 
     def local_stage_of(self, cases: IntArray) -> None:
         others = np.setdiff1d(np.arange(self.w_hat.shape[0]), cases)

@@ -265,7 +265,7 @@ def _coupled_contact(displacement: FloatArray, force: FloatArray, w_hat: FloatAr
     for c in range(n_cases):
         t0 = first[c]
         live = n_steps - t0
-        shifted[0] = force[c]
+        shifted[0, t0:] = force[c, t0:]  # the settled steps' rows are not read
         force_rows = force[c].reshape(n_steps, 2 * n_points)[t0:]
         projected = np.zeros((live, r))  # Eᵀ M0 W
         _project_columns(displacement[c].reshape(n_steps, 2 * n_points)[t0:], support, slot,
