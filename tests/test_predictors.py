@@ -51,7 +51,8 @@ def test_the_secant_extrapolates_linearly_in_the_parameter_values() -> None:
         assert np.allclose(a, b, rtol=1e-14)
     assert secant_fields(grid, (0, 2), (0, 1), field(21.0), (0, 0),
                          (np.ones((1, 4, 2)), np.ones((1, 4, 2)))) is None
-    assert start_text(grid, (0, 1), ((0, 0),)) == "mu1=0.3, xc=21 (secant with mu1=0.3, xc=20)"
+    assert (start_text(grid, (0, 1), ((0, 0),), axes={1})
+            == "mu1=0.3, xc=21 (secant with mu1=0.3, xc=20)")
     assert start_text(grid, None) == "zero"
 
 

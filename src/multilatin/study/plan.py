@@ -57,6 +57,8 @@ class Case:
     #: the grid's dimensions that change the geometry: extrapolated starts along them
     #: (``predictors``: secant, parallelogram)
     axes: tuple[int, ...] = ()
+    #: retimed starts along the other axes (``retiming``; not with ``start="nearest"``)
+    retime: bool = False
 
 
 @dataclass(frozen=True)
@@ -177,7 +179,7 @@ def plan_study(model: Model, grid: Grid, options: LatinOptions | None = None,
     bounds = np.linspace(0, len(ordered), n_chains + 1).round().astype(int)
     chain_cases = tuple(
         tuple(Case(number, ordered[number], grid.mu(ordered[number], model.parameters), c,
-                   tuple(sorted(geometric_dims)) if extrapolate else ())
+                   tuple(sorted(geometric_dims)) if extrapolate else (), extrapolate)
               for number in range(bounds[c], bounds[c + 1]))
         for c in range(n_chains))
     # the grid lines that multiresolution batches: along the innermost dimension; a

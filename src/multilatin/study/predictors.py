@@ -38,6 +38,7 @@ from ..decomposition.interfaces import InterfacePoints, with_contact_data
 from ..decomposition.uniqueness import RESERVE_TOL, FreeMotion, limit_motions_batch
 from ..fem.elasticity import FloatArray
 from ..parameters import Grid
+from .retiming import retimed_fields
 
 Index = tuple[int, ...]
 Fields = tuple[FloatArray, FloatArray]
@@ -54,12 +55,13 @@ def _step_axis(index: Index, start: Index | None) -> int | None:
 
 
 def secant_partner(index: Index, start: Index | None, axes: Collection[int],
-                   shape: tuple[int, ...]) -> Index | None:
+                   shape: tuple[int, ...], retime: bool = False) -> Index | None:
     """G = 2 P − C: the grid index one step beyond the start neighbour P on the line from
-    case C through P, where C − P is one step along a geometric axis (``axes``) and G lies in
-    the grid (``shape``); else None."""
+    case C through P, where C − P is one step along a geometric axis (``axes``; or along any
+    other, ``retime``: a retimed start, ``retiming``) and G lies in the grid (``shape``);
+    else None."""
     d = _step_axis(index, start)
-    if d is None or d not in axes:
+    if d is None or (d not in axes and not retime):
         return None
     assert start is not None
     beyond = 2 * start[d] - index[d]
@@ -199,11 +201,21 @@ def at_friction_limit(assemblies: Sequence[Assembly], points: Sequence[Interface
             for motions in found]
 
 
+def retimed_from(start: Index, extra: tuple[Index, ...], axes: Collection[int]) -> bool:
+    """Whether the start from ``start`` with ``extra`` is a retimed one (``retiming``): one
+    other neighbour, one step along a non-geometric axis (not in ``axes``)."""
+    return len(extra) == 1 and _step_axis(start, extra[0]) not in axes
+
+
 def extrapolated_fields(grid: Grid, index: Index, start: Index, fields: Fields,
-                        extra: tuple[Index, ...], extra_fields: Sequence[Fields]
-                        ) -> Fields | None:
-    """The secant start (``extra`` = (G,)) or the parallelogram start ŝ_P + ŝ_Q − ŝ_R
-    (``extra`` = (Q, R)); None when the neighbours' fields differ in shape."""
+                        extra: tuple[Index, ...], extra_fields: Sequence[Fields],
+                        axes: Collection[int] = ()) -> Fields | None:
+    """The secant start (``extra`` = (G,), along a geometric axis: ``axes``), the retimed
+    start (``extra`` = (G,) along another axis, ``retiming``) or the parallelogram start
+    ŝ_P + ŝ_Q − ŝ_R (``extra`` = (Q, R)); None when the neighbours' fields differ in shape
+    (or a single load step leaves nothing to retime)."""
+    if retimed_from(start, extra, axes):
+        return retimed_fields(fields, extra_fields[0])
     if len(extra) == 1:
         return secant_fields(grid, index, start, fields, extra[0], extra_fields[0])
     if any(a.shape != b.shape for other in extra_fields
@@ -213,9 +225,11 @@ def extrapolated_fields(grid: Grid, index: Index, start: Index, fields: Fields,
     return (fields[0] + q[0] - r[0], fields[1] + q[1] - r[1])
 
 
-def start_text(grid: Grid, start: Index | None, extra: tuple[Index, ...] = ()) -> str:
+def start_text(grid: Grid, start: Index | None, extra: tuple[Index, ...] = (),
+               axes: Collection[int] = ()) -> str:
     """A record's ``start``: "zero", the neighbour's parameters, and the other neighbours of
-    a secant or parallelogram start where there are."""
+    a secant (along a geometric axis, ``axes``), retimed or parallelogram start where there
+    are."""
     if start is None:
         return "zero"
 
@@ -223,7 +237,8 @@ def start_text(grid: Grid, start: Index | None, extra: tuple[Index, ...] = ()) -
         return ", ".join(f"{n}={grid[n][i]:g}" for n, i in zip(grid, index, strict=True))
 
     if len(extra) == 1:
-        return f"{named(start)} (secant with {named(extra[0])})"
+        kind = "retimed" if retimed_from(start, extra, axes) else "secant"
+        return f"{named(start)} ({kind} with {named(extra[0])})"
     if len(extra) == 2:
         return f"{named(start)} (parallelogram with {named(extra[0])}; {named(extra[1])})"
     return named(start)

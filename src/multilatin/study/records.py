@@ -33,7 +33,7 @@ def case_record(grid: Grid, case: Case, mode: str, result: SolveResult, wall_s: 
     """A case's journal record. ``warm_attempt``: iterations of a warm start given up for a
     solve from zero (the answer was not unique); they count in ``iterations``. ``extra``:
     the other neighbours of a secant or parallelogram start (``predictors``)."""
-    start = start_text(grid, start_index, extra)
+    start = start_text(grid, start_index, extra, case.axes)
     if warm_attempt:
         start = "zero (not unique: the warm start was set aside)"
     params = {name: case.mu[name] for name in grid}

@@ -53,6 +53,7 @@ from .predictors import (
     extrapolated_fields,
     not_unique_beside,
     parallelogram_partners,
+    retimed_from,
     secant_partner,
 )
 from .records import case_record
@@ -170,6 +171,11 @@ class ChainFeed:
             if pair is not None:
                 self.extra[case.number] = pair
                 self.across.add(case.number)
+                continue
+            # along a friction line: the start neighbour's history retimed (``retiming``)
+            partner = secant_partner(case.index, start, case.axes, grid.shape, case.retime)
+            if partner is not None and start is not None and partner == parent_of.get(start):
+                self.extra[case.number] = (partner,)
         #: per case number, the pending cases that start from it (or wait for it)
         self.dependants: dict[int, list[Case]] = {}
         self.unmet: dict[int, int] = {}  # per pending case, its unfinished predecessors
@@ -248,10 +254,12 @@ class ChainFeed:
         if fields is None:
             return (*self.state.nearest(case.index), ())
         extra = self.extra.get(case.number, ())
+        if retimed_from(index, extra, case.axes) and {index, *extra} & self.unsettled:
+            extra = ()  # an answer the problem leaves undetermined: no history to retime
         others = [self._fields(i) for i in extra]
         if extra and all(other is not None for other in others):
             moved = extrapolated_fields(self.grid, case.index, index, fields, extra,
-                                        [o for o in others if o is not None])
+                                        [o for o in others if o is not None], case.axes)
             if moved is not None:
                 return index, moved, extra
         return index, fields, ()

@@ -44,7 +44,9 @@ def case_start(grid: Grid, state: ChainState, case: Case, assembly: Assembly,
     """The nearest converged neighbour's index and interface fields to start ``case`` from,
     and the other neighbours of an extrapolated start (``predictors``: a secant along a
     geometric axis, where the case one step further back on the line is retained, else a
-    parallelogram whose other two corners are, ``held_square``; else none); from zero when
+    parallelogram whose other two corners are, ``held_square``; else, along another axis,
+    a retimed start where that case is retained, came first and both are unique,
+    ``retiming``; else none); from zero when
     its interfaces are discretised otherwise (a geometric parameter that moves a part across
     a substructure's boundary) or when it is most likely not unique (``at_limit``;
     ``limit=False``: the caller checks that, for a batch of cases at once; not asked along
@@ -69,7 +71,7 @@ def case_start(grid: Grid, state: ChainState, case: Case, assembly: Assembly,
     if partner in state.retained:
         assert partner is not None
         secant = extrapolated_fields(grid, case.index, start_index, initial, (partner,),
-                                     [state.retained[partner]])
+                                     [state.retained[partner]], case.axes)
         if secant is not None:
             return start_index, secant, (partner,)
     square = held_square(case.index, start_index, case.axes, state.retained)
@@ -78,6 +80,18 @@ def case_start(grid: Grid, state: ChainState, case: Case, assembly: Assembly,
                                      [state.retained[i] for i in square])
         if fields is not None:
             return start_index, fields, square
+    # along a friction line: the start neighbour's history retimed (``retiming``), where
+    # the case one step further back came before it (as the rolling batch asks: P started
+    # from G) and both are unique
+    partner = secant_partner(case.index, start_index, case.axes, grid.shape, case.retime)
+    order = list(state.retained)
+    if (partner is not None and partner in state.retained
+            and order.index(partner) < order.index(start_index)
+            and not {start_index, partner} & state.unsettled):
+        retimed = extrapolated_fields(grid, case.index, start_index, initial, (partner,),
+                                      [state.retained[partner]], case.axes)
+        if retimed is not None:
+            return start_index, retimed, (partner,)
     return start_index, initial, ()
 
 
