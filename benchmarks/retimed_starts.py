@@ -25,7 +25,10 @@ import time
 from pathlib import Path
 from typing import Any
 
+import numpy as np
+
 import multilatin as ml
+from multilatin.latin.engine import NumpyFields
 from multilatin.study import predictors
 from multilatin.study.plan import clear_operator_cache
 
@@ -37,10 +40,22 @@ LINES = [("b1", ["mu1=0.3", "mu2=0:0.6:13"]), ("b1", ["mu1=0.2", "mu2=0:0.6:13"]
          ("b1", ["mu2=0.25", "mu1=0:0.6:13"]), ("b1-4", ["mu1=0.3", "mu2=0:0.6:13"]),
          ("b1-9", ["mu1=0.3", "mu2=0:0.6:13"]), ("b3", ["mu1=0.3", "mu2=0:0.6:13"])]
 ORIGINAL = predictors.retimed_fields
+#: (case, step) rows the linear stage ran (settled leading steps are not run)
+ROWS = [0]
+
+
+def _count_rows() -> None:
+    original = NumpyFields.linear_stage
+
+    def counted(engine: NumpyFields, relaxation: np.ndarray) -> None:
+        ROWS[0] += int((engine.w_hat.shape[1] - engine.first).sum())
+        original(engine, relaxation)
+
+    NumpyFields.linear_stage = counted  # type: ignore[method-assign]
 
 
 def run(name: str, grid: list[str], retimed: bool) -> tuple[list[dict[str, Any]], float]:
-    """The study's records in traversal order and its wall time."""
+    """The study's records in traversal order and its wall time (``ROWS`` counts on)."""
     predictors.retimed_fields = ORIGINAL if retimed else (lambda *args: None)  # type: ignore[assignment]
     try:
         clear_operator_cache()
@@ -60,23 +75,26 @@ def worst_difference(a: list[dict[str, Any]], b: list[dict[str, Any]]) -> float:
 
 
 def studies(names: list[str], rounds: int) -> None:
-    print("| study | start | iterations | wall time (s): median (spread) | retimed starts "
-          "| R_stop: largest difference |")
-    print("|---|---|---|---|---|---|")
+    print("| study | start | iterations | (case, step) rows run | wall time (s): median "
+          "(spread) | retimed starts | R_stop: largest difference |")
+    print("|---|---|---|---|---|---|---|")
     for label in names:
         name, grid = STUDIES[label]
         run(name, grid, True)  # warm-up: imports, kernels
         times: dict[bool, list[float]] = {True: [], False: []}
         records: dict[bool, list[dict[str, Any]]] = {}
+        rows: dict[bool, int] = {}
         for _ in range(rounds):
             for retimed in (False, True):
+                ROWS[0] = 0
                 records[retimed], wall = run(name, grid, retimed)
                 times[retimed].append(wall)
+                rows[retimed] = ROWS[0]
         difference = worst_difference(records[True], records[False])
         for retimed in (False, True):
             recs = records[retimed]
             print(f"| {label} | {'retimed' if retimed else 'as they are'} | "
-                  f"{sum(r['iterations'] for r in recs)} | "
+                  f"{sum(r['iterations'] for r in recs)} | {rows[retimed]} | "
                   f"{statistics.median(times[retimed]):.2f} ({min(times[retimed]):.2f}–"
                   f"{max(times[retimed]):.2f}) | "
                   f"{sum('retimed' in r['start'] for r in recs)} | "
@@ -110,6 +128,7 @@ def main() -> None:
     if args.lines:
         lines()
         return
+    _count_rows()
     names = list(STUDIES) if args.b3 else list(STUDIES)[:1]
     studies(names, args.rounds)
 

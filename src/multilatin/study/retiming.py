@@ -86,7 +86,8 @@ def step_shifts(earlier: Fields, later: Fields) -> FloatArray:
     rows = np.arange(n)
     unshifted = np.maximum(gg[rows + 1, rows + 1] - 2.0 * gp[rows + 1, rows] + pp, 0.0)
     shift = j[0, best] + a[rows, best]
-    keep = error[rows, best] < EXPLAINED ** 2 * unshifted
+    keep = ((error[rows, best] < EXPLAINED ** 2 * unshifted)
+            & (unshifted > SIGNIFICANT ** 2 * pp))
     if np.sqrt(unshifted.sum() / max(float(pp.sum()), 1e-300)) < SIGNIFICANT:
         keep[:] = False
     return np.asarray(np.where(keep, shift, 0.0), dtype=np.float64)
