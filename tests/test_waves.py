@@ -237,7 +237,8 @@ def test_partner_lines_are_earlier_and_span_a_geometric_step() -> None:
     """Each line's partners (``partner_lines``) are nearer the first line than it is: the
     line one step beyond its parent along a geometric axis (secant), or the two lines
     beside it and its parent one step back along another axis, one of the two geometric
-    (parallelogram); none on a grid of frictions alone or without extrapolation."""
+    (parallelogram); none on a grid of frictions alone or without extrapolation but the
+    line beyond the parent where starts are retimed."""
     from multilatin.study.waves import line_graph, partner_lines
 
     model = ml.load_model("b3")
@@ -271,6 +272,17 @@ def test_partner_lines_are_earlier_and_span_a_geometric_step() -> None:
     plan = plan_study(b1, friction, None, 1)
     graph = line_graph(plan, plan.chains[0])
     assert all(partner_lines(graph, n, graph.lines[n][0].axes) == () for n in graph.order)
+    # a grid of frictions retimes (``retiming``): a line two steps or more from the middle
+    # one holds the line one step beyond its parent, its parent's parent
+    for n in graph.order:
+        partners = partner_lines(graph, n, (), graph.lines[n][0].retime)
+        parent = graph.parent[n]
+        if graph.depth[n] >= 2:
+            assert parent is not None and partners == (graph.parent[parent],)
+            key, p = np.array(graph.keys[n]), np.array(graph.keys[parent])
+            assert graph.keys[partners[0]] == tuple(2 * p - key)
+        else:
+            assert partners == ()
 
 
 def test_line_tasks_start_from_parallelograms_across_geometries(tmp_path: Path) -> None:

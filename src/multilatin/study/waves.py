@@ -122,17 +122,20 @@ def line_graph(plan: StudyPlan, chain: tuple[Case, ...]) -> LineGraph:
     return LineGraph(lines, root, order, depth_of, parent_line, inner, keys, dims, number_of)
 
 
-def partner_lines(graph: LineGraph, n: int, axes: Collection[int]) -> tuple[int, ...]:
+def partner_lines(graph: LineGraph, n: int, axes: Collection[int], retime: bool = False
+                  ) -> tuple[int, ...]:
     """The lines holding the other neighbours of line ``n``'s extrapolated starts
     (``predictors``), each nearer the root than ``n`` (so it is solved earlier, and no
     task waits longer than its depth): where ``n``'s parent line is one step along a
     geometric axis (``axes``: grid dimensions) and the line one step further is nearer the
     root, that line (secant); else two lines Q, R beside ``n`` and its parent one step back
     along another outer axis, one of the two axes geometric (parallelogram: across
-    geometries, or across hole-position lines); else none. Two non-geometric axes are left
-    out as the rolling batch leaves them (session 12, ``predictors``)."""
+    geometries, or across hole-position lines); else, along a non-geometric axis and with
+    ``retime``, the line one step beyond its parent (a retimed start, ``retiming``); else
+    none. Parallelograms of two non-geometric axes are left out as the rolling batch leaves
+    them (session 12, ``predictors``)."""
     parent = graph.parent[n]
-    if parent is None or not axes:
+    if parent is None or not (axes or retime):
         return ()
     key, parent_key = graph.keys[n], graph.keys[parent]
     moved = [i for i, (k, p) in enumerate(zip(key, parent_key, strict=True)) if k != p]
@@ -153,6 +156,10 @@ def partner_lines(graph: LineGraph, n: int, axes: Collection[int]) -> tuple[int,
         q, r = earlier(q_key), earlier(r_key)
         if q is not None and r is not None:
             return (q, r)
+    if retime and a not in geometric:
+        beyond = earlier(tuple(2 * p - k for k, p in zip(key, parent_key, strict=True)))
+        if beyond is not None and graph.parent[parent] == beyond:
+            return (beyond,)
     return ()
 
 
@@ -171,7 +178,7 @@ def line_tasks(plan: StudyPlan, chain: tuple[Case, ...], workers: int, batch: in
     held: dict[int, list[set[int]]] = {}  # per line, the inner values of each piece
     for n in order:
         line, parent, depth = lines[n], parent_line[n], depth_of[n]
-        extrapolated = partner_lines(graph, n, line[0].axes)
+        extrapolated = partner_lines(graph, n, line[0].axes, line[0].retime)
         values = sorted({along(case) for case in line})
         n_pieces = min(len(values), max(math.ceil(len(values) / batch),
                                         math.ceil(max(workers, 1) * len(values)
