@@ -182,7 +182,8 @@ def build_parser() -> argparse.ArgumentParser:
     study.add_argument("--start", choices=["neighbour", "nearest", "zero"], default=None,
                        help="multiresolution: start each case from its nearest converged "
                        "neighbour (along hole positions, neighbours extrapolated: secant, "
-                       "parallelogram), from the nearest alone, or every case of a geometry from "
+                       "parallelogram; along friction lines, its history retimed), from the "
+                       "nearest alone, or every case of a geometry from "
                        "zero in batches of --batch sharing the operators (default: "
                        "neighbour; zero with --backend torch --device cuda, faster there)")
     study.add_argument("--batch", type=int, default=None,

@@ -36,7 +36,8 @@ log = logging.getLogger(__name__)
 
 MODES = ("multiresolution", "cold")
 #: how the multiresolution mode starts a case: from its nearest converged neighbour, and
-#: along geometric axes from neighbours extrapolated (``predictors``); from the
+#: along geometric axes from neighbours extrapolated (``predictors``), along the others
+#: from the neighbour's history retimed (``retiming``); from the
 #: nearest alone (the paper's §6); or from zero with the cases in wide batches — every case
 #: of a geometry, sharing the operators (NumPy), or consecutive cases of several geometries
 #: (torch) — for a GPU, where a wide batch costs little more than a narrow one
@@ -142,7 +143,8 @@ def plan_study(model: Model, grid: Grid, options: LatinOptions | None = None,
     """Validate the grid against the model (names, ranges, geometry of every distinct
     geometric parameter set) and order its cases; nothing is computed here.
     ``extrapolate``: cases may start from neighbours extrapolated along geometric axes
-    (``Case.axes``, ``predictors``; False: from the nearest alone)."""
+    (``Case.axes``, ``predictors``) and retimed along the others (``Case.retime``,
+    ``retiming``); False: from the nearest alone."""
     options = options or LatinOptions()
     grid.validate(model.parameters)
     if chains < 1:

@@ -184,7 +184,8 @@ def run_study(
         sharing it, ``GPU_BATCHES_PER_WORKER`` batches per worker).
     start: how the multiresolution mode starts a case (``plan.START_FROM``): ``"neighbour"``
         (the paper's multiresolution; along hole positions from converged neighbours
-        extrapolated, ``study.predictors``), ``"nearest"`` (the nearest
+        extrapolated, ``study.predictors``; along friction lines from the neighbour's load
+        history retimed, ``study.retiming``), ``"nearest"`` (the nearest
         alone, as the paper), or ``"zero"``: every case of a geometry from zero, in
         batches of up to ``batch`` cases sharing the operators (for the torch backend on a
         GPU: a wide batch there costs little more than a narrow one). Default:
@@ -227,7 +228,8 @@ def run_study(
         raise ModelError(f"--schedule: expected one of {SCHEDULES}, got {schedule!r}")
     if start not in START_FROM:
         raise ModelError(f"--start: expected one of {START_FROM}, got {start!r}")
-    # "nearest": the neighbour's start without the extrapolations along geometric axes
+    # "nearest": the neighbour's start without the extrapolations along geometric axes and
+    # the retimed starts along the others
     requested, start = start, ("neighbour" if start == "nearest" else start)
     if on_failure not in ("warn", "raise", "ignore"):
         raise ModelError(f"on_failure: expected 'warn', 'raise' or 'ignore', got {on_failure!r}")
