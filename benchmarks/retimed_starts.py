@@ -12,8 +12,9 @@ none), ``--rounds`` times each; printed: iterations in all, the study's wall tim
 and spread), the cases that started retimed, and R_stop's largest difference between the
 two (relative, floored at 1 N; each is checked against tight solves by
 ``benchmarks/suite.py --multiresolution-only`` and ``benchmarks/path_independence.py``).
-``--lines``: each line a study of its own (13 values from 0 unless given), the iterations of
-its warm cases from the third on (the first two cannot be retimed), both ways.
+``--lines``: each line a study of its own (friction lines of 13 values from 0, and two lines
+along the stop's gap), the iterations of its warm cases from the third on (the first two
+cannot be retimed) both ways, and how many started retimed.
 """
 
 from __future__ import annotations
@@ -38,7 +39,10 @@ STUDIES = {"B1 13 x 13 (main job)": ("b1", ["mu1=0:0.6:13", "mu2=0:0.6:13"]),
 LINES = [("b1", ["mu1=0.3", "mu2=0:0.6:13"]), ("b1", ["mu1=0.2", "mu2=0:0.6:13"]),
          ("b1", ["mu1=0.1", "mu2=0:0.6:13"]), ("b1", ["mu2=0.1", "mu1=0:0.6:13"]),
          ("b1", ["mu2=0.25", "mu1=0:0.6:13"]), ("b1-4", ["mu1=0.3", "mu2=0:0.6:13"]),
-         ("b1-9", ["mu1=0.3", "mu2=0:0.6:13"]), ("b3", ["mu1=0.3", "mu2=0:0.6:13"])]
+         ("b1-9", ["mu1=0.3", "mu2=0:0.6:13"]), ("b3", ["mu1=0.3", "mu2=0:0.6:13"]),
+         # the stop's gap: the block slides further, not later (no retimed start)
+         ("b1", ["mu1=0.1", "mu2=0.1", "gap=0.01:0.07:7"]),
+         ("b1", ["mu1=0.3", "mu2=0.1", "gap=0.01:0.07:7"])]
 ORIGINAL = predictors.retimed_fields
 #: (case, step) rows the linear stage ran (settled leading steps are not run)
 ROWS = [0]
@@ -103,8 +107,8 @@ def studies(names: list[str], rounds: int) -> None:
 
 def lines() -> None:
     print("| model | line | warm cases from the third: as they are | retimed "
-          "| R_stop: largest difference |")
-    print("|---|---|---|---|---|")
+          "| retimed starts | R_stop: largest difference |")
+    print("|---|---|---|---|---|---|")
     total = {False: 0, True: 0}
     for name, grid in LINES:
         records = {retimed: run(name, grid, retimed)[0] for retimed in (False, True)}
@@ -114,6 +118,7 @@ def lines() -> None:
         print(f"| {name} | {', '.join(grid)} | {sum(counts[False])} "
               f"({' '.join(map(str, counts[False]))}) | {sum(counts[True])} "
               f"({' '.join(map(str, counts[True]))}) | "
+              f"{sum('retimed' in r['start'] for r in records[True])} | "
               f"{worst_difference(records[True], records[False]):.1e} |", flush=True)
     print(f"\nin all: {total[False]} as they are, {total[True]} retimed "
           f"({total[True] / total[False] - 1:+.0%})")
