@@ -117,6 +117,27 @@ def test_waves_on_dask_give_the_serial_answers_with_one_cold_start(
     assert iterations["waves"] < iterations["chains"], iterations
 
 
+def test_waves_on_dask_retime_as_the_serial_study_does(tmp_path: Path) -> None:
+    """B1 on 5 × 3 frictions (lines along μ2, the middle one at μ1 = 0.2): the lines two
+    steps from the middle one start retimed from their parent line and its parent
+    (``partner_lines``), on Dask's line tasks as in the serial rolling batch — the same
+    start and the same iterations at every case."""
+    pytest.importorskip("dask.distributed")
+    b1 = ml.load_model("b1")
+    grid = Grid({"mu1": [0.1, 0.15, 0.2, 0.25, 0.3], "mu2": [0.0, 0.05, 0.1]})
+    serial = run_study(b1, grid, out=tmp_path / "serial", progress=False)
+    waves = run_study(b1, grid, workers=2, out=tmp_path / "waves", progress=False)
+    by_number = {r["number"]: r for r in serial.records}
+    retimed = [r for r in waves.records if "retimed" in r["start"]]
+    assert len(retimed) >= 2
+    assert all(r["params"]["mu1"] in (0.1, 0.3) for r in retimed)
+    for record in waves.records:
+        same = by_number[record["number"]]
+        assert record["start"] == same["start"]
+        assert abs(record["iterations"] - same["iterations"]) <= 2  # rounding, as above
+        assert record["qoi"]["R_stop"] == pytest.approx(same["qoi"]["R_stop"], rel=1e-4)
+
+
 def test_a_waves_study_resumes_after_losing_cases(tmp_path: Path) -> None:
     pytest.importorskip("dask.distributed")
     b1 = ml.load_model("b1")
