@@ -15,7 +15,12 @@ import multilatin as ml
 from multilatin.latin import LatinOptions
 from multilatin.latin.options import STUDY_QOI_RTOL
 from multilatin.study.plan import clear_operator_cache
-from multilatin.study.predictors import extrapolated_fields, secant_partner, start_text
+from multilatin.study.predictors import (
+    extrapolated_fields,
+    retimed_partner,
+    secant_partner,
+    start_text,
+)
 from multilatin.study.retiming import retimed_fields, shifted_history, step_shifts
 
 
@@ -81,7 +86,8 @@ def test_a_difference_no_shift_explains_is_not_retimed() -> None:
 def test_friction_axes_take_a_retimed_partner_and_geometric_ones_a_secant() -> None:
     grid = ml.Grid({"mu2": [0.1, 0.15, 0.2], "xc": [24.0, 25.0]})
     assert secant_partner((2, 0), (1, 0), {1}, (3, 2)) is None
-    assert secant_partner((2, 0), (1, 0), {1}, (3, 2), retime=True) == (0, 0)
+    assert retimed_partner((2, 0), (1, 0), {1}, (3, 2)) == (0, 0)
+    assert retimed_partner((0, 1), (0, 0), {1}, (3, 2)) is None  # a geometric step
     assert start_text(grid, (1, 0), ((0, 0),), axes={1}) == (
         "mu2=0.15, xc=24 (retimed with mu2=0.1, xc=24)")
     g, p, c = ramp_history(3.0), ramp_history(4.0), ramp_history(5.0)

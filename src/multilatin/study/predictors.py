@@ -54,20 +54,37 @@ def _step_axis(index: Index, start: Index | None) -> int | None:
     return moved[0]
 
 
-def secant_partner(index: Index, start: Index | None, axes: Collection[int],
-                   shape: tuple[int, ...], retime: bool = False) -> Index | None:
-    """G = 2 P − C: the grid index one step beyond the start neighbour P on the line from
-    case C through P, where C − P is one step along a geometric axis (``axes``; or along any
-    other, ``retime``: a retimed start, ``retiming``) and G lies in the grid (``shape``);
-    else None."""
+def _beyond(index: Index, start: Index | None, shape: tuple[int, ...]
+            ) -> tuple[int, Index] | None:
+    """(d, G = 2 P − C): the axis d along which case C is one grid step from its start
+    neighbour P, and the grid index one step beyond P on that line, where it lies in the
+    grid (``shape``); else None."""
     d = _step_axis(index, start)
-    if d is None or (d not in axes and not retime):
+    if d is None:
         return None
     assert start is not None
     beyond = 2 * start[d] - index[d]
     if not 0 <= beyond < shape[d]:
         return None
-    return start[:d] + (beyond,) + start[d + 1:]
+    return d, start[:d] + (beyond,) + start[d + 1:]
+
+
+def secant_partner(index: Index, start: Index | None, axes: Collection[int],
+                   shape: tuple[int, ...]) -> Index | None:
+    """G = 2 P − C: the grid index one step beyond the start neighbour P on the line from
+    case C through P, where C − P is one step along a geometric axis (``axes``) and G lies in
+    the grid (``shape``); else None."""
+    found = _beyond(index, start, shape)
+    return found[1] if found is not None and found[0] in axes else None
+
+
+def retimed_partner(index: Index, start: Index | None, axes: Collection[int],
+                    shape: tuple[int, ...]) -> Index | None:
+    """G = 2 P − C as ``secant_partner``, where C − P is one step along an axis that does
+    *not* change the geometry (not in ``axes``: a friction line): the other neighbour of a
+    retimed start (``retiming``); else None."""
+    found = _beyond(index, start, shape)
+    return found[1] if found is not None and found[0] not in axes else None
 
 
 def secant_fields(grid: Grid, index: Index, start: Index, fields: Fields, partner: Index,

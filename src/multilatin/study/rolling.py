@@ -54,6 +54,7 @@ from .predictors import (
     not_unique_beside,
     parallelogram_partners,
     retimed_from,
+    retimed_partner,
     secant_partner,
 )
 from .records import case_record
@@ -173,7 +174,8 @@ class ChainFeed:
                 self.across.add(case.number)
                 continue
             # along a friction line: the start neighbour's history retimed (``retiming``)
-            partner = secant_partner(case.index, start, case.axes, grid.shape, case.retime)
+            partner = (retimed_partner(case.index, start, case.axes, grid.shape)
+                       if case.retime else None)
             if partner is not None and start is not None and partner == parent_of.get(start):
                 self.extra[case.number] = (partner,)
         #: per case number, the pending cases that start from it (or wait for it)

@@ -23,6 +23,7 @@ from .predictors import (
     extrapolated_fields,
     held_square,
     not_unique_beside,
+    retimed_partner,
     secant_partner,
 )
 
@@ -83,11 +84,11 @@ def case_start(grid: Grid, state: ChainState, case: Case, assembly: Assembly,
     # along a friction line: the start neighbour's history retimed (``retiming``), where
     # the case one step further back came before it (as the rolling batch asks: P started
     # from G) and both are unique
-    partner = secant_partner(case.index, start_index, case.axes, grid.shape, case.retime)
-    order = list(state.retained)
+    partner = (retimed_partner(case.index, start_index, case.axes, grid.shape)
+               if case.retime else None)
     if (partner is not None and partner in state.retained
-            and order.index(partner) < order.index(start_index)
-            and not {start_index, partner} & state.unsettled):
+            and not {start_index, partner} & state.unsettled
+            and list(state.retained).index(partner) < list(state.retained).index(start_index)):
         retimed = extrapolated_fields(grid, case.index, start_index, initial, (partner,),
                                       [state.retained[partner]], case.axes)
         if retimed is not None:

@@ -148,18 +148,15 @@ def partner_lines(graph: LineGraph, n: int, axes: Collection[int], retime: bool 
         return m if m is not None and graph.depth[m] < graph.depth[n] else None
 
     geometric = [i for i, d in enumerate(graph.dims) if d in axes]  # positions in a key
-    if a in geometric:
-        beyond = earlier(tuple(2 * p - k for k, p in zip(key, parent_key, strict=True)))
-        if beyond is not None:
-            return (beyond,)
+    beyond = earlier(tuple(2 * p - k for k, p in zip(key, parent_key, strict=True)))
+    if a in geometric and beyond is not None:
+        return (beyond,)
     for q_key, r_key in beside(key, parent_key, a, geometric):
         q, r = earlier(q_key), earlier(r_key)
         if q is not None and r is not None:
             return (q, r)
-    if retime and a not in geometric:
-        beyond = earlier(tuple(2 * p - k for k, p in zip(key, parent_key, strict=True)))
-        if beyond is not None and graph.parent[parent] == beyond:
-            return (beyond,)
+    if retime and a not in geometric and beyond is not None and graph.parent[parent] == beyond:
+        return (beyond,)
     return ()
 
 
