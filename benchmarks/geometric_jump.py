@@ -8,6 +8,7 @@ rule before it (crawl jumps only), in one process: the same solves with
     python benchmarks/geometric_jump.py --slow-on-qois 0.02   # fast modes jump on QoIs too
     python benchmarks/geometric_jump.py --aligned 0.2   # a looser alignment test
     python benchmarks/geometric_jump.py --aligned-slow 0.2   # looser for r >= 0.5 only
+    python benchmarks/geometric_jump.py --two-modes     # one-mode jumps against two-mode
 
 Every ``WINDOW`` = 10 iterations the extrapolation compares the last two windows'
 increments d₁, d₂ of the state; where d₂ = r d₁ to 5 % with 0.02 < r < 0.85 — one slow
@@ -19,7 +20,9 @@ reference (relative to each QoI's largest magnitude over the steps); the B1 fami
 issue 15's four friction pairs, R_stop against η < 1e-10 solves; the sliding block over
 κ and its foundation's stiffness. ``--studies``: ``run_study``'s defaults, R_stop against
 η < 1e-9 solves of every case. ``--trace``: the two slowest cold b1 pairs and the sliding
-block at κ = 0.1, r and ‖d₂ − r d₁‖ / ‖d₂‖ at every mark.
+block at κ = 0.1, r and ‖d₂ − r d₁‖ / ‖d₂‖ at every mark. ``--two-modes``: the columns
+are the geometric jump of one mode alone (``sliding.MODES`` = 1, session 31) and with the
+two-mode fit from four marks (``MODES`` = 2, the default since session 34).
 """
 
 from __future__ import annotations
@@ -41,6 +44,10 @@ from multilatin.latin.options import STUDY_QOI_RTOL
 PAIRS = [(0.3, 0.0), (0.1, 0.3), (0.35, 0.25), (0.3, 0.15)]
 NONE = (1.0, 0.0)  # an empty interval: no geometric jump
 RULES = {"η < 1e-6": LatinOptions(), "QoI rule": LatinOptions(qoi_rtol=STUDY_QOI_RTOL)}
+#: what ``_both`` compares: (GEOMETRIC, MODES) per column; ``--two-modes`` sets one mode
+#: against two
+COLUMNS = [(NONE, sliding.MODES), (sliding.GEOMETRIC, sliding.MODES)]
+HEADERS = ["before", "geometric jump"]
 
 
 def main() -> None:
@@ -53,8 +60,13 @@ def main() -> None:
                         help="sliding.ALIGNED for this run (the library's: 0.05)")
     parser.add_argument("--aligned-slow", type=float, default=None,
                         help="a looser alignment for slow modes (r >= 0.5) only")
+    parser.add_argument("--two-modes", action="store_true",
+                        help="columns: one-mode jumps (MODES = 1) and two-mode (MODES = 2)")
     args = parser.parse_args()
     warnings.simplefilter("ignore")
+    if args.two_modes:
+        COLUMNS[:] = [(sliding.GEOMETRIC, 1), (sliding.GEOMETRIC, 2)]
+        HEADERS[:] = ["one mode", "two modes"]
     if args.aligned is not None:
         sliding.ALIGNED = args.aligned
     if args.aligned_slow is not None:
@@ -86,15 +98,15 @@ def loosen_for_slow_modes(aligned: float, slow: float = 0.5) -> None:
 
 
 def _both(solve: Callable[[], Any]) -> list[Any]:
-    """``solve()`` without the geometric jump, then with it."""
-    kept = sliding.GEOMETRIC
+    """``solve()`` without the geometric jump, then with it (``COLUMNS``)."""
+    kept = sliding.GEOMETRIC, sliding.MODES
     out = []
-    for interval in (NONE, kept):
-        sliding.GEOMETRIC = interval
+    for interval, modes in COLUMNS:
+        sliding.GEOMETRIC, sliding.MODES = interval, modes
         try:
             out.append(solve())
         finally:
-            sliding.GEOMETRIC = kept
+            sliding.GEOMETRIC, sliding.MODES = kept
     return out
 
 
@@ -105,7 +117,7 @@ def _qoi_error(result: Any, reference: Any) -> float:
 
 
 def solves() -> None:
-    print("| model | case | rule | before: iterations, worst error | geometric jump |")
+    print(f"| model | case | rule | {HEADERS[0]}: iterations, worst error | {HEADERS[1]} |")
     print("|---|---|---|---|---|")
     for name in ("b0", "b2", "punch", "lug", "roller", "slide"):
         model = ml.load_model(name)
@@ -147,7 +159,8 @@ def studies() -> None:
     sys.path.insert(0, str(Path(__file__).parent))
     import study_anatomy
 
-    print("| study | before: iterations, R_stop's worst error, above 0.1 % | geometric jump |")
+    print(f"| study | {HEADERS[0]}: iterations, R_stop's worst error, above 0.1 % | "
+          f"{HEADERS[1]} |")
     print("|---|---|---|")
     for name in ("b1", "b3"):
         model = ml.load_model(name)

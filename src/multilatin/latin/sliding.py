@@ -32,6 +32,15 @@ times closer to its reference; on B1's sliding cases it never applies (several m
 once, then a crawl). Cases that stop on their QoIs jump on slower modes only
 (``SLOW_ON_QOIS``).
 
+Where one mode does not fit, two may (``MODES``): four marks' three increments fitted by
+d₃ = a d₂ + b d₁ (to ``SEVERAL_ALIGNED``), whose roots z² − a z − b = 0 are the two modes'
+ratios per window; where the slower is real and above ``SEVERAL_SLOWEST`` (ρ ≥ 0.93 per
+iteration) and both are inside ``GEOMETRIC``, the case jumps by the increments still ahead,
+((a + b) d₃ + b d₂) / (1 − a − b) (session 34). The sliding block at κ = 0.1 has two such
+modes (0.66–0.70 and 0.41–0.50 per window) that no single ratio fits: 156 → 110
+iterations; the lug 160 → 126, the roller 402 → 319; B1's studies do not change
+(docs/convergence.md, session 34).
+
 A crawl may also end before the gap closes — a warm start from a neighbour whose block slides
 to a new equilibrium that friction, not the stop, sets: the jump then overshoots. So a jump
 is checked one window later: if η is then above ``TAKE_BACK`` times its value at the jump,
@@ -55,7 +64,7 @@ from .engine import FieldEngine
 from .local_stage import LocalStage
 
 __all__ = ["ALIGNED", "GEOMETRIC", "GROUP_ROWS", "LEADING", "MATERIAL", "MAX_JUMP",
-           "SLOW_ON_QOIS", "STEADY", "TAKE_BACK", "WINDOW", "SlidingExtrapolation"]
+           "MODES", "SLOW_ON_QOIS", "STEADY", "TAKE_BACK", "WINDOW", "SlidingExtrapolation"]
 
 #: iterations between two looks; a crawl must hold over two windows
 WINDOW = 10
@@ -79,6 +88,13 @@ GROUP_ROWS = 256
 #: most ``ALIGNED`` × ‖d₂‖ (docs/convergence.md, session 31)
 GEOMETRIC = (0.02, 0.85)
 ALIGNED = 0.05
+#: the most modes the geometric jump fits: 1, one mode (d₂ = r d₁: session 31); m > 1,
+#: also m modes from m + 2 marks where fewer do not fit (``_modes``: session 34)
+MODES = 2
+#: the several-mode fit's largest misfit, ‖d₀ − Σ cⱼ dⱼ‖ / ‖d₀‖
+SEVERAL_ALIGNED = 0.05
+#: a several-mode jump's slowest mode decays by at most this per window
+SEVERAL_SLOWEST = 0.5
 #: when cases stop on their QoIs' estimates, only slower modes jump (r above this, ρ ≥
 #: 0.85): a jump holds a case ``iteration.RECENT`` iterations, which a fast mode — the
 #: relaxation's alternating one, ρ = −0.8, r = 0.107 — does not repay there (B0, B2, the
@@ -171,18 +187,18 @@ class SlidingExtrapolation:
             case = int(active[i])
             marks = self.marks.setdefault(case, [])
             marks.append((snapshot, j))
-            del marks[:-3]
-            if len(marks) == 3:
+            del marks[:-(2 + MODES)]
+            if len(marks) >= 3:
                 key = tuple(id(mark[0]) for mark in marks)
                 groups.setdefault(key, []).append((i, case, tuple(m[1] for m in marks)))
         for members in groups.values():
-            (s0, _), (s1, _), (s2, _) = self.marks[members[0][1]]
+            kept = [mark[0] for mark in self.marks[members[0][1]]]
             for start in range(0, len(members), GROUP_ROWS):
                 chunk = members[start:start + GROUP_ROWS]
-                rows = [np.array([m[2][n] for m in chunk]) for n in range(3)]
-                (w0, f0), (w1, f1), (w2, f2) = (
-                    (engine.take(s[0], r), engine.take(s[1], r))
-                    for s, r in zip((s0, s1, s2), rows, strict=True))
+                rows = [np.array([m[2][n] for m in chunk]) for n in range(len(kept))]
+                states = [(engine.take(s[0], r), engine.take(s[1], r))
+                          for s, r in zip(kept, rows, strict=True)]
+                (w0, f0), (w1, f1), (w2, f2) = states[-3:]
                 dw, df = w2 - w1, f2 - f1
                 before_w, before_f = w1 - w0, f1 - f0
                 step = engine.state_norms(dw, df)
@@ -190,6 +206,17 @@ class SlidingExtrapolation:
                 crawls = (step > 0.0) & (bend <= STEADY * step)
                 ratio, _, aligned = self._geometric(engine, dw, df, before_w, before_f,
                                                     step, bend, self.ratios)
+                # newest increment first: d_n, d_{n−1}, … (``_modes``)
+                increments = [(a[0] - b[0], a[1] - b[1])
+                              for a, b in zip(states[:0:-1], states[-2::-1], strict=True)]
+                several = np.zeros((len(chunk), 0))
+                for order in range(2, len(increments)):  # the fewest modes that fit
+                    fits, held = self._modes(engine, increments[:order + 1], self.ratios)
+                    held &= ~(aligned | crawls | several.any(axis=1))
+                    if held.any():
+                        several = np.where(held[:, None], fits, np.pad(
+                            several, ((0, 0), (0, order - several.shape[1]))))
+                        aligned = aligned | held
                 for k in np.flatnonzero(crawls | aligned):
                     i, case, _ = chunk[k]
                     if crawls[k]:
@@ -197,13 +224,20 @@ class SlidingExtrapolation:
                                             engine.host(dw[k]))
                         if ahead is None:
                             continue
-                        factor = ahead / WINDOW
+                        jump_w, jump_f = ahead / WINDOW * dw[k], ahead / WINDOW * df[k]
+                    elif several[k].any():  # several modes: Σ cᵢ dᵢ ahead
+                        jump_w = sum(float(c) * d[0][k] for c, d in zip(
+                            several[k], increments, strict=False) if c)
+                        jump_f = sum(float(c) * d[1][k] for c, d in zip(
+                            several[k], increments, strict=False) if c)
+                        self.geometric_jumps += 1
                     else:  # aligned: r < 1, no crawl
                         factor = ratio[k] / (1.0 - ratio[k])
+                        jump_w, jump_f = factor * dw[k], factor * df[k]
                         self.geometric_jumps += 1
                     positions.append(i)
-                    shifts_w.append(factor * dw[k])
-                    shifts_f.append(factor * df[k])
+                    shifts_w.append(jump_w)
+                    shifts_f.append(jump_f)
                     self.pending[case] = (float(eta[i]), shifts_w[-1], shifts_f[-1])
                     self.marks[case].clear()
                     moved.append(case)
@@ -233,6 +267,49 @@ class SlidingExtrapolation:
         aligned = (positive & (step > 0.0) & (ratio > ratios[0]) & (ratio < ratios[1])
                    & (misfit <= ALIGNED))
         return ratio, misfit, aligned
+
+    @staticmethod
+    def _modes(engine: FieldEngine, increments: list[tuple[Any, Any]],
+               ratios: tuple[float, float] = GEOMETRIC) -> tuple[FloatArray, np.ndarray]:
+        """Per row, m + 1 windows' increments (``increments``, newest first: d₀, d₁, …,
+        d_m, each (dw, df)) fitted by d₀ = Σⱼ cⱼ dⱼ (least squares in the indicator's inner
+        product, from norms of sums): m modes whose ratios per window are the roots of
+        zᵐ − c₁ zᵐ⁻¹ − … − c_m. Where the slowest is real, inside ``ratios`` and above
+        ``SEVERAL_SLOWEST``, every other root smaller than ``ratios[1]`` in modulus, and the
+        fit leaves at most ``SEVERAL_ALIGNED`` of ‖d₀‖, the increments still ahead sum to
+        T = Σᵢ₌₀^{m−1} (Σ_{j>i} cⱼ) dᵢ / (1 − Σ cⱼ) (a minimal polynomial extrapolation on
+        the marks; docs/convergence.md, session 34). Returns those m coefficients per row
+        (zero where it does not hold) and where it holds."""
+        m = len(increments) - 1
+        squares = [engine.state_norms(*d) ** 2 for d in increments]
+        gram = np.empty((len(squares[0]), m + 1, m + 1))
+        for i in range(m + 1):
+            gram[:, i, i] = squares[i]
+            for j in range(i + 1, m + 1):
+                both = engine.state_norms(increments[i][0] + increments[j][0],
+                                          increments[i][1] + increments[j][1]) ** 2
+                gram[:, i, j] = gram[:, j, i] = (both - squares[i] - squares[j]) / 2.0
+        normal, rhs, last = gram[:, 1:, 1:], gram[:, 1:, 0], gram[:, 0, 0]
+        scale = np.sqrt(np.einsum("rii->ri", normal))
+        usable = (last > 0.0) & (scale > 0.0).all(axis=1)
+        unit = normal / np.where(usable[:, None, None],
+                                 scale[:, :, None] * scale[:, None, :], 1.0)
+        usable &= np.linalg.cond(np.where(usable[:, None, None], unit, np.eye(m))) < 1e10
+        c = np.linalg.solve(np.where(usable[:, None, None], normal, np.eye(m)),
+                            np.where(usable[:, None], rhs, 0.0)[..., None])[..., 0]
+        misfit = np.sqrt(np.maximum(last - np.einsum("ri,ri->r", c, rhs), 0.0)
+                         / np.where(usable, last, 1.0))
+        companion = np.zeros((len(c), m, m))  # its eigenvalues: the polynomial's roots
+        companion[:, 0, :] = c
+        companion[:, np.arange(1, m), np.arange(m - 1)] = 1.0
+        roots = np.linalg.eigvals(companion)
+        slowest = roots[np.arange(len(c)), np.argmax(np.abs(roots), axis=1)]
+        held = (usable & (misfit <= SEVERAL_ALIGNED) & (np.abs(slowest.imag) <= 1e-12)
+                & (slowest.real > max(ratios[0], SEVERAL_SLOWEST))
+                & (slowest.real < ratios[1]) & (np.abs(roots).max(axis=1) < ratios[1]))
+        ahead = np.cumsum(c[:, ::-1], axis=1)[:, ::-1] / np.where(
+            held, 1.0 - c.sum(axis=1), 1.0)[:, None]
+        return np.where(held[:, None], ahead, 0.0), held
 
     def _ahead(self, case: int, w1: FloatArray, w2: FloatArray, dw: FloatArray
                ) -> float | None:
