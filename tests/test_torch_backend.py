@@ -146,6 +146,25 @@ def test_sliding_jumps_on_the_device_equal_the_numpy_ones(
         assert _relative(one.qoi["R_stop"], other.qoi["R_stop"]) < 1e-9
 
 
+def test_a_two_mode_jump_on_the_device_equals_the_numpy_one(
+        monkeypatch: pytest.MonkeyPatch) -> None:
+    """The sliding block at κ = 0.1 converges through a two-mode jump (``latin.sliding``,
+    session 34: fewer iterations than with one mode): the torch backend's marks and fit
+    give the same jump, iterations and answer as NumPy's."""
+    from dataclasses import replace
+
+    from multilatin.latin import sliding
+
+    assembly, options = ml.load_model("slide").assemble(), LatinOptions(kappa=0.1)
+    reference = solve_latin_batch([assembly], options)[0]
+    got = solve_latin_batch([assembly], replace(options, backend="torch", device=DEVICE))[0]
+    assert got.converged and got.iterations == reference.iterations
+    assert np.max(np.abs(np.asarray(got.qoi["R_push"]) - np.asarray(reference.qoi["R_push"]))
+                  ) < 1e-9 * np.max(np.abs(np.asarray(reference.qoi["R_push"])))
+    monkeypatch.setattr(sliding, "MODES", 1)
+    assert solve_latin_batch([assembly], options)[0].iterations > got.iterations
+
+
 def test_a_small_study_equals_the_numpy_one(tmp_path: object) -> None:
     """The same strategy on both backends (every case from zero in one batch: on torch,
     multiresolution solves a grid's first lines from zero instead of case after case, see
