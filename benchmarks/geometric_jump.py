@@ -9,6 +9,7 @@ rule before it (crawl jumps only), in one process: the same solves with
     python benchmarks/geometric_jump.py --aligned 0.2   # a looser alignment test
     python benchmarks/geometric_jump.py --aligned-slow 0.2   # looser for r >= 0.5 only
     python benchmarks/geometric_jump.py --two-modes     # one-mode jumps against two-mode
+    python benchmarks/geometric_jump.py --two-modes --several-slowest 0.4   # its bound
 
 Every ``WINDOW`` = 10 iterations the extrapolation compares the last two windows'
 increments d₁, d₂ of the state; where d₂ = r d₁ to 5 % with 0.02 < r < 0.85 — one slow
@@ -62,8 +63,12 @@ def main() -> None:
                         help="a looser alignment for slow modes (r >= 0.5) only")
     parser.add_argument("--two-modes", action="store_true",
                         help="columns: one-mode jumps (MODES = 1) and two-mode (MODES = 2)")
+    parser.add_argument("--several-slowest", type=float, default=None,
+                        help="sliding.SEVERAL_SLOWEST for this run (the library's: 0.5)")
     args = parser.parse_args()
     warnings.simplefilter("ignore")
+    if args.several_slowest is not None:
+        sliding.SEVERAL_SLOWEST = args.several_slowest
     if args.two_modes:
         COLUMNS[:] = [(sliding.GEOMETRIC, 1), (sliding.GEOMETRIC, 2)]
         HEADERS[:] = ["one mode", "two modes"]
