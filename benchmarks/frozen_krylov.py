@@ -4,6 +4,7 @@ contact statuses frozen, in an active-set loop that freezes them again after eac
 
     python benchmarks/frozen_krylov.py              # b1, b1-9, b3 at the four pairs
     python benchmarks/frozen_krylov.py b1 -v        # with each outer step
+    python benchmarks/frozen_krylov.py --warm       # warm, along B1's μ2 line at μ1 = 0.3
 
 The local stage is piecewise affine in (W, F); ``local_stage.BranchTape`` records the
 branches it takes (contact or open, stop closed, stick or slip and its direction) at the
@@ -12,8 +13,17 @@ solves (I − A) s = c by restarted GMRES in the indicator's inner product (one 
 G_f per product, i.e. one LATIN iteration) from the current iterate, to a forcing term θ
 times its initial residual, then evaluates the true G there (new statuses) until η < 3e-6.
 It starts after relaxed iterations have brought η below 1e-3. Printed per case: relaxed
-iterations (today's solver, to η < 3e-6), the iteration of the last status change in that
-relaxed run, and evaluations of G (relaxed + frozen, outer steps) for θ = 0.1 and 0.01.
+iterations (this stand-in's, to the default tolerance), the iteration of the last status
+change in that relaxed run, and evaluations of G (relaxed + frozen, outer steps) for θ =
+0.1 and 0.01. ``--warm``: the active-set loop started at once (θ = 0.1) from the linear stage
+of the tight (η < 1e-9) fields of the case one step lower in μ2, as they are and retimed
+(``study.retiming``, with the case two steps lower), along B1's μ2 line at μ1 = 0.3.
+
+The stand-in runs the diagonal search direction (``micro_stiffening`` = 1, session 14's and
+before): its local stage is point-wise, what ``LocalStage`` computes and the tape records.
+The default two-scale direction (session 15) has a coupled local stage on contacts
+(``two_scale.coupled_local_stage``), which this stand-in does not call: with it, G is not
+the solver's iteration and the relaxed loop stalls at η ≈ 0.2 (found in session 34).
 """
 
 from __future__ import annotations
@@ -24,7 +34,7 @@ from collections.abc import Callable
 import numpy as np
 
 import multilatin as ml
-from multilatin.latin import LatinOperators, LatinOptions
+from multilatin.latin import LatinOperators, LatinOptions, solve_latin_batch
 from multilatin.latin.engine import indicator_weights, norms
 from multilatin.latin.local_stage import BranchTape, LocalStage
 
@@ -77,7 +87,7 @@ class FixedPoint:
 
     def __init__(self, name: str, mu1: float, mu2: float) -> None:
         assembly = ml.load_model(name).assemble({"mu1": mu1, "mu2": mu2})
-        self.options = LatinOptions()
+        self.options = LatinOptions(micro_stiffening=1.0)  # module docstring
         self.ops = ops = LatinOperators(assembly, self.options)
         pts = ops.points
         k = ops.search_direction
@@ -163,7 +173,47 @@ def frozen_krylov(name: str, mu1: float, mu2: float, forcing: float, verbose: bo
     return first, g.count - first, outer, eta
 
 
+def warm() -> None:
+    """``--warm`` (module docstring): evaluations of G and outer steps per case and start."""
+    from multilatin.study.retiming import retimed_fields
+
+    model, values = ml.load_model("b1"), np.round(np.linspace(0.0, 0.6, 13), 10)
+    tight = solve_latin_batch([model.assemble({"mu1": 0.3, "mu2": v}) for v in values],
+                                 LatinOptions(micro_stiffening=1.0, tol=1e-9, max_iter=5000))
+    fields = [(r.interface.displacement_hat, r.interface.force_hat)  # type: ignore[union-attr]
+              for r in tight]
+    print("| μ2 | from the nearest: evaluations (outer) | retimed |")
+    print("|---|---|---|")
+    for j in range(2, 13):
+        cells = []
+        for start in (fields[j - 1], retimed_fields(fields[j - 1], fields[j - 2])
+                      or fields[j - 1]):
+            g = FixedPoint("b1", 0.3, float(values[j]))
+            pts = g.ops.points
+            w, f = g.ops.micro_stage(start[0].reshape(-1, pts.n_points, 2),
+                                     start[1].reshape(-1, pts.n_points, 2))
+            g.ops.macro_correction(w, f, g.macro_data)
+            x = np.concatenate([w.ravel(), f.ravel()])
+            tape = BranchTape()
+            g.local.tape = tape
+            _, eta = g(x)
+            outer = 0
+            while eta >= g.options.tol and g.count < CAP:
+                outer += 1
+                tape.replay()
+                c = g(np.zeros_like(x))[0]
+                x, _ = gmres(lambda v, c=c, g=g: v - (g(v)[0] - c), c, x, 0.1, g.dot)
+                tape = BranchTape()
+                g.local.tape = tape
+                _, eta = g(x)
+            cells.append(f"{g.count} ({outer})")
+        print(f"| {values[j]:g} | {cells[0]} | {cells[1]} |", flush=True)
+
+
 def main() -> None:
+    if "--warm" in sys.argv:
+        warm()
+        return
     verbose = "-v" in sys.argv
     names = [a for a in sys.argv[1:] if a != "-v"] or ["b1", "b1-9", "b3"]
     print("| model | μ1, μ2 | relaxed (today) | last status change | frozen GMRES, θ = 0.1 "
