@@ -9,7 +9,11 @@ Counts the evaluations of G (each costs one LATIN iteration): relaxed ones, then
 products), with the residual tolerance matched to η ≈ 3e-6; prints the η reached.
 Measured: hundreds of evaluations and frequent stalls — the map is only piecewise affine
 (contact statuses), so the finite-difference Newton steps are costly; kept as the record of
-a lead that failed as tried.
+a lead that failed as tried. The stand-in map runs the diagonal search direction
+(``micro_stiffening`` = 1, the default when this was measured): its local stage is the
+point-wise one; with the two-scale direction (session 15) the contacts' local stage is
+coupled (``two_scale.coupled_local_stage``) and the stand-in's relaxed loop stalls (found
+in session 34, as in ``frozen_krylov.py``).
 """
 
 from __future__ import annotations
@@ -72,7 +76,7 @@ def main() -> None:
             assembly = model.assemble({"mu1": mu1, "mu2": mu2})
             cells = []
             for switch in (1e-3, 1e-4):
-                options = LatinOptions()
+                options = LatinOptions(micro_stiffening=1.0)  # module docstring
                 evaluate, eta, shape, count = fixed_point_map(assembly, options)
                 w, f = np.zeros(shape), np.zeros(shape)
                 omega = options.relaxation
