@@ -4,11 +4,14 @@ and several tolerances; prints a markdown table.
 
     python benchmarks/qoi_error.py --model b1 --count 7
     python benchmarks/qoi_error.py --model b0 --splits 10x1 5x1 4x2 20x2
+    python benchmarks/qoi_error.py --model b1-9 --count 5 --oscillation   # session 34's lead
 
 An entry is one QoI at one load step of one case. "bound" counts the entries where the
 estimate is at least the true error, among those whose true error is above the floor
 1e-6 × the QoI's largest magnitude over the grid (a QoI that is zero to that accuracy has no
 relative error to bound); ratio = estimate / true error over the same entries.
+``--oscillation``: with the sharper estimate of damped oscillations on
+(``tracking.OSCILLATION``; measured in session 34, not adopted).
 """
 
 from __future__ import annotations
@@ -60,7 +63,13 @@ def main() -> None:
     parser.add_argument("--count", type=int, default=7, help="values per friction coefficient")
     parser.add_argument("--splits", nargs="*", default=[], help="B0 decompositions, e.g. 10x1")
     parser.add_argument("--tols", nargs="*", type=float, default=[1e-4, 1e-5, 3e-6, 1e-6])
+    parser.add_argument("--oscillation", action="store_true",
+                        help="tracking.OSCILLATION on (session 34's lead, not adopted)")
     args = parser.parse_args()
+    if args.oscillation:
+        from multilatin.latin import tracking
+
+        tracking.OSCILLATION = True
     model = ml.load_model(args.model)
     tight_options = ml.LatinOptions(tol=1e-10, max_iter=10000)
     runs = cases(model, args.count, args.splits)

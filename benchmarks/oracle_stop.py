@@ -1,0 +1,130 @@
+"""How many iterations the studies' QoI rule spends beyond what the tight answer says each
+case needs (issue 16): cold solves of B1's 13 x 13 grid (or B3's 5 x 5 positions) under
+``qoi_rtol`` = 1e-3, each QoI recorded at every iteration the rule reads, against η < 1e-10
+solves of the same cases.
+
+    python benchmarks/oracle_stop.py              # B1 13 x 13
+    python benchmarks/oracle_stop.py --model b3   # B3 5 x 5 hole positions
+    python benchmarks/oracle_stop.py --oscillation   # also with the oscillations' estimate
+
+Per case the *oracle stop* is the first iteration from which every QoI at every step stays
+within the rule's bound, 1e-3 x max(|q*|, 1 % of its largest magnitude), of the tight
+value q* until the case stopped. The rule reads its estimates from iteration 15 on
+(``iteration.WINDOW`` + 5), so the oracle is floored there too. Printed: the iterations the
+rule took, the oracle's, the excess per case, and the cases stopped while some QoI was
+still outside its bound (an estimate that did not bound its error). ``--oscillation``: then
+also with the sharper estimate of damped oscillations (``tracking.OSCILLATION``, measured
+and not adopted in session 34).
+"""
+
+from __future__ import annotations
+
+import argparse
+import warnings
+from typing import Any
+
+import numpy as np
+
+import multilatin as ml
+from multilatin.latin import LatinOptions, iteration, solve_latin_batch, tracking
+
+GRIDS = {"b1": [{"mu1": a, "mu2": b} for a in np.round(np.linspace(0.0, 0.6, 13), 10)
+                for b in np.round(np.linspace(0.0, 0.6, 13), 10)],
+         "b3": [{"xc": x, "yc": y} for x in range(23, 28) for y in range(73, 78)]}
+CHUNK = 32
+RTOL, FLOOR = 1e-3, 0.01
+
+
+def recorded_solves(model: ml.Model, cases: list[dict[str, float]]
+                    ) -> tuple[list[int], dict[int, dict[int, np.ndarray]],
+                               dict[int, np.ndarray]]:
+    """Each case's iterations under the QoI rule, its QoIs (q, t) at every iteration the
+    rule read them (``iteration.qoi_settled`` wrapped) and which of them it reports (the
+    rule reads those alone: a QoI of the last step, every step of a history)."""
+    seen: dict[int, dict[int, np.ndarray]] = {}
+    reported: dict[int, np.ndarray] = {}
+    offset = [0]
+    original = iteration.qoi_settled
+
+    def recording(state: Any, active: np.ndarray, counts: np.ndarray, rtol: float) -> Any:
+        values = state.qoi_recent[active, (counts - 1) % iteration.RECENT]
+        for case, count, value in zip(active, counts, values, strict=True):
+            seen.setdefault(offset[0] + int(case), {})[int(count)] = value.copy()
+            reported[offset[0] + int(case)] = np.array(state.qoi_reported[case])
+        return original(state, active, counts, rtol)
+
+    iteration.qoi_settled = recording
+    stops: list[int] = []
+    try:
+        for lo in range(0, len(cases), CHUNK):
+            offset[0] = lo
+            results = solve_latin_batch([model.assemble(c) for c in cases[lo:lo + CHUNK]],
+                                        LatinOptions(qoi_rtol=RTOL), check=False)
+            stops.extend(r.iterations for r in results)
+    finally:
+        iteration.qoi_settled = original
+    return stops, seen, reported
+
+
+def tight_qois(model: ml.Model, cases: list[dict[str, float]]) -> list[dict[str, Any]]:
+    out: list[dict[str, Any]] = []
+    for lo in range(0, len(cases), CHUNK):
+        out.extend(r.qoi for r in solve_latin_batch(
+            [model.assemble(c) for c in cases[lo:lo + CHUNK]],
+            LatinOptions(tol=1e-10, max_iter=5000), check=False))
+    return out
+
+
+def main() -> None:
+    parser = argparse.ArgumentParser(description=__doc__.split("\n")[0])
+    parser.add_argument("--model", choices=sorted(GRIDS), default="b1")
+    parser.add_argument("--oscillation", action="store_true",
+                        help="then with tracking.OSCILLATION on (session 34, not adopted)")
+    args = parser.parse_args()
+    warnings.simplefilter("ignore")
+    model, cases = ml.load_model(args.model), GRIDS[args.model]
+    tight = tight_qois(model, cases)
+    report(args.model, model, cases, tight, "as it is")
+    if args.oscillation:
+        tracking.OSCILLATION = True
+        try:
+            report(args.model, model, cases, tight, "oscillations' estimate")
+        finally:
+            tracking.OSCILLATION = False
+
+
+def report(name: str, model: ml.Model, cases: list[dict[str, float]],
+           tight: list[dict[str, Any]], label: str) -> None:
+    stops, seen, reported = recorded_solves(model, cases)
+    oracle, early = [], 0
+    for c, stop in enumerate(stops):
+        counts = sorted(seen.get(c, {}))
+        if not counts:  # stopped on η before the rule read anything
+            oracle.append(stop)
+            continue
+        values = np.array([seen[c][n] for n in counts])  # (n, q, t)
+        reference = np.array([np.broadcast_to(np.asarray(q, dtype=float), values.shape[2:])
+                              for q in tight[c].values()])
+        scale = np.where(reported[c], np.abs(reference), 0.0).max(axis=1, keepdims=True)
+        bound = RTOL * np.maximum(np.abs(reference), FLOOR * scale)
+        inside = np.all((np.abs(values - reference) <= bound) | ~reported[c], axis=(1, 2))
+        outside = np.flatnonzero(~inside)
+        if outside.size and outside[-1] == len(counts) - 1:
+            early += 1  # still outside at its stop
+            oracle.append(stop)
+            ratio = np.where(reported[c], np.abs(values[-1] - reference) / bound, 0.0)
+            q, t = np.unravel_index(int(np.argmax(ratio)), ratio.shape)
+            print(f"  stopped outside: {cases[c]}, {list(tight[c])[q]} at step {t + 1}, "
+                  f"{ratio.max():.2f} x its bound")
+        else:
+            oracle.append(counts[outside[-1] + 1] if outside.size else counts[0])
+    excess = np.array(stops) - np.array(oracle)
+    print(f"{name} ({label}), {len(cases)} cold cases under qoi_rtol = {RTOL:g}: "
+          f"{sum(stops)} iterations; the oracle's {sum(oracle)} "
+          f"({100 * (1 - sum(oracle) / sum(stops)):.1f} % fewer); excess per case median "
+          f"{np.median(excess):g}, largest {excess.max()}; stopped with a QoI still outside "
+          f"its bound: {early}", flush=True)
+
+
+if __name__ == "__main__":
+    main()
