@@ -56,12 +56,12 @@ def load_torch(device: str) -> Any:
     return torch
 
 
-#: field-sized arrays (n_steps × n_points × 2 doubles) alive at once per case of a batch:
-#: s, ŝ, the new s, the linear stage's right-hand side and products, the macro correction,
-#: the local stage's temporaries and the solver's host copies; measured 20.6 on the CPU
-#: build (peak RSS growth, 400 b3 cases) and 31.8 on an H100 with the CUDA graphs' memory
-#: pools (the whole B3 study's batches of 4 225 cases: 29.4 GiB), taken with a margin
-FIELDS_PER_CASE = 34
+#: field-sized arrays (n_steps × n_points × 2 doubles) alive at once per case of a batch: s,
+#: ŝ, the new s, the linear stage's right-hand side and products, the macro correction, the
+#: local stage's temporaries, host copies; measured 20.6 on the CPU build (peak RSS growth,
+#: 400 b3 cases) and 31.8 on an H100 with the CUDA graphs' memory pools (B3's batches of 4 225
+#: cases: 29.4 GiB), with a margin, + 2 for the jumps' fourth mark (session 34, unmeasured)
+FIELDS_PER_CASE = 36
 #: share of the free device memory a batch may take
 MEMORY_SHARE = 0.7
 #: the devices on which a batch keeps the rows of cases that left it until at most half
