@@ -10,6 +10,7 @@ rule before it (crawl jumps only), in one process: the same solves with
     python benchmarks/geometric_jump.py --aligned-slow 0.2   # looser for r >= 0.5 only
     python benchmarks/geometric_jump.py --two-modes     # one-mode jumps against two-mode
     python benchmarks/geometric_jump.py --two-modes --several-slowest 0.4   # its bound
+    python benchmarks/geometric_jump.py --modes 3       # up to three modes (five marks)
 
 Every ``WINDOW`` = 10 iterations the extrapolation compares the last two windows'
 increments d₁, d₂ of the state; where d₂ = r d₁ to 5 % with 0.02 < r < 0.85 — one slow
@@ -65,8 +66,13 @@ def main() -> None:
                         help="columns: one-mode jumps (MODES = 1) and two-mode (MODES = 2)")
     parser.add_argument("--several-slowest", type=float, default=None,
                         help="sliding.SEVERAL_SLOWEST for this run (the library's: 0.5)")
+    parser.add_argument("--modes", type=int, default=None,
+                        help="sliding.MODES for this run (the library's: 2)")
     args = parser.parse_args()
     warnings.simplefilter("ignore")
+    if args.modes is not None:
+        sliding.MODES = args.modes
+        COLUMNS[:] = [(NONE, args.modes), (sliding.GEOMETRIC, args.modes)]
     if args.several_slowest is not None:
         sliding.SEVERAL_SLOWEST = args.several_slowest
     if args.two_modes:
@@ -192,7 +198,32 @@ def trace() -> None:
             print(f"  r = {r:.3f}, misfit {m:.3f}{' (jump)' if a else ''}")
         return ratio, misfit, aligned
 
+    modes = sliding.SlidingExtrapolation._modes
+
+    def traced_modes(engine: Any, increments: Any, ratios: tuple[float, float]
+                     = sliding.GEOMETRIC) -> Any:
+        coefficients, held = modes(engine, increments, ratios)
+        m = len(increments) - 1
+        n = len(held)
+        gram = np.empty((n, m + 1, m + 1))  # the fit's normal equations, as ``_modes``
+        for i in range(m + 1):
+            for j in range(i, m + 1):
+                both = engine.state_norms(increments[i][0] + increments[j][0],
+                                          increments[i][1] + increments[j][1]) ** 2
+                gram[:, i, j] = gram[:, j, i] = both / 4.0 if i == j else (
+                    both - engine.state_norms(*increments[i]) ** 2
+                    - engine.state_norms(*increments[j]) ** 2) / 2.0
+        for row in range(n):
+            c = np.linalg.lstsq(gram[row, 1:, 1:], gram[row, 1:, 0], rcond=None)[0]
+            misfit = np.sqrt(max(gram[row, 0, 0] - c @ gram[row, 1:, 0], 0.0)
+                             / gram[row, 0, 0])
+            roots = np.roots(np.concatenate([[1.0], -c]))
+            print(f"  {m} modes: roots {np.round(roots, 3)}, misfit {misfit:.3f}"
+                  f"{' (jump)' if held[row] else ''}")
+        return coefficients, held
+
     sliding.SlidingExtrapolation._geometric = staticmethod(traced)  # type: ignore[method-assign]
+    sliding.SlidingExtrapolation._modes = staticmethod(traced_modes)  # type: ignore[method-assign]
     for name, parameters, kappa in (("b1", {"mu1": 0.1, "mu2": 0.25}, 0.5),
                                     ("b1", {"mu1": 0.0, "mu2": 0.1}, 0.5),
                                     ("slide", {}, 0.1)):
