@@ -6,6 +6,7 @@ solves of the same cases.
     python benchmarks/oracle_stop.py              # B1 13 x 13
     python benchmarks/oracle_stop.py --model b3   # B3 5 x 5 hole positions
     python benchmarks/oracle_stop.py --oscillation   # also with the oscillations' estimate
+    python benchmarks/oracle_stop.py --model b3 --trace 12   # one case iteration by iteration
 
 Per case the *oracle stop* is the first iteration from which every QoI at every step stays
 within the rule's bound, 1e-3 x max(|q*|, 1 % of its largest magnitude), of the tight
@@ -14,7 +15,9 @@ value q* until the case stopped. The rule reads its estimates from iteration 15 
 rule took, the oracle's, the excess per case, and the cases stopped while some QoI was
 still outside its bound (an estimate that did not bound its error). ``--oscillation``: then
 also with the sharper estimate of damped oscillations (``tracking.OSCILLATION``, measured
-and not adopted in session 34).
+and not adopted in session 34). ``--trace N``: case N of the grid (b3: 12 is (25, 75)) alone,
+at every iteration the rule reads: R_stop's last increment, the largest estimate and the
+largest true error over the reported entries, each over its bound.
 """
 
 from __future__ import annotations
@@ -78,11 +81,15 @@ def tight_qois(model: ml.Model, cases: list[dict[str, float]]) -> list[dict[str,
 def main() -> None:
     parser = argparse.ArgumentParser(description=__doc__.split("\n")[0])
     parser.add_argument("--model", choices=sorted(GRIDS), default="b1")
+    parser.add_argument("--trace", type=int, default=None, help="one case's iterations")
     parser.add_argument("--oscillation", action="store_true",
                         help="then with tracking.OSCILLATION on (session 34, not adopted)")
     args = parser.parse_args()
     warnings.simplefilter("ignore")
     model, cases = ml.load_model(args.model), GRIDS[args.model]
+    if args.trace is not None:
+        trace(model, cases[args.trace])
+        return
     tight = tight_qois(model, cases)
     report(args.model, model, cases, tight, "as it is")
     if args.oscillation:
@@ -91,6 +98,46 @@ def main() -> None:
             report(args.model, model, cases, tight, "oscillations' estimate")
         finally:
             tracking.OSCILLATION = False
+
+
+def trace(model: ml.Model, case: dict[str, float]) -> None:
+    """``--trace``: the rule's reading of one case, each over the entry's bound."""
+    reference = tight_qois(model, [case])[0]
+    original = iteration.qoi_settled
+    rows: list[str] = []
+
+    def traced(state: Any, active: np.ndarray, counts: np.ndarray, rtol: float) -> Any:
+        settled = original(state, active, counts, rtol)
+        if len(active):
+            a, n = int(active[0]), int(counts[0])
+            order = (n + np.arange(iteration.RECENT)) % iteration.RECENT
+            series, eta = state.qoi_recent[a, order], state.eta_recent[a, order]
+            values = series[-1]
+            bound = rtol * np.maximum(np.abs(values), iteration.QOI_FLOOR
+                                      * state.qoi_scale[a][:, None])
+            shown = state.qoi_reported[a]
+            estimate = tracking.error_estimates(series, eta[:, None, None])
+            exact = np.array([np.broadcast_to(np.asarray(q, dtype=float), values.shape[1:])
+                              for q in reference.values()])
+            step = np.flatnonzero(shown[0])[-1]  # R_stop (the first QoI): its reported step
+            last = (series[-1, 0, step] - series[-2, 0, step]) / bound[0, step]
+            rows.append(f"| {n} | {last:+.2f} | "
+                        f"{np.where(shown, estimate / bound, 0.0).max():.2f} | "
+                        f"{np.where(shown, np.abs(values - exact) / bound, 0.0).max():.2f} | "
+                        f"{eta[-1]:.1e} |")
+        return settled
+
+    iteration.qoi_settled = traced
+    try:
+        result = solve_latin_batch([model.assemble(case)], LatinOptions(qoi_rtol=RTOL),
+                                   check=False)[0]
+    finally:
+        iteration.qoi_settled = original
+    print(f"{case}: {result.iterations} iterations under qoi_rtol = {RTOL:g}")
+    print("| iteration | R_stop's last increment / bound | largest estimate / bound | "
+          "largest true error / bound | η |")
+    print("|---|---|---|---|---|")
+    print("\n".join(rows))
 
 
 def report(name: str, model: ml.Model, cases: list[dict[str, float]],

@@ -237,9 +237,9 @@ def oscillation_estimates(series: FloatArray, window: int = WINDOW
     |δ_n|) (``error_estimates`` adds the misfit times its own, for what the fit leaves
     unexplained, where ``OSCILLATION``); NaN elsewhere. For such a mode the
     envelope's geometric series of ``error_estimates`` sums turns as if they did not turn:
-    B3's R_stop oscillates with a period of ~12 iterations at modulus ≈ 0.87, where that
-    estimate was 8.8 times the error when the error came inside the rule's bound (the cold
-    B3 cases then stopped 13–17 iterations after it; docs/tolerance.md, session 34).
+    B3's R_stop oscillates with a period of ~12 iterations at modulus ≈ 0.87, and a cold B3
+    case stopped 12 iterations after every error was inside the rule's bound, its largest
+    estimate 12 times the bound there (docs/tolerance.md, session 34).
     Returns the estimates and the fit's misfit."""
     n = series.shape[0]
     m = min(window + 2, n - 1)
