@@ -152,6 +152,15 @@ def frozen_krylov(name: str, mu1: float, mu2: float, forcing: float, verbose: bo
             break
         x = new if g.count == 1 else omega * new + (1 - omega) * x
     first = g.count
+    x, outer, eta = active_set(g, x, forcing, verbose)
+    return first, g.count - first, outer, eta
+
+
+def active_set(g: FixedPoint, x: np.ndarray, forcing: float, verbose: bool = False
+               ) -> tuple[np.ndarray, int, float]:
+    """The active-set loop from ``x``: freeze the statuses there, solve the frozen affine
+    map by GMRES to ``forcing``, freeze again, until η < the tolerance (or ``CAP``
+    evaluations); returns the iterate, the outer steps and the final η."""
     outer = 0
     tape = BranchTape()
     g.local.tape = tape
@@ -170,7 +179,7 @@ def frozen_krylov(name: str, mu1: float, mu2: float, forcing: float, verbose: bo
                           if a.dtype == np.bool_)
             print(f"    outer {outer}: {used} products, then eta {eta:.2e}, "
                   f"{changes} status changes")
-    return first, g.count - first, outer, eta
+    return x, outer, eta
 
 
 def warm() -> None:
@@ -193,19 +202,7 @@ def warm() -> None:
             w, f = g.ops.micro_stage(start[0].reshape(-1, pts.n_points, 2),
                                      start[1].reshape(-1, pts.n_points, 2))
             g.ops.macro_correction(w, f, g.macro_data)
-            x = np.concatenate([w.ravel(), f.ravel()])
-            tape = BranchTape()
-            g.local.tape = tape
-            _, eta = g(x)
-            outer = 0
-            while eta >= g.options.tol and g.count < CAP:
-                outer += 1
-                tape.replay()
-                c = g(np.zeros_like(x))[0]
-                x, _ = gmres(lambda v, c=c, g=g: v - (g(v)[0] - c), c, x, 0.1, g.dot)
-                tape = BranchTape()
-                g.local.tape = tape
-                _, eta = g(x)
+            _, outer, _ = active_set(g, np.concatenate([w.ravel(), f.ravel()]), 0.1)
             cells.append(f"{g.count} ({outer})")
         print(f"| {values[j]:g} | {cells[0]} | {cells[1]} |", flush=True)
 

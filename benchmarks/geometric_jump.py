@@ -70,6 +70,10 @@ def main() -> None:
                         help="sliding.MODES for this run (the library's: 2)")
     args = parser.parse_args()
     warnings.simplefilter("ignore")
+    if args.modes is not None and args.modes < 1:
+        parser.error(f"--modes: at least 1, got {args.modes}")
+    if args.several_slowest is not None and not 0.0 < args.several_slowest < 1.0:
+        parser.error(f"--several-slowest: between 0 and 1, got {args.several_slowest}")
     if args.modes is not None:
         sliding.MODES = args.modes
         COLUMNS[:] = [(NONE, args.modes), (sliding.GEOMETRIC, args.modes)]
@@ -203,23 +207,10 @@ def trace() -> None:
     def traced_modes(engine: Any, increments: Any, ratios: tuple[float, float]
                      = sliding.GEOMETRIC) -> Any:
         coefficients, held = modes(engine, increments, ratios)
-        m = len(increments) - 1
-        n = len(held)
-        gram = np.empty((n, m + 1, m + 1))  # the fit's normal equations, as ``_modes``
-        for i in range(m + 1):
-            for j in range(i, m + 1):
-                both = engine.state_norms(increments[i][0] + increments[j][0],
-                                          increments[i][1] + increments[j][1]) ** 2
-                gram[:, i, j] = gram[:, j, i] = both / 4.0 if i == j else (
-                    both - engine.state_norms(*increments[i]) ** 2
-                    - engine.state_norms(*increments[j]) ** 2) / 2.0
-        for row in range(n):
-            c = np.linalg.lstsq(gram[row, 1:, 1:], gram[row, 1:, 0], rcond=None)[0]
-            misfit = np.sqrt(max(gram[row, 0, 0] - c @ gram[row, 1:, 0], 0.0)
-                             / gram[row, 0, 0])
-            roots = np.roots(np.concatenate([[1.0], -c]))
-            print(f"  {m} modes: roots {np.round(roots, 3)}, misfit {misfit:.3f}"
-                  f"{' (jump)' if held[row] else ''}")
+        _, misfit, _, roots = sliding.SlidingExtrapolation._mode_fit(engine, increments)
+        for row in range(len(held)):
+            print(f"  {len(increments) - 1} modes: roots {np.round(roots[row], 3)}, misfit "
+                  f"{misfit[row]:.3f}{' (jump)' if held[row] else ''}")
         return coefficients, held
 
     sliding.SlidingExtrapolation._geometric = staticmethod(traced)  # type: ignore[method-assign]

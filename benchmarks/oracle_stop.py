@@ -88,6 +88,8 @@ def main() -> None:
     warnings.simplefilter("ignore")
     model, cases = ml.load_model(args.model), GRIDS[args.model]
     if args.trace is not None:
+        if not 0 <= args.trace < len(cases):
+            parser.error(f"--trace: a case number from 0 to {len(cases) - 1}, got {args.trace}")
         trace(model, cases[args.trace])
         return
     tight = tight_qois(model, cases)

@@ -206,17 +206,17 @@ class SlidingExtrapolation:
                 crawls = (step > 0.0) & (bend <= STEADY * step)
                 ratio, _, aligned = self._geometric(engine, dw, df, before_w, before_f,
                                                     step, bend, self.ratios)
-                # newest increment first: d_n, d_{n−1}, … (``_modes``)
-                increments = [(a[0] - b[0], a[1] - b[1])
-                              for a, b in zip(states[:0:-1], states[-2::-1], strict=True)]
-                several = np.zeros((len(chunk), 0))
+                # newest increment first: d_n, d_{n−1}, … (``_modes``); the older ones
+                # only where there are more than three marks
+                increments = [(dw, df), (before_w, before_f)] + [
+                    (a[0] - b[0], a[1] - b[1])
+                    for a, b in zip(states[-3::-1], states[-4::-1], strict=False)]
+                several = np.zeros((len(chunk), MODES))
                 for order in range(2, len(increments)):  # the fewest modes that fit
                     fits, held = self._modes(engine, increments[:order + 1], self.ratios)
-                    held &= ~(aligned | crawls | several.any(axis=1))
-                    if held.any():
-                        several = np.where(held[:, None], fits, np.pad(
-                            several, ((0, 0), (0, order - several.shape[1]))))
-                        aligned = aligned | held
+                    held &= ~(aligned | crawls)
+                    several[held, :order] = fits[held]
+                    aligned = aligned | held
                 for k in np.flatnonzero(crawls | aligned):
                     i, case, _ = chunk[k]
                     if crawls[k]:
@@ -280,6 +280,20 @@ class SlidingExtrapolation:
         T = Σᵢ₌₀^{m−1} (Σ_{j>i} cⱼ) dᵢ / (1 − Σ cⱼ) (a minimal polynomial extrapolation on
         the marks; docs/convergence.md, session 34). Returns those m coefficients per row
         (zero where it does not hold) and where it holds."""
+        c, misfit, usable, roots = SlidingExtrapolation._mode_fit(engine, increments)
+        slowest = roots[np.arange(len(c)), np.argmax(np.abs(roots), axis=1)]
+        held = (usable & (misfit <= SEVERAL_ALIGNED) & (np.abs(slowest.imag) <= 1e-12)
+                & (slowest.real > max(ratios[0], SEVERAL_SLOWEST))
+                & (slowest.real < ratios[1]) & (np.abs(roots).max(axis=1) < ratios[1]))
+        ahead = np.cumsum(c[:, ::-1], axis=1)[:, ::-1] / np.where(
+            held, 1.0 - c.sum(axis=1), 1.0)[:, None]
+        return np.where(held[:, None], ahead, 0.0), held
+
+    @staticmethod
+    def _mode_fit(engine: FieldEngine, increments: list[tuple[Any, Any]]
+                  ) -> tuple[FloatArray, FloatArray, np.ndarray, np.ndarray]:
+        """``_modes``' least-squares fit d₀ = Σⱼ cⱼ dⱼ per row: (c, the misfit ‖d₀ − Σ cⱼ dⱼ‖
+        / ‖d₀‖, where it is well posed, the roots of zᵐ − c₁ zᵐ⁻¹ − … − c_m)."""
         m = len(increments) - 1
         squares = [engine.state_norms(*d) ** 2 for d in increments]
         gram = np.empty((len(squares[0]), m + 1, m + 1))
@@ -302,14 +316,7 @@ class SlidingExtrapolation:
         companion = np.zeros((len(c), m, m))  # its eigenvalues: the polynomial's roots
         companion[:, 0, :] = c
         companion[:, np.arange(1, m), np.arange(m - 1)] = 1.0
-        roots = np.linalg.eigvals(companion)
-        slowest = roots[np.arange(len(c)), np.argmax(np.abs(roots), axis=1)]
-        held = (usable & (misfit <= SEVERAL_ALIGNED) & (np.abs(slowest.imag) <= 1e-12)
-                & (slowest.real > max(ratios[0], SEVERAL_SLOWEST))
-                & (slowest.real < ratios[1]) & (np.abs(roots).max(axis=1) < ratios[1]))
-        ahead = np.cumsum(c[:, ::-1], axis=1)[:, ::-1] / np.where(
-            held, 1.0 - c.sum(axis=1), 1.0)[:, None]
-        return np.where(held[:, None], ahead, 0.0), held
+        return c, misfit, usable, np.linalg.eigvals(companion)
 
     def _ahead(self, case: int, w1: FloatArray, w2: FloatArray, dw: FloatArray
                ) -> float | None:
