@@ -56,7 +56,8 @@ from multilatin.study import plan, predictors, rolling
 from multilatin.study.runner import run_study
 
 GRIDS = {"b1": ["mu1=0:0.6:13", "mu2=0:0.6:13"],
-         "b3": ["xc=23:27:5", "yc=73:77:5", "rc=3"]}
+         "b3": ["xc=23:27:5", "yc=73:77:5", "rc=3"],
+         "b3-frictions": ["mu1=0:0.6:13", "mu2=0:0.6:13", "xc=23:27:3"]}
 
 
 def main() -> None:
@@ -67,6 +68,12 @@ def main() -> None:
     parser.add_argument("--windows", default=None, help="comma-separated windows")
     parser.add_argument("--steady", default=None, help="comma-separated values")
     parser.add_argument("--without-state-guard", action="store_true")
+    parser.add_argument("--early", default=None,
+                        help="comma-separated EARLY_COUNT values (15: off)")
+    parser.add_argument("--margin", type=float, default=None,
+                        help="EARLY_MARGIN for --early (default: the library's)")
+    parser.add_argument("--early-rate", type=float, default=None,
+                        help="EARLY_RATE for --early (default: the library's)")
     args = parser.parse_args()
     if args.widths:
         widths()
@@ -74,6 +81,14 @@ def main() -> None:
         floors([float(x) for x in args.floors.split(",")])
     elif args.windows:
         windows(args.model, [int(x) for x in args.windows.split(",")])
+    elif args.early:
+        if args.margin is not None:
+            iteration.EARLY_MARGIN = args.margin
+        if args.early_rate is not None:
+            iteration.EARLY_RATE = args.early_rate
+        variants(args.model, f"first QoI stop (margin {iteration.EARLY_MARGIN:g}, rate "
+                             f"≥ {iteration.EARLY_RATE:g})",
+                 [(x, iteration, "EARLY_COUNT", int(x)) for x in args.early.split(",")])
     elif args.steady:
         variants(args.model, "STEADY", [(f"{x}", sliding, "STEADY", float(x))
                                         for x in args.steady.split(",")])
@@ -264,7 +279,7 @@ def floors(values: list[float]) -> None:
 def variants(name: str, title: str, settings: list[tuple[str, Any, str, Any]]) -> None:
     """The study with ``owner.attribute = value`` for each (label, owner, attribute,
     value) of ``settings`` in turn (put back after each)."""
-    model = ml.load_model(name)
+    model = ml.load_model(name.removesuffix("-frictions"))
     grid = ml.Grid.parse(GRIDS[name])
     reference = _tight_r_stop(model, grid)
     print(f"{name}\n\n| {title} | iterations | R_stop's worst error | cases above 0.1 % |")

@@ -2,6 +2,7 @@
 
     python benchmarks/tail_modes.py [--models b1 b1-4 b1-9] [--window 40] [--modes 3]
     python benchmarks/tail_modes.py --models b1-9 --point 50 50 --step 13
+    python benchmarks/tail_modes.py --models b1-9 --pairs 0.1,0.3 --at 33.333 100 --each-pair
 
 Near convergence the contact statuses settle and the iteration s ↦ s' (linear stage, then
 relaxation, then local stage) is affine, so the differences d_n = s_{n+1} − s_n of its
@@ -12,7 +13,11 @@ modes. For each case this prints the eigenvalues of the modes that make up most 
 difference and, for the first of them, their share in W and F, the load steps and the
 interface points that carry them. With ``--point X Y --step T``, it also follows the contact
 pair at (X, Y) in step T over the last ``--window`` iterations, in the same solve: ŝ's
-normal force N and |F_T| / μ|N| (1: slip).
+normal force N and |F_T| / μ|N| (1: slip). With ``--at X Y``: the first mode's F at every
+interface point at (X, Y), in its busiest step, beside the converged F there (a cross
+point's forces, point by point); ``--each-pair``: the contact pairs of a cross point each
+on its own (``cross_points.MERGE`` off, the rule before session 35); ``--pairs``: the
+friction pairs (default: three of ``convergence.py``'s).
 Uses only the solver's own iteration (``solve_latin(observer=...)``) and local stage.
 """
 
@@ -24,7 +29,7 @@ import numpy as np
 
 import multilatin as ml
 from multilatin.decomposition.assembly import Assembly
-from multilatin.latin import LatinOperators, solve_latin
+from multilatin.latin import LatinOperators, cross_points, solve_latin
 from multilatin.latin.local_stage import LocalStage
 
 CASES = ((0.3, 0.0), (0.1, 0.3), (0.3, 0.15))
@@ -92,11 +97,19 @@ def main() -> None:
     parser.add_argument("--modes", type=int, default=3)
     parser.add_argument("--point", type=float, nargs=2, help="a contact pair to follow")
     parser.add_argument("--step", type=int, default=13, help="its load step (from 1)")
+    parser.add_argument("--at", type=float, nargs=2, help="a cross point to read")
+    parser.add_argument("--each-pair", action="store_true",
+                        help="a cross point's contact pairs each on its own")
+    parser.add_argument("--pairs", nargs="+", default=None, help="μ1,μ2 pairs")
     args = parser.parse_args()
+    if args.each_pair:
+        cross_points.MERGE = False
+    cases = (CASES if args.pairs is None else
+             [tuple(float(x) for x in pair.split(",")) for pair in args.pairs])
     options = ml.LatinOptions()
     for name in args.models:
         model = ml.load_model(name)
-        for mu1, mu2 in CASES:
+        for mu1, mu2 in cases:
             assembly = model.assemble({"mu1": mu1, "mu2": mu2})
             operators = LatinOperators(assembly, options)
             points = operators.points
@@ -140,6 +153,30 @@ def main() -> None:
                       f"W {w_part.sum():.0%}; steps {', '.join(map(str, busiest))}; {where}")
             if trace is not None:
                 trace.report(args.window)
+            if args.at is not None:
+                at_point(assembly, points, vectors[:, 0], args.at, scale_f, states)
+
+
+def at_point(assembly: Assembly, points: object, mode: np.ndarray, at: list[float],
+             scale_f: np.ndarray, states: list[np.ndarray]) -> None:
+    """``--at``: the mode's F (normalised to its largest entry) at the points at ``at``."""
+    n_steps, n_points = assembly.n_steps, points.n_points  # type: ignore[attr-defined]
+    mode = mode / mode[np.argmax(np.abs(mode))]
+    w_part, f_part = (np.real(x).reshape(n_steps, n_points, 2) for x in np.split(mode, 2))
+    f_part = f_part / scale_f[None]  # back to force units
+    final = (states[-1][n_steps * n_points * 2:].reshape(n_steps, n_points, 2)
+             / scale_f[None])
+    step = int(np.argmax(np.abs(f_part).sum(axis=(1, 2))))
+    coords = points.coords  # type: ignore[attr-defined]
+    near = np.flatnonzero(np.hypot(coords[:, 0] - at[0], coords[:, 1] - at[1]) < 1e-2)
+    print(f"  at ({at[0]:g}, {at[1]:g}), step {step + 1}: the mode's F (its units) and the "
+          f"converged F at each point")
+    for p in near:
+        itf = assembly.interfaces[points.interface[p]].name  # type: ignore[attr-defined]
+        sub = assembly.substructures[points.substructure[p]].name  # type: ignore[attr-defined]
+        print(f"    {itf:26s} on {sub:12s} mode F ({f_part[step, p, 0]:+8.2f}, "
+              f"{f_part[step, p, 1]:+8.2f})  F ({final[step, p, 0]:+8.2f}, "
+              f"{final[step, p, 1]:+8.2f})")
 
 
 if __name__ == "__main__":

@@ -308,3 +308,33 @@ def test_estimates_are_withheld_while_the_state_still_changes(monkeypatch) -> No
                          progress=False)
     assert any("1 case(s) not estimated: their state still changed" in line
                for line in summary_lines(study))
+
+
+def test_an_early_qoi_stop_reads_only_the_iterations_a_case_has(monkeypatch) -> None:
+    """``iteration.EARLY_COUNT`` (off: window + 5, session 35's measurement): a case may stop
+    on its QoIs from that many iterations on, its estimate read over the iterations it has.
+    B1 (0.3, 0.5), where the centre block sticks, warm from (0.3, 0.45) as the μ2 line runs
+    it: 15 iterations today (the rule's first reading); from 9 on it stops sooner, with
+    R_stop as accurate; with a margin no estimate can meet it runs as today."""
+    from multilatin.latin import iteration, solve_latin
+
+    model = ml.load_model("b1")
+    neighbour = model.assemble({"mu1": 0.3, "mu2": 0.45})
+    operators = LatinOperators(neighbour, ml.LatinOptions())
+    options = ml.LatinOptions(qoi_rtol=1e-3)
+    start = solve_latin(neighbour, options, operators=operators)
+    assert start.interface is not None
+    initial = (start.interface.displacement_hat, start.interface.force_hat)
+    target = model.assemble({"mu1": 0.3, "mu2": 0.5})
+    exact = float(solve_latin(target, TIGHT, operators=operators).qoi["R_stop"])  # type: ignore[arg-type]
+    today = solve_latin(target, options, operators=operators, initial=initial)
+    assert today.stopped_on_qoi and today.iterations == iteration.WINDOW + 5
+    monkeypatch.setattr(iteration, "EARLY_COUNT", 9)
+    monkeypatch.setattr(iteration, "EARLY_MARGIN", 1.0)
+    early = solve_latin(target, options, operators=operators, initial=initial)
+    assert early.stopped_on_qoi and 9 <= early.iterations < today.iterations
+    assert float(early.qoi["R_stop"]) == pytest.approx(exact, rel=1e-3)  # type: ignore[arg-type]
+    assert early.qoi_error["R_stop"] is not None
+    monkeypatch.setattr(iteration, "EARLY_MARGIN", 0.0)
+    never = solve_latin(target, options, operators=operators, initial=initial)
+    assert never.iterations == today.iterations

@@ -120,17 +120,17 @@ def _held(iterations: int) -> IntArray:
     return np.roll(np.arange(RECENT), -(iterations % RECENT))[RECENT - held:]
 
 
-def state_settled(state: IterationState, active: IntArray, counts: IntArray, rtol: float
-                  ) -> npt.NDArray[np.bool_]:
+def state_settled(state: IterationState, active: IntArray, counts: IntArray, rtol: float,
+                  window: int = WINDOW) -> npt.NDArray[np.bool_]:
     """Per active case: the state's own remaining change, η / (1 − ρ) with ρ the
-    indicator's rate per iteration over the last ``WINDOW`` iterations, is below ``rtol``.
+    indicator's rate per iteration over the last ``window`` iterations, is below ``rtol``.
     A QoI's increments can stall while the state still moves (a block sliding while the
     QoIs read stay put, then move when it reaches a stop): b1 at (0.1, 0.3) with R_stop
     its only QoI stopped after 35 iterations 2.9 % off, its estimate 0.085 %, η =
     1.4e-3 (docs/tolerance.md). With every B1 QoI watched, cases stop at η ≤ 1.4e-4."""
     eta = state.eta_recent[active, (counts - 1) % RECENT]
-    before = state.eta_recent[active, (counts - 1 - WINDOW) % RECENT]
-    return np.asarray(remaining_change(eta, before, WINDOW) <= rtol, dtype=bool)
+    before = state.eta_recent[active, (counts - 1 - window) % RECENT]
+    return np.asarray(remaining_change(eta, before, window) <= rtol, dtype=bool)
 
 
 #: the QoI rule's floor: a QoI's error is asked below rtol × max(|value|, this share of the
@@ -138,27 +138,42 @@ def state_settled(state: IterationState, active: IntArray, counts: IntArray, rto
 QOI_FLOOR = 1e-2
 
 
-def qoi_settled(state: IterationState, active: IntArray, counts: IntArray, rtol: float
-                ) -> npt.NDArray[np.bool_]:
-    """Per active case: every QoI's estimated error (``tracking.error_estimates``) below
-    ``rtol`` × max(|value|, ``QOI_FLOOR`` (1 %) of the largest magnitude it took), at the
-    steps it reports. ``counts``: each active case's own iterations."""
+#: a case may stop on its QoIs from this many iterations on, before ``WINDOW`` + 5, with
+#: the shorter window it has (its count − 5), every estimate below ``EARLY_MARGIN`` times
+#: its bound and assuming a rate of at least ``EARLY_RATE`` per iteration. Off (session 35,
+#: measured, not adopted: ≤ 2.4 % fewer iterations at margin 0.1, 1–7 % at 1 with estimates
+#: read over 2–6 iterations; docs/performance.md, ``benchmarks/study_anatomy.py --early``)
+EARLY_COUNT = WINDOW + 5
+EARLY_MARGIN = 0.1
+EARLY_RATE = 0.0
+
+
+def qoi_settled(state: IterationState, active: IntArray, counts: IntArray, rtol: float,
+                window: int = WINDOW, margin: float = 1.0) -> npt.NDArray[np.bool_]:
+    """Per active case: every QoI's estimated error (``tracking.error_estimates``, over the
+    last ``window`` + 5 iterations) below ``margin`` × ``rtol`` × max(|value|,
+    ``QOI_FLOOR`` (1 %) of the largest magnitude it took), at the steps it reports.
+    ``counts``: each active case's own iterations, at least ``window`` + 5."""
     values = state.qoi_recent[active, (counts - 1) % RECENT]
-    bound = rtol * np.maximum(np.abs(values), QOI_FLOOR * state.qoi_scale[active][:, :, None])
+    bound = margin * rtol * np.maximum(np.abs(values),
+                                       QOI_FLOOR * state.qoi_scale[active][:, :, None])
     ignored = ~state.qoi_reported[active]
     # the estimate is at least the latest two-iteration change: where that alone exceeds
     # the bound, the case goes on without the full estimate
     settled = np.all((np.abs(values - state.qoi_recent[active, (counts - 3) % RECENT])
                       <= bound) | ignored, axis=(1, 2))
-    settled &= state_settled(state, active, counts, rtol)
+    settled &= (state_settled(state, active, counts, rtol) if window == WINDOW
+                else state_settled(state, active, counts, rtol, window))
     candidates = np.flatnonzero(settled)
     if candidates.size:
-        # oldest first: the case's iteration i sits at (i − 1) % RECENT
-        order = (counts[candidates, None] + np.arange(RECENT)) % RECENT
+        # its last window + 5 iterations, oldest first (iteration i sits at (i − 1) % RECENT)
+        read = window + 5
+        order = (counts[candidates, None] - read + np.arange(read)) % RECENT
         chosen = active[candidates]
         recent = state.qoi_recent[chosen[:, None], order].transpose(1, 0, 2, 3)
         eta = state.eta_recent[chosen[:, None], order].T
-        estimates = np.maximum(error_estimates(recent, eta[:, :, None, None]),  # (n, q, t)
+        floor = EARLY_RATE if window < WINDOW else 0.0
+        estimates = np.maximum(error_estimates(recent, eta[:, :, None, None], window, floor),
                                state.qoi_settled_error[chosen])
         settled[candidates] = np.all((estimates <= bound[candidates]) | ignored[candidates],
                                      axis=(1, 2))
@@ -346,6 +361,11 @@ class BatchIterations:
             settled = np.zeros_like(done)
             settled[eligible] = qoi_settled(out, active[eligible], counts[eligible],
                                             options.qoi_rtol)
+            early = np.flatnonzero((counts >= EARLY_COUNT) & (counts < WINDOW + 5))
+            for count in np.unique(counts[early]).tolist():
+                rows = early[counts[early] == count]
+                settled[rows] = qoi_settled(out, active[rows], counts[rows], options.qoi_rtol,
+                                            count - 5, EARLY_MARGIN)
             # η < tol alone is no QoI accuracy
             done &= (settled | ~np.isfinite(eta) | (eta < ETA_STOP_UNDER * options.tol)
                      | capped | (counts < WINDOW + 5))

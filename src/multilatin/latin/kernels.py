@@ -30,6 +30,8 @@ import numpy as np
 import numpy.typing as npt
 
 from ..fem.elasticity import FloatArray, IntArray
+from .cross_points import merge_groups as _merge_groups
+from .cross_points import split_groups as _split_groups
 
 log = logging.getLogger(__name__)
 
@@ -63,14 +65,17 @@ def _contact_and_stops(displacement: FloatArray, force: FloatArray, w_hat: Float
                        stops: IntArray, k_stop: FloatArray, n_stop: FloatArray,
                        mu_stop: FloatArray, gap_stop: FloatArray, corner_of_pair: IntArray,
                        corner_stops: IntArray, held_side: IntArray, held_boundary: IntArray,
-                       held_stop: IntArray, prescribed: FloatArray, first: IntArray
+                       held_stop: IntArray, prescribed: FloatArray, group_pairs: IntArray,
+                       group_share: FloatArray, first: IntArray
                        ) -> None:  # pragma: no cover - compiled
     """Steps ``first[c]`` on of case c (the earlier ones settled, ``engine``): the
     history they start from is the last settled step's Ŵ (each point's, which its update
-    carries) and F̂ (a held corner's force)."""
+    carries) and F̂ (a held corner's force). A row of ``group_pairs`` runs as one pair
+    (``cross_points``: W and F set to its means in place, put back after)."""
     n_cases, n_steps = displacement.shape[0], displacement.shape[1]
     n_pairs, n_stops = a.size, stops.size
     n_corners = corner_stops.shape[0]
+    kept = np.empty((group_pairs.shape[0], group_pairs.shape[1], n_steps, 2, 2, 2))
     for c in range(n_cases):
         prev_a = np.zeros((n_pairs, 2))
         prev_b = np.zeros((n_pairs, 2))
@@ -89,6 +94,9 @@ def _contact_and_stops(displacement: FloatArray, force: FloatArray, w_hat: Float
                 if corner_of_pair[j] >= 0:  # the corner's last pair in order wrote it
                     for d in range(2):
                         corner_force[corner_of_pair[j], d] = f_hat[c, t0 - 1, a[j], d]
+        if group_pairs.shape[0]:  # kept: (member, step, side, W / F, component)
+            _merge_groups(displacement, force, prev_a, prev_b, a, b, group_pairs,
+                          group_share, kept, c, t0)
         for t in range(t0, n_steps):
             for i in range(n_stops):
                 p = stops[i]
@@ -182,6 +190,9 @@ def _contact_and_stops(displacement: FloatArray, force: FloatArray, w_hat: Float
                 f_hat[c, t, pb, 0], f_hat[c, t, pb, 1] = -fx, -fy
                 w_hat[c, t, pa, 0], w_hat[c, t, pa, 1] = prev_a[j, 0], prev_a[j, 1]
                 w_hat[c, t, pb, 0], w_hat[c, t, pb, 1] = prev_b[j, 0], prev_b[j, 1]
+        if group_pairs.shape[0]:
+            _split_groups(displacement, force, w_hat, a, b, k_contact, k_contact_b,
+                          group_pairs, group_share, kept, c, t0)
 
 
 def _perfect_and_boundary(displacement: FloatArray, force: FloatArray, w_hat: FloatArray,
@@ -238,6 +249,7 @@ def _coupled_contact(displacement: FloatArray, force: FloatArray, w_hat: FloatAr
                      n_stop: FloatArray, mu_stop: FloatArray, gap_stop: FloatArray,
                      corner_of_pair: IntArray, corner_stops: IntArray, held_side: IntArray,
                      held_boundary: IntArray, held_stop: IntArray, prescribed: FloatArray,
+                     group_pairs: IntArray, group_share: FloatArray,
                      first: IntArray) -> None:  # pragma: no cover - compiled
     """Steps ``first[c]`` on of case c; ``macro`` keeps the earlier steps' rows."""
     n_cases, n_steps, n_points = displacement.shape[0], displacement.shape[1], \
@@ -295,7 +307,8 @@ def _coupled_contact(displacement: FloatArray, force: FloatArray, w_hat: FloatAr
                                a, b, k_contact, k_contact_b, n_contact, mu_contact[c:c + 1],
                                gap_contact[c:c + 1], stops, k_stop, n_stop, mu_stop[c:c + 1],
                                gap_stop[c:c + 1], corner_of_pair, corner_stops, held_side,
-                               held_boundary, held_stop, prescribed[c:c + 1], first[c:c + 1])
+                               held_boundary, held_stop, prescribed[c:c + 1], group_pairs,
+                               group_share, first[c:c + 1])
             residual = -projected - x
             _project_columns(w_hat[c].reshape(n_steps, 2 * n_points)[t0:], support, slot,
                              starts, weighted, columns, sums, residual)
@@ -455,7 +468,7 @@ _KERNELS = ("contact_and_stops", "relax", "relax_rows", "indicator_squares", "pe
 
 def _compile() -> None:
     global _in_cone, _series_trial, _contact_and_stops, _project_columns, _coupling_shift
-    global _correction_row
+    global _correction_row, _merge_groups, _split_groups
     compiled: dict[str, Callable[..., Any] | None] = dict.fromkeys(_KERNELS)
     try:  # pragma: no cover - depends on the installed extras
         numba = importlib.import_module("numba")
@@ -466,6 +479,7 @@ def _compile() -> None:
         _in_cone, _series_trial = jit_inline(_in_cone), jit_inline(_series_trial)
         jit = numba.njit(cache=True)
         # called from ``_coupled_contact`` and the corrections: compiled before them
+        _merge_groups, _split_groups = jit(_merge_groups), jit(_split_groups)
         _contact_and_stops, _project_columns = jit(_contact_and_stops), jit(_project_columns)
         _coupling_shift = jit_inline(_coupling_shift)
         _correction_row = jit_inline(_correction_row)

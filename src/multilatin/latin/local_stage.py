@@ -19,45 +19,10 @@ from ..decomposition.interfaces import InterfacePoints, interface_functions
 from ..errors import ModelError
 from ..fem.elasticity import FloatArray, IntArray
 from . import kernels
+from .branch_tape import BranchTape
+from .cross_points import corrected, cross_point_groups, merged
 
-
-class BranchTape:
-    """The branches the contact local stage takes (contact or open, stop closed, stick or
-    slip with its direction and the sign of N), in the order it takes them. The local stage
-    is piecewise affine in (W, F); replaying a tape gives the affine map of those branches
-    (statuses frozen), which a Krylov method can solve exactly
-    (``benchmarks/frozen_krylov.py``)."""
-
-    def __init__(self) -> None:
-        self.entries: list[npt.NDArray[Any]] = []
-        self.replaying = False
-        self.position = 0
-
-    def decide(self, value: npt.NDArray[Any]) -> npt.NDArray[Any]:
-        if not self.replaying:
-            self.entries.append(value)
-            return value
-        out = self.entries[self.position]
-        self.position += 1
-        return out
-
-    def replay(self) -> None:
-        """Read the recorded branches back from the start at the next local stage."""
-        self.replaying = True
-        self.position = 0
-
-    def same_statuses(self, other: BranchTape) -> bool:
-        """Whether ``other`` took the same branches: the same statuses, and slip in the same
-        direction where it slips (a direction follows its slip mask on the tape)."""
-        if len(self.entries) != len(other.entries):
-            return False
-        for i, (a, b) in enumerate(zip(self.entries, other.entries, strict=True)):
-            if a.dtype == np.bool_:
-                if not np.array_equal(a, b):
-                    return False
-            elif np.any(self.entries[i - 1] & (np.sum(a * b, axis=-1) <= 0.0)):
-                return False
-        return True
+__all__ = ["BranchTape", "LocalStage", "MacroOnlyMap", "macro_only_map"]
 
 
 #: the local stage's arrays that hold one entry per case
@@ -110,6 +75,10 @@ class LocalStage:
         self.held_side = first.held_side
         self.held_boundary = first.held_boundary
         self.held_stop = first.held_stop
+        # the contact pairs of a cross point, run as one (``cross_points``)
+        self.group_pairs, self.group_share = cross_point_groups(first, k)
+        self.group_sides = (a[self.group_pairs], first.contact_pairs[1][self.group_pairs])
+        self.group_k = (k[self.group_sides[0]], k[self.group_sides[1]])
         if compiled and kernels.contact_and_stops is None:
             raise ModelError("compiled local stage: Numba is not installed "
                              "(pip install 'multilatin[fast]')")
@@ -205,7 +174,7 @@ class LocalStage:
                 self.n_contact, self.mu_contact, self.gap_contact, self.stops, self.k_stop,
                 self.n_stop, self.mu_stop, self.gap_stop, self.corner_of_pair,
                 self.corner_stops, self.held_side, self.held_boundary, self.held_stop,
-                self.prescribed)
+                self.prescribed, self.group_pairs, self.group_share)
 
     def contact_stage(self, displacement: FloatArray, force: FloatArray, w_hat: FloatArray,
                       f_hat: FloatArray, first: IntArray | None = None) -> None:
@@ -220,6 +189,11 @@ class LocalStage:
             kernels.contact_and_stops(
                 np.ascontiguousarray(displacement), np.ascontiguousarray(force), w_hat, f_hat,
                 *self.contact_data(), np.zeros(len(w_hat), np.int64) if first is None else first)
+        elif self.group_pairs.size:  # the kernel merges the groups itself
+            share = self.group_share[:, :, None]
+            fields = merged(displacement, force, self.group_sides, share)
+            self._contact_and_stops(*fields, w_hat, f_hat)
+            corrected(w_hat, displacement, force, fields, self.group_sides, self.group_k)
         else:
             self._contact_and_stops(displacement, force, w_hat, f_hat)
 

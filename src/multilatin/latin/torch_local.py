@@ -16,6 +16,7 @@ from typing import TYPE_CHECKING, Any
 import numpy as np
 
 from ..fem.elasticity import IntArray
+from .cross_points import corrected, merged
 from .local_stage import LocalStage
 
 if TYPE_CHECKING:
@@ -98,6 +99,11 @@ class TorchLocalStage:
         self.held_prescribed = self.prescribed[:, :, self.held_boundary, self.held[1]]
         self.contact_kernels: Any = None
         self.kernels_checked = False
+        # the contact pairs of a cross point, run as one (``cross_points``)
+        self.n_groups = local.group_pairs.shape[0]
+        self.group_sides = (index(local.group_sides[0]), index(local.group_sides[1]))
+        self.group_share = tensor(local.group_share[:, :, None])
+        self.group_k = (tensor(local.group_k[0]), tensor(local.group_k[1]))
 
     def use_kernels(self, local: LocalStage) -> None:
         """Contact and stops by the CUDA kernels of ``cuda_local`` (two launches instead of
@@ -126,14 +132,23 @@ class TorchLocalStage:
                        @ self.macro_left_t).reshape(x.shape)
             w_hat[:, :, m] = w_m
             f_hat[:, :, m] = force[:, :, m] + k * (w_m - displacement[:, :, m])
-        if self.n_pairs or self.n_stops:
-            if self.contact_kernels is None:
-                self._contact_and_stops(displacement, force, w_hat, f_hat)
-            elif not self.kernels_checked:
-                self._check_kernels(displacement, force, w_hat, f_hat)
-            else:
-                self.contact_kernels(self, displacement, force, w_hat, f_hat)
+        if self.n_groups:
+            fields = merged(displacement, force, self.group_sides, self.group_share)
+            self._contact_stage(*fields, w_hat, f_hat)
+            corrected(w_hat, displacement, force, fields, self.group_sides, self.group_k)
+        elif self.n_pairs or self.n_stops:
+            self._contact_stage(displacement, force, w_hat, f_hat)
         return w_hat, f_hat
+
+    def _contact_stage(self, displacement: Tensor, force: Tensor, w_hat: Tensor,
+                       f_hat: Tensor) -> None:
+        """The contact and stops' part, by the CUDA kernels where they run."""
+        if self.contact_kernels is None:
+            self._contact_and_stops(displacement, force, w_hat, f_hat)
+        elif not self.kernels_checked:
+            self._check_kernels(displacement, force, w_hat, f_hat)
+        else:
+            self.contact_kernels(self, displacement, force, w_hat, f_hat)
 
     def _check_kernels(self, displacement: Tensor, force: Tensor, w_hat: Tensor,
                        f_hat: Tensor) -> None:

@@ -181,7 +181,8 @@ def qoi_functionals(ops: LatinOperators, assembly: Assembly,
                           tuple(q.step for q in assembly.qois))
 
 
-def error_estimates(series: FloatArray, eta: FloatArray, window: int = WINDOW) -> FloatArray:
+def error_estimates(series: FloatArray, eta: FloatArray, window: int = WINDOW,
+                    rate_floor: float = 0.0) -> FloatArray:
     """Estimated |q_n − q_∞| per QoI and step from the tracked values ``series`` (n_iter,
     n_qoi, n_steps) and the indicator history ``eta`` (n_iter,); NaN with fewer than 6
     iterations. Cases may be stacked after the iteration axis, ``series`` (n_iter, n_cases,
@@ -196,6 +197,7 @@ def error_estimates(series: FloatArray, eta: FloatArray, window: int = WINDOW) -
     as if it were monotone. An envelope that grows over the window (increments of two modes
     of opposite signs cancelling in its older half) shows no convergence of the QoI yet: the
     rate is then taken as 0.999, a large estimate rather than a small wrong one.
+    ``rate_floor``: a per-iteration rate the estimate assumes at least (a short window's).
     """
     n = series.shape[0]
     width = min(window, n - 5)
@@ -215,8 +217,9 @@ def error_estimates(series: FloatArray, eta: FloatArray, window: int = WINDOW) -
         newer = np.abs(steps2[-half:]).max(axis=0)
         gap = steps2.shape[0] - 2 - half
         rate_q = (newer / np.where(older > 0.0, older, 1e-300)) ** (2.0 / gap)
-    rate = np.clip(np.maximum(np.nan_to_num(rate_q, nan=MAX_RATE),
-                              np.nan_to_num(rate_eta, nan=MAX_RATE)), 0.0, MAX_RATE)
+    rate = np.clip(np.maximum(np.maximum(np.nan_to_num(rate_q, nan=MAX_RATE),
+                                         np.nan_to_num(rate_eta, nan=MAX_RATE)),
+                              rate_floor ** 2), 0.0, MAX_RATE)
     estimate = newer / (1.0 - rate)
     if not OSCILLATION:
         return np.asarray(estimate, dtype=np.float64)

@@ -1,0 +1,111 @@
+"""Contact pairs that meet at a cross point run as one pair in the local stage
+(``multilatin.latin.cross_points``, issue 15 item 1): found where they are, the same in the
+compiled and the NumPy local stage, each pair on its own search direction, the converged
+answer unchanged, and the tail it removes."""
+
+from __future__ import annotations
+
+import numpy as np
+import pytest
+
+import multilatin as ml
+from multilatin.latin import LatinOperators, cross_points, solve_latin
+from multilatin.latin.local_stage import LocalStage
+
+TIGHT = ml.LatinOptions(tol=1e-10, max_iter=20000)
+
+
+def _stage(name: str, compiled: bool, mu: dict[str, float] | None = None
+           ) -> tuple[LatinOperators, LocalStage]:
+    assembly = ml.load_model(name).assemble(mu or {"mu1": 0.1, "mu2": 0.3})
+    operators = LatinOperators(assembly, ml.LatinOptions())
+    return operators, LocalStage([assembly], [operators.points], operators.search_direction,
+                                 compiled=compiled, macro_only=operators.macro_only)
+
+
+def _fields(operators: LatinOperators, seed: int = 0) -> tuple[np.ndarray, np.ndarray]:
+    rng = np.random.default_rng(seed)
+    shape = (1, 15, operators.points.n_points, 2)
+    return 1e-3 * rng.standard_normal(shape), 10.0 * rng.standard_normal(shape)
+
+
+def test_the_groups_are_the_pieces_ends_at_cross_points() -> None:
+    """b1-9: the contacts bottom|centre (y = 50) and centre|top (y = 100) are cut at x =
+    16.7 and 33.3 by the substructures' perfect interfaces: four groups of two pairs, at
+    the same two nodes, each pair half the group's weight; b1 (one substructure per body)
+    has none."""
+    operators, local = _stage("b1-9", compiled=True)
+    points = operators.points
+    assert local.group_pairs.shape == (4, 2)
+    np.testing.assert_allclose(local.group_share, 0.5)
+    a, b = points.contact_pairs
+    for group in local.group_pairs:
+        for side in (a, b):
+            coords = points.coords[side[group]]
+            np.testing.assert_allclose(coords, coords[:1].repeat(2, axis=0))
+            assert points.substructure[side[group[0]]] != points.substructure[side[group[1]]]
+    found = sorted((round(float(x), 1), round(float(y), 1))
+                   for x, y in points.coords[a[local.group_pairs[:, 0]]])
+    assert found == [(16.7, 50.0), (16.7, 100.0), (33.3, 50.0), (33.3, 100.0)]
+    assert _stage("b1", compiled=True)[1].group_pairs.size == 0
+
+
+@pytest.mark.parametrize("compiled", [True, False])
+def test_a_group_takes_one_force_and_each_pair_its_own_direction(compiled: bool) -> None:
+    """From fields that differ across a group, its pairs get the same F̂ (the merged pair's)
+    and each its own Ŵ on its own search direction, F̂ − F_i = k_i (Ŵ_i − W_i), on both
+    sides; the compiled kernel gives the NumPy stage's answer; W and F are left as given."""
+    operators, local = _stage("b1-9", compiled=compiled)
+    w, f = _fields(operators)
+    w0, f0 = w.copy(), f.copy()
+    w_hat, f_hat = local(w, f)
+    np.testing.assert_array_equal(w, w0)
+    np.testing.assert_array_equal(f, f0)
+    k = operators.search_direction
+    for sides in local.group_sides:
+        for group in sides:
+            np.testing.assert_allclose(f_hat[:, :, group[1]], f_hat[:, :, group[0]],
+                                       rtol=1e-12, atol=1e-9)
+            for p in group:
+                np.testing.assert_allclose(f_hat[:, :, p] - f[:, :, p],
+                                           k[p] * (w_hat[:, :, p] - w[:, :, p]),
+                                           rtol=1e-9, atol=1e-9)
+    assert not np.allclose(f[:, :, local.group_sides[0][:, 0]],
+                           f[:, :, local.group_sides[0][:, 1]])  # the test's fields differ
+    other = _stage("b1-9", compiled=not compiled)[1]
+    w_other, f_other = other(w, f)
+    np.testing.assert_allclose(w_other, w_hat, rtol=1e-10, atol=1e-12)
+    np.testing.assert_allclose(f_other, f_hat, rtol=1e-10, atol=1e-9)
+
+
+def test_equal_pairs_are_run_as_they_were(monkeypatch) -> None:
+    """Where a group's pairs see the same W and F (as at the fixed point), merging changes
+    nothing: the local stage equals the one that runs each pair on its own."""
+    operators, merging = _stage("b1-9", compiled=True)
+    w, f = _fields(operators, seed=1)
+    for sides in merging.group_sides:
+        w[:, :, sides[:, 1]] = w[:, :, sides[:, 0]]
+        f[:, :, sides[:, 1]] = f[:, :, sides[:, 0]]
+    monkeypatch.setattr(cross_points, "MERGE", False)
+    alone = _stage("b1-9", compiled=True)[1]
+    assert alone.group_pairs.size == 0
+    for x, y in zip(merging(w, f), alone(w, f), strict=True):
+        np.testing.assert_allclose(x, y, rtol=1e-12, atol=1e-12)
+
+
+def test_merged_cross_points_converge_sooner_to_the_same_answer(monkeypatch) -> None:
+    """b1-9 at (0.1, 0.3), whose slowest mode sat at these cross points: fewer iterations to
+    the default tolerance with the pairs merged (95 against 111, measured), and the tight
+    answers of both rules agree (the discrete problem sees only the pairs' sum)."""
+    model = ml.load_model("b1-9")
+    assembly = model.assemble({"mu1": 0.1, "mu2": 0.3})
+    operators = LatinOperators(assembly, ml.LatinOptions())
+    merged = solve_latin(assembly, operators=operators)
+    merged_tight = solve_latin(assembly, TIGHT, operators=operators)
+    monkeypatch.setattr(cross_points, "MERGE", False)
+    alone = solve_latin(assembly, operators=operators)
+    alone_tight = solve_latin(assembly, TIGHT, operators=operators)
+    assert merged.iterations <= 0.9 * alone.iterations
+    for name, value in alone_tight.qoi.items():
+        np.testing.assert_allclose(np.asarray(merged_tight.qoi[name], dtype=float),
+                                   np.asarray(value, dtype=float), rtol=1e-7, atol=1e-9)
