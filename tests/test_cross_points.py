@@ -109,3 +109,23 @@ def test_merged_cross_points_converge_sooner_to_the_same_answer(monkeypatch) -> 
     for name, value in alone_tight.qoi.items():
         np.testing.assert_allclose(np.asarray(merged_tight.qoi[name], dtype=float),
                                    np.asarray(value, dtype=float), rtol=1e-7, atol=1e-9)
+
+
+def test_pairs_under_different_laws_are_not_merged() -> None:
+    """A group's pairs share their friction coefficient and gap in every case of a batch;
+    where one piece has another friction, its group is dropped — also when such a case
+    joins a running batch (the groups both stages have)."""
+    operators, local = _stage("b1-9", compiled=True)
+    mu = local.mu_contact.copy()
+    first_pair = local.group_pairs[0, 0]
+    mu[:, first_pair] += 0.1
+    k = operators.search_direction
+    pairs, share = cross_points.cross_point_groups(operators.points, k, (mu, local.gap_contact))
+    assert pairs.shape == (3, 2) and first_pair not in pairs
+    other = _stage("b1-9", compiled=True)[1]
+    other.group_pairs, other.group_share = pairs, share
+    joined = local.joined(other)
+    np.testing.assert_array_equal(joined.group_pairs, pairs)
+    np.testing.assert_array_equal(joined.group_sides[0],
+                                  operators.points.contact_pairs[0][pairs])
+    assert joined.n_cases == 2

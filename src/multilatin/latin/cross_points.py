@@ -34,16 +34,17 @@ from ..fem.elasticity import FloatArray, IntArray
 MERGE = True
 
 
-def cross_point_groups(points: InterfacePoints, k: FloatArray | None = None
-                       ) -> tuple[IntArray, FloatArray]:
+def cross_point_groups(points: InterfacePoints, k: FloatArray | None = None,
+                       laws: tuple[FloatArray, ...] = ()) -> tuple[IntArray, FloatArray]:
     """The groups of two or more contact pairs whose two sides sit at the same positions
     (the pieces' end points at a cross point), as (``group_pairs`` (G, M): indices into the
     contact pairs, a shorter group padded with its first pair; ``group_share`` (G, M): each
     pair's weight over the group's, 0 on padding). Pairs held on one side or at a held
-    corner keep their own rule (``held_nodes``) and join no group, nor do pairs whose search
-    direction ``k`` (per point) differs from the group's first on a side (then a group's
-    history, its pairs' mean Ŵ, is the merged pair's: settled steps restart from it); empty
-    with ``MERGE`` off."""
+    corner keep their own rule (``held_nodes``) and join no group, nor do pairs whose normal,
+    search direction ``k`` (per point; then a group's history, its pairs' mean Ŵ, is the
+    merged pair's: settled steps restart from it) or contact law (``laws``: arrays (n_cases,
+    n_pairs), the friction coefficients and gaps of a batch's cases) differs from the
+    group's first; empty with ``MERGE`` off."""
     a, b = points.contact_pairs
     if not MERGE or a.size < 2:
         return np.zeros((0, 0), dtype=np.int64), np.zeros((0, 0))
@@ -57,10 +58,14 @@ def cross_point_groups(points: InterfacePoints, k: FloatArray | None = None
         at = np.concatenate([points.coords[a[j]], points.coords[b[j]]]) / scale
         keys.setdefault(tuple(np.round(at * 1e9).astype(np.int64).tolist()), []).append(j)
     groups = []
+    normals = points.normals
     for members in keys.values():
-        if k is not None:
-            members = [j for j in members if np.array_equal(k[a[j]], k[a[members[0]]])
-                       and np.array_equal(k[b[j]], k[b[members[0]]])]
+        first = members[0]
+        members = [j for j in members
+                   if np.allclose(normals[a[j]], normals[a[first]], rtol=0.0, atol=1e-9)
+                   and (k is None or (np.array_equal(k[a[j]], k[a[first]])
+                                      and np.array_equal(k[b[j]], k[b[first]])))
+                   and all(np.array_equal(law[:, j], law[:, first]) for law in laws)]
         if len(members) > 1:
             groups.append(members)
     if not groups:

@@ -75,10 +75,6 @@ class LocalStage:
         self.held_side = first.held_side
         self.held_boundary = first.held_boundary
         self.held_stop = first.held_stop
-        # the contact pairs of a cross point, run as one (``cross_points``)
-        self.group_pairs, self.group_share = cross_point_groups(first, k)
-        self.group_sides = (a[self.group_pairs], first.contact_pairs[1][self.group_pairs])
-        self.group_k = (k[self.group_sides[0]], k[self.group_sides[1]])
         if compiled and kernels.contact_and_stops is None:
             raise ModelError("compiled local stage: Numba is not installed "
                              "(pip install 'multilatin[fast]')")
@@ -92,6 +88,11 @@ class LocalStage:
         self.gap_stop = np.stack([p.stop_gap for p in points])
         self.prescribed = np.stack([_prescribed(assembly, p)
                                     for assembly, p in zip(assemblies, points, strict=True)])
+        # the contact pairs of a cross point, run as one (``cross_points``)
+        self.group_pairs, self.group_share = cross_point_groups(
+            first, k, (self.mu_contact, self.gap_contact))
+        self.group_sides = (a[self.group_pairs], first.contact_pairs[1][self.group_pairs])
+        self.group_k = (k[self.group_sides[0]], k[self.group_sides[1]])
 
     @property
     def n_cases(self) -> int:
@@ -112,6 +113,12 @@ class LocalStage:
         out = copy.copy(self)
         for name in _PER_CASE:
             setattr(out, name, np.concatenate([getattr(self, name), getattr(other, name)]))
+        if not np.array_equal(other.group_pairs, self.group_pairs):  # the groups of both
+            both = [i for i, row in enumerate(self.group_pairs.tolist())
+                    if row in other.group_pairs.tolist()]
+            out.group_pairs, out.group_share = self.group_pairs[both], self.group_share[both]
+            out.group_sides = tuple(side[both] for side in self.group_sides)  # type: ignore[assignment]
+            out.group_k = tuple(k[both] for k in self.group_k)  # type: ignore[assignment]
         return out
 
     def prescribed_force_field(self, n_points: int) -> FloatArray:
