@@ -20,11 +20,16 @@ the loop is not unique and the closest one is taken. Prototype (NumPy, wrapped a
 to η < 1e-6 and R_stop's error against the library's η < 1e-10 solve, relative.
 
     python benchmarks/perfect_cross_points.py [--models b3 b1-9] [--chains]
+    python benchmarks/perfect_cross_points.py --chains --study   # B3's 5 x 5 positions
+
+``--study``: the iterations of B3's 5 × 5 hole-position study (``run_study``, its defaults)
+with the library's local stage and with the wrapper.
 """
 
 from __future__ import annotations
 
 import argparse
+import tempfile
 from typing import Any
 
 import numpy as np
@@ -32,6 +37,7 @@ import numpy as np
 import multilatin as ml
 from multilatin.latin import LatinOperators, LatinOptions, solve_latin
 from multilatin.latin.local_stage import LocalStage
+from multilatin.study.runner import run_study
 
 PAIRS = [(0.3, 0.0), (0.1, 0.3), (0.35, 0.25), (0.3, 0.15)]
 Component = tuple[np.ndarray, list[np.ndarray], np.ndarray]
@@ -107,7 +113,11 @@ def main() -> None:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument("--models", nargs="+", default=["b3", "b1-9"])
     parser.add_argument("--chains", action="store_true")
+    parser.add_argument("--study", action="store_true")
     args = parser.parse_args()
+    if args.study:
+        study(args.chains)
+        return
     tight = LatinOptions(tol=1e-10, max_iter=20000)
     original = LocalStage.without_contact
     print("| model | μ1, μ2 | components (points) | library: iterations, R_stop error | "
@@ -135,6 +145,25 @@ def main() -> None:
             sizes = sorted({len(c[0]) for c in found})
             print(f"| {name} | {mu1:g}, {mu2:g} | {len(found)} ({', '.join(map(str, sizes))}) "
                   f"| {cells[0]} | {cells[1]} |", flush=True)
+
+
+def study(chains: bool) -> None:
+    """``--study``: B3's 5 × 5 positions with the library's local stage, then the wrapper's
+    (the interfaces, so the components, are the same at every hole position)."""
+    model = ml.load_model("b3")
+    grid = ml.Grid.parse(["xc=23:27:5", "yc=73:77:5", "rc=3"])
+    found = components(LatinOperators(model.assemble({}), LatinOptions()), chains)
+    original = LocalStage.without_contact
+    try:
+        for label, stage in (("library", original), ("one node per cross point",
+                                                      communicating(found))):
+            LocalStage.without_contact = stage  # type: ignore[method-assign]
+            with tempfile.TemporaryDirectory() as folder:
+                data = run_study(model, grid, out=folder, progress=False).dataset
+            iterations = int(data.sel(mode="multiresolution")["iterations"].values.sum())
+            print(f"B3 5 x 5 positions, {label}: {iterations} iterations", flush=True)
+    finally:
+        LocalStage.without_contact = original  # type: ignore[method-assign]
 
 
 if __name__ == "__main__":

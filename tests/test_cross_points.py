@@ -129,3 +129,23 @@ def test_pairs_under_different_laws_are_not_merged() -> None:
     np.testing.assert_array_equal(joined.group_sides[0],
                                   operators.points.contact_pairs[0][pairs])
     assert joined.n_cases == 2
+
+
+def test_pieces_not_tied_by_a_perfect_interface_are_not_merged() -> None:
+    """The pairs' nodes must be one node of the discrete problem on each side: without the
+    perfect pairs at (33.3, 100) (as if the substructures beside the node were two bodies
+    that touch there, or tied by a macro-only interface), the two groups there are not
+    formed; the other two stay."""
+    import dataclasses
+
+    operators, _ = _stage("b1-9", compiled=True)
+    points = operators.points
+    a, b = points.pairs
+    at = np.all(np.isclose(points.coords[a], [100.0 / 3.0, 100.0]), axis=1)
+    assert at.sum() == 2  # centre[1,2]|centre[2,2] and top[1,0]|top[2,0] end there
+    untied = dataclasses.replace(points, pairs=(a[~at], b[~at]))
+    pairs, _ = cross_points.cross_point_groups(untied)
+    assert pairs.shape == (3, 2)
+    positions = sorted({tuple(np.round(points.coords[points.contact_pairs[0][j]], 1))
+                        for j in pairs[:, 0]})
+    assert positions == [(16.7, 50.0), (16.7, 100.0), (33.3, 50.0)]

@@ -36,8 +36,10 @@ MERGE = True
 
 def cross_point_groups(points: InterfacePoints, k: FloatArray | None = None,
                        laws: tuple[FloatArray, ...] = ()) -> tuple[IntArray, FloatArray]:
-    """The groups of two or more contact pairs whose two sides sit at the same positions
-    (the pieces' end points at a cross point), as (``group_pairs`` (G, M): indices into the
+    """The groups of two or more contact pairs whose two sides are the same two nodes of
+    the discrete problem (the pieces' end points at a cross point: each side's points at one
+    position, on substructures tied there by perfect interfaces — not by a macro-only one,
+    nor two bodies that merely touch), as (``group_pairs`` (G, M): indices into the
     contact pairs, a shorter group padded with its first pair; ``group_share`` (G, M): each
     pair's weight over the group's, 0 on padding). Pairs held on one side or at a held
     corner keep their own rule (``held_nodes``) and join no group, nor do pairs whose normal,
@@ -52,11 +54,10 @@ def cross_point_groups(points: InterfacePoints, k: FloatArray | None = None,
     held[points.corner] = True
     if points.held_side.size:
         held |= points.held_side >= 0
-    scale = max(float(np.ptp(points.coords)), 1.0)
-    keys: dict[tuple[int, ...], list[int]] = {}
+    node = _tied_nodes(points)
+    keys: dict[tuple[Any, Any], list[int]] = {}
     for j in np.flatnonzero(~held).tolist():
-        at = np.concatenate([points.coords[a[j]], points.coords[b[j]]]) / scale
-        keys.setdefault(tuple(np.round(at * 1e9).astype(np.int64).tolist()), []).append(j)
+        keys.setdefault((node(int(a[j])), node(int(b[j]))), []).append(j)
     groups = []
     normals = points.normals
     for members in keys.values():
@@ -76,6 +77,27 @@ def cross_point_groups(points: InterfacePoints, k: FloatArray | None = None,
     share = np.where(np.arange(width)[None, :] < np.array([len(g) for g in groups])[:, None],
                      weights, 0.0)
     return pairs, share / share.sum(axis=1, keepdims=True)
+
+
+def _tied_nodes(points: InterfacePoints) -> Any:
+    """A function of an interface point: its node of the discrete problem — its
+    substructure's node at its position, joined through the perfect pairs there with the
+    nodes of the other substructures (as the monolithic reference merges them)."""
+    scale = max(float(np.ptp(points.coords)), 1.0)
+    parent: dict[Any, Any] = {}
+
+    def own(p: int) -> tuple[int, tuple[int, ...]]:
+        at = np.round(points.coords[p] / scale * 1e9).astype(np.int64)
+        return int(points.substructure[p]), tuple(at.tolist())
+
+    def root(x: Any) -> Any:
+        while parent.setdefault(x, x) != x:
+            x = parent[x]
+        return x
+
+    for p, q in zip(*points.pairs, strict=True):
+        parent[root(own(int(p)))] = root(own(int(q)))
+    return lambda p: root(own(p))
 
 
 def merged(displacement: Any, force: Any, sides: tuple[Any, Any], share: Any
