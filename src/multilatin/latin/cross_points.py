@@ -105,8 +105,8 @@ def merged(displacement: Any, force: Any, sides: tuple[Any, Any], share: Any
     """Copies of the fields (n_cases, n_steps, n_points, 2) with every group's points on
     each side (``sides``: the points of side a and of side b, each (G, M)) at the group's
     weighted means (``share`` (G, M, 1))."""
-    w, f = displacement.clone() if hasattr(displacement, "clone") else displacement.copy(), \
-        force.clone() if hasattr(force, "clone") else force.copy()
+    w = displacement.clone() if hasattr(displacement, "clone") else displacement.copy()
+    f = force.clone() if hasattr(force, "clone") else force.copy()
     for points in sides:
         w[:, :, points] = (displacement[:, :, points] * share).sum(3)[:, :, :, None]
         f[:, :, points] = (force[:, :, points] * share).sum(3)[:, :, :, None]
@@ -125,9 +125,9 @@ def corrected(w_hat: Any, displacement: Any, force: Any, merged_fields: tuple[An
 
 # compiled by ``kernels`` (called from its contact kernel, case by case)
 def merge_groups(displacement: FloatArray, force: FloatArray, prev_a: FloatArray,
-                  prev_b: FloatArray, a: IntArray, b: IntArray, group_pairs: IntArray,
-                  group_share: FloatArray, kept: FloatArray, c: int, t0: int
-                  ) -> None:  # pragma: no cover - compiled
+                 prev_b: FloatArray, a: IntArray, b: IntArray, group_pairs: IntArray,
+                 group_share: FloatArray, kept: FloatArray, c: int, t0: int
+                 ) -> None:  # pragma: no cover - compiled
     """Case c's W and F at each group's points (both sides, steps t0 on) kept, then set to
     the group's weighted means; the history Ŵ its pairs start from, likewise."""
     n_steps, width = displacement.shape[1], group_pairs.shape[1]
@@ -164,9 +164,9 @@ def merge_groups(displacement: FloatArray, force: FloatArray, prev_a: FloatArray
 
 
 def split_groups(displacement: FloatArray, force: FloatArray, w_hat: FloatArray,
-                  a: IntArray, b: IntArray, k_contact: FloatArray, k_contact_b: FloatArray,
-                  group_pairs: IntArray, group_share: FloatArray, kept: FloatArray, c: int,
-                  t0: int) -> None:  # pragma: no cover - compiled
+                 a: IntArray, b: IntArray, k_contact: FloatArray, k_contact_b: FloatArray,
+                 group_pairs: IntArray, group_share: FloatArray, kept: FloatArray, c: int,
+                 t0: int) -> None:  # pragma: no cover - compiled
     """After the case's steps: each grouped point's Ŵ on its own search direction, Ŵ_i =
     Ŵ + (W_i − W̄) − (F_i − F̄) / k_i, and its W and F put back (a padding entry repeats
     its group's first pair and is skipped)."""
