@@ -17,9 +17,10 @@ substructures, two pairs: b3's four corners of the holed substructure); by defau
 loops of four perfect pairs (b1-4, b1-9 and b3's other cross points), where the split around
 the loop is not unique and the closest one is taken. Prototype (NumPy, wrapped around
 ``LocalStage.without_contact``): cold solves at ``convergence.py``'s four pairs, iterations
-to η < 1e-6 and R_stop's error against the library's η < 1e-10 solve, relative.
+to η < 1e-6 (``--qoi``: to the studies' QoI rule) and R_stop's error against the library's
+η < 1e-10 solve, relative.
 
-    python benchmarks/perfect_cross_points.py [--models b3 b1-9] [--chains]
+    python benchmarks/perfect_cross_points.py [--models b3 b1-9] [--chains] [--qoi]
     python benchmarks/perfect_cross_points.py --chains --study   # B3's 5 x 5 positions
 
 ``--study``: the iterations of B3's 5 × 5 hole-position study (``run_study``, its defaults)
@@ -37,6 +38,7 @@ import numpy as np
 import multilatin as ml
 from multilatin.latin import LatinOperators, LatinOptions, solve_latin
 from multilatin.latin.local_stage import LocalStage
+from multilatin.latin.options import STUDY_QOI_RTOL
 from multilatin.study.runner import run_study
 
 PAIRS = [(0.3, 0.0), (0.1, 0.3), (0.35, 0.25), (0.3, 0.15)]
@@ -114,6 +116,7 @@ def main() -> None:
     parser.add_argument("--models", nargs="+", default=["b3", "b1-9"])
     parser.add_argument("--chains", action="store_true")
     parser.add_argument("--study", action="store_true")
+    parser.add_argument("--qoi", action="store_true", help="stop on the studies' QoI rule")
     args = parser.parse_args()
     if args.study:
         study(args.chains)
@@ -134,8 +137,9 @@ def main() -> None:
             try:
                 for stage in (original, communicating(found)):
                     LocalStage.without_contact = stage  # type: ignore[method-assign]
-                    result = solve_latin(assembly, LatinOptions(), operators=operators,
-                                         check=False)
+                    options = (LatinOptions(qoi_rtol=STUDY_QOI_RTOL) if args.qoi
+                               else LatinOptions())
+                    result = solve_latin(assembly, options, operators=operators, check=False)
                     error = abs(float(result.qoi["R_stop"]) - exact) / max(abs(exact), 1.0)
                     cells.append(f"{result.iterations}"
                                  f"{'' if result.converged else ' (not converged)'}, "
