@@ -47,6 +47,8 @@ def main() -> None:
         tight_starts()
         return
     if args.margin is not None:
+        if not args.margin > 0:
+            raise SystemExit(f"--margin: must be > 0, got {args.margin}")
         iteration.EARLY_MARGIN = args.margin
     earlies = [int(x) for x in args.early.split(",")]
     for value in earlies:

@@ -49,12 +49,13 @@ def recorded_solves(model: ml.Model, cases: list[dict[str, float]]
     offset = [0]
     original = iteration.qoi_settled
 
-    def recording(state: Any, active: np.ndarray, counts: np.ndarray, rtol: float) -> Any:
+    def recording(state: Any, active: np.ndarray, counts: np.ndarray, rtol: float,
+                  *rest: Any) -> Any:
         values = state.qoi_recent[active, (counts - 1) % iteration.RECENT]
         for case, count, value in zip(active, counts, values, strict=True):
             seen.setdefault(offset[0] + int(case), {})[int(count)] = value.copy()
             reported[offset[0] + int(case)] = np.array(state.qoi_reported[case])
-        return original(state, active, counts, rtol)
+        return original(state, active, counts, rtol, *rest)
 
     iteration.qoi_settled = recording
     stops: list[int] = []
@@ -108,8 +109,9 @@ def trace(model: ml.Model, case: dict[str, float]) -> None:
     original = iteration.qoi_settled
     rows: list[str] = []
 
-    def traced(state: Any, active: np.ndarray, counts: np.ndarray, rtol: float) -> Any:
-        settled = original(state, active, counts, rtol)
+    def traced(state: Any, active: np.ndarray, counts: np.ndarray, rtol: float,
+               *rest: Any) -> Any:
+        settled = original(state, active, counts, rtol, *rest)
         if len(active):
             a, n = int(active[0]), int(counts[0])
             order = (n + np.arange(iteration.RECENT)) % iteration.RECENT

@@ -36,7 +36,7 @@ from typing import Any
 import numpy as np
 
 import multilatin as ml
-from multilatin.latin import LatinOperators, LatinOptions, solve_latin
+from multilatin.latin import LatinOperators, LatinOptions, cross_points, solve_latin
 from multilatin.latin.local_stage import LocalStage
 from multilatin.latin.options import STUDY_QOI_RTOL
 from multilatin.study.runner import run_study
@@ -50,28 +50,20 @@ def components(operators: LatinOperators, chains: bool) -> list[Component]:
     points = operators.points
     a, b = points.pairs
     k = operators.search_direction
+    node = cross_points.tied_nodes(points)  # a point's node of the discrete problem
 
-    def node(p: int) -> tuple[int, tuple[float, ...]]:
+    def site(p: int) -> tuple[int, tuple[float, ...]]:  # its substructure's node
         return int(points.substructure[p]), tuple(np.round(points.coords[p], 6).tolist())
 
-    parent: dict[Any, Any] = {}
-
-    def root(x: Any) -> Any:
-        while parent.setdefault(x, x) != x:
-            x = parent[x]
-        return x
-
-    for j in range(a.size):
-        parent[root(node(a[j]))] = root(node(b[j]))
     grouped: dict[Any, list[int]] = {}
     for j in range(a.size):
-        grouped.setdefault(root(node(a[j])), []).append(j)
+        grouped.setdefault(node(int(a[j])), []).append(j)
     held = ((points.pair_held_side >= 0).any(axis=1) if points.pair_held_side.size
             else np.zeros(a.size, dtype=bool))
     out = []
     for pairs in grouped.values():
         members = sorted({int(p) for j in pairs for p in (a[j], b[j])})
-        nodes = sorted({node(p) for p in members})
+        nodes = sorted({site(p) for p in members})
         if len(pairs) < 2 or held[pairs].any() or (chains and len(pairs) >= len(nodes)):
             continue
         where = {p: i for i, p in enumerate(members)}
@@ -80,7 +72,7 @@ def components(operators: LatinOperators, chains: bool) -> list[Component]:
             opposite[r, where[a[j]]] = opposite[r, where[b[j]]] = 1.0
         totals = np.zeros((len(nodes), len(members)))
         for p in members:
-            totals[nodes.index(node(p)), where[p]] = 1.0
+            totals[nodes.index(site(p)), where[p]] = 1.0
         constraints = np.vstack([opposite, totals])
         maps = []
         for d in range(2):

@@ -37,7 +37,8 @@ def load(name: str) -> ml.Model:
     return ml.Model(ml.ModelSpec.from_string(head + "[[qoi]]" + kept[0], name="b1-r"))
 
 
-def _without(state: object, active: np.ndarray, counts: object, rtol: float) -> np.ndarray:
+def _without(state: object, active: np.ndarray, counts: object, rtol: float,
+             window: int = 0) -> np.ndarray:
     return np.ones(active.size, dtype=bool)
 
 
@@ -88,7 +89,7 @@ def main() -> None:
                                       ).qoi["R_stop"])  # type: ignore[arg-type]
             for label, rule in (("with", guarded), ("without", None)):
                 iteration.state_settled = rule or (  # type: ignore[assignment]
-                    lambda state, active, counts, rtol: np.ones(active.size, dtype=bool))
+                    lambda state, active, counts, rtol, window=0: np.ones(active.size, dtype=bool))
                 try:
                     result = model.solve(mu, options=options)
                 finally:

@@ -82,18 +82,26 @@ def main() -> None:
     elif args.windows:
         windows(args.model, [int(x) for x in args.windows.split(",")])
     elif args.early:
+        counts = [int(x) for x in args.early.split(",")]
+        if bad := [c for c in counts if not 6 <= c <= iteration.WINDOW + 5]:
+            raise SystemExit(f"--early: each value must lie in [6, {iteration.WINDOW + 5}], "
+                             f"got {bad[0]}")
         if args.margin is not None:
+            if not args.margin > 0:
+                raise SystemExit(f"--margin: must be > 0, got {args.margin}")
             iteration.EARLY_MARGIN = args.margin
         if args.early_rate is not None:
+            if not 0 <= args.early_rate < 1:
+                raise SystemExit(f"--early-rate: must lie in [0, 1), got {args.early_rate}")
             iteration.EARLY_RATE = args.early_rate
         variants(args.model, f"first QoI stop (margin {iteration.EARLY_MARGIN:g}, rate "
                              f"≥ {iteration.EARLY_RATE:g})",
-                 [(x, iteration, "EARLY_COUNT", int(x)) for x in args.early.split(",")])
+                 [(str(c), iteration, "EARLY_COUNT", c) for c in counts])
     elif args.steady:
         variants(args.model, "STEADY", [(f"{x}", sliding, "STEADY", float(x))
                                         for x in args.steady.split(",")])
     elif args.without_state_guard:
-        def always(state: Any, active: Any, counts: Any, rtol: float) -> Any:
+        def always(state: Any, active: Any, counts: Any, rtol: float, window: int = 0) -> Any:
             return np.ones(active.size, dtype=bool)
 
         variants(args.model, "state guard", [("on", iteration, "state_settled",

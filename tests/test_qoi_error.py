@@ -271,7 +271,7 @@ def test_qoi_stopping_waits_for_the_state_when_its_qois_stall(monkeypatch) -> No
     assert guarded.converged and guarded.stopped_on_qoi
     assert float(guarded.qoi["R_stop"]) == pytest.approx(exact, rel=1e-3)  # type: ignore[arg-type]
     monkeypatch.setattr(iteration, "state_settled",
-                        lambda state, active, counts, rtol: np.ones(active.size, dtype=bool))
+                        lambda state, active, counts, rtol, window=0: np.ones(active.size, dtype=bool))
     unguarded = model.solve(mu, options=options)
     assert unguarded.iterations < guarded.iterations
     assert abs(float(unguarded.qoi["R_stop"]) - exact) > 1e-2 * exact  # type: ignore[arg-type]

@@ -22,6 +22,8 @@ The compiled kernel merges inside (``kernels.contact_and_stops``: ``group_pairs`
 
 from __future__ import annotations
 
+from collections import OrderedDict
+from collections.abc import Callable
 from typing import Any
 
 import numpy as np
@@ -47,26 +49,12 @@ def cross_point_groups(points: InterfacePoints, k: FloatArray | None = None,
     merged pair's: settled steps restart from it) or contact law (``laws``: arrays (n_cases,
     n_pairs), the friction coefficients and gaps of a batch's cases) differs from the
     group's first; empty with ``MERGE`` off."""
-    a, b = points.contact_pairs
-    if not MERGE or a.size < 2:
-        return np.zeros((0, 0), dtype=np.int64), np.zeros((0, 0))
-    held = np.zeros(a.size, dtype=bool)
-    held[points.corner] = True
-    if points.held_side.size:
-        held |= points.held_side >= 0
-    node = _tied_nodes(points)
-    keys: dict[tuple[Any, Any], list[int]] = {}
-    for j in np.flatnonzero(~held).tolist():
-        keys.setdefault((node(int(a[j])), node(int(b[j]))), []).append(j)
+    a = points.contact_pairs[0]
     groups = []
-    normals = points.normals
-    for members in keys.values():
+    for members in _candidates(points, k) if MERGE and a.size > 1 else []:
         first = members[0]
         members = [j for j in members
-                   if np.allclose(normals[a[j]], normals[a[first]], rtol=0.0, atol=1e-9)
-                   and (k is None or (np.array_equal(k[a[j]], k[a[first]])
-                                      and np.array_equal(k[b[j]], k[b[first]])))
-                   and all(np.array_equal(law[:, j], law[:, first]) for law in laws)]
+                   if all(np.array_equal(law[:, j], law[:, first]) for law in laws)]
         if len(members) > 1:
             groups.append(members)
     if not groups:
@@ -79,16 +67,56 @@ def cross_point_groups(points: InterfacePoints, k: FloatArray | None = None,
     return pairs, share / share.sum(axis=1, keepdims=True)
 
 
-def _tied_nodes(points: InterfacePoints) -> Any:
+#: the groups of the geometries seen last (``_candidates``): a study builds a local stage
+#: for every batch of cases that joins, on the same few geometries
+_KEPT: OrderedDict[tuple[int, ...], tuple[tuple[Any, ...], list[list[int]]]] = OrderedDict()
+_KEPT_SIZE = 8
+
+
+def _candidates(points: InterfacePoints, k: FloatArray | None) -> list[list[int]]:
+    """``cross_point_groups`` before the contact laws: what the geometry and the search
+    direction decide, worked out once per geometry (the cases of a geometry share their
+    points' arrays, ``interfaces.with_contact_data``)."""
+    arrays = (points.pairs[0], points.contact_pairs[0], points.coords, points.normals, k)
+    key = tuple(id(x) for x in arrays)
+    kept = _KEPT.get(key)
+    if kept is not None and all(x is y for x, y in zip(kept[0], arrays, strict=True)):
+        _KEPT.move_to_end(key)
+        return kept[1]
+    a, b = points.contact_pairs
+    held = np.zeros(a.size, dtype=bool)
+    held[points.corner] = True
+    if points.held_side.size:
+        held |= points.held_side >= 0
+    node = tied_nodes(points)
+    keys: dict[tuple[Any, Any], list[int]] = {}
+    for j in np.flatnonzero(~held).tolist():
+        keys.setdefault((node(int(a[j])), node(int(b[j]))), []).append(j)
+    normals, groups = points.normals, []
+    for members in keys.values():
+        first = members[0]
+        members = [j for j in members
+                   if np.allclose(normals[a[j]], normals[a[first]], rtol=0.0, atol=1e-9)
+                   and (k is None or (np.array_equal(k[a[j]], k[a[first]])
+                                      and np.array_equal(k[b[j]], k[b[first]])))]
+        if len(members) > 1:
+            groups.append(members)
+    _KEPT[key] = (arrays, groups)
+    while len(_KEPT) > _KEPT_SIZE:
+        _KEPT.popitem(last=False)
+    return groups
+
+
+def tied_nodes(points: InterfacePoints) -> Callable[[int], Any]:
     """A function of an interface point: its node of the discrete problem — its
     substructure's node at its position, joined through the perfect pairs there with the
     nodes of the other substructures (as the monolithic reference merges them)."""
     scale = max(float(np.ptp(points.coords)), 1.0)
+    at = np.round(points.coords / scale * 1e9).astype(np.int64).tolist()
     parent: dict[Any, Any] = {}
 
     def own(p: int) -> tuple[int, tuple[int, ...]]:
-        at = np.round(points.coords[p] / scale * 1e9).astype(np.int64)
-        return int(points.substructure[p]), tuple(at.tolist())
+        return int(points.substructure[p]), tuple(at[p])
 
     def root(x: Any) -> Any:
         while parent.setdefault(x, x) != x:

@@ -162,8 +162,7 @@ def qoi_settled(state: IterationState, active: IntArray, counts: IntArray, rtol:
     # the bound, the case goes on without the full estimate
     settled = np.all((np.abs(values - state.qoi_recent[active, (counts - 3) % RECENT])
                       <= bound) | ignored, axis=(1, 2))
-    settled &= (state_settled(state, active, counts, rtol) if window == WINDOW
-                else state_settled(state, active, counts, rtol, window))
+    settled &= state_settled(state, active, counts, rtol, window)
     candidates = np.flatnonzero(settled)
     if candidates.size:
         # its last window + 5 iterations, oldest first (iteration i sits at (i − 1) % RECENT)
