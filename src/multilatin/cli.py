@@ -103,6 +103,10 @@ def _add_latin_arguments(parser: argparse.ArgumentParser, qoi_rtol: float | None
     parser.add_argument("--no-sliding-jumps", action="store_true",
                         help="do not extrapolate a block's steady sliding to the stop or "
                         "contact it closes (LatinOptions.extrapolate_sliding)")
+    parser.add_argument("--rigid-balance", action="store_true",
+                        help="balance each free body's rigid motions after every local "
+                        "stage: fewer iterations, each dearer (LatinOptions.rigid_balance, "
+                        "docs/convergence.md)")
     parser.add_argument("--settled-steps", type=float, default=d.settled_steps,
                         metavar="FACTOR", help="stop iterating a case's leading load steps "
                         "once each one's share of eta has stayed below FACTOR x tol for 3 "
@@ -297,6 +301,7 @@ def _latin_options(args: argparse.Namespace) -> LatinOptions:
                         qoi_rtol=args.qoi_rtol,
                         relaxation=args.relaxation, macro=not args.no_macro,
                         extrapolate_sliding=not args.no_sliding_jumps,
+                        rigid_balance=args.rigid_balance,
                         settled_steps=args.settled_steps,
                         corner_stiffening=args.corner_stiffening,
                         micro_stiffening=args.micro_stiffening,

@@ -134,6 +134,8 @@ class NumpyFields:
         self.first: IntArray = np.zeros(w_hat.shape[0], dtype=np.int64)
         self.calm: IntArray = np.zeros(w_hat.shape[:2], dtype=np.int64)
         self.step_gaps: FloatArray = np.zeros(w_hat.shape[:2])
+        #: the fields before ``moved_forces``, for ``take_back``
+        self._before_move: tuple[Any, ...] = ()
 
     def linear_stage(self, relaxation: FloatArray) -> None:
         if self.first.any():
@@ -334,6 +336,59 @@ class NumpyFields:
 
     def host(self, rows: FloatArray) -> FloatArray:
         return np.asarray(rows)
+
+    def trial_forces(self, dw: FloatArray, cases: IntArray) -> FloatArray:
+        """F̂ of the local stage of (W + dw, F) for the active cases at positions ``cases``
+        (``dw``: theirs, (n, n_steps, n_points, 2)), the engine's own fields left as they
+        are: the rigid balance's trials (``rigid_balance``)."""
+        forces: FloatArray = self._local_of(cases, dw)[1]
+        return forces
+
+    def live_steps(self) -> npt.NDArray[np.bool_]:
+        """Per active case and step: still iterated (``settle``)."""
+        return self._live_steps()
+
+    def moved_forces(self, dw: FloatArray, cases: IntArray) -> FloatArray:
+        """W ← W + ``dw`` for the active cases at positions ``cases``, then their local
+        stage; returns their F̂. ``take_back`` restores the cases it names."""
+        assert self.w is not None
+        self._before_move = (cases, self.w[cases], self.w_hat[cases], self.f_hat[cases],
+                             None if self.side_macro is None else self.side_macro[cases])
+        w_hat, f_hat, side_macro = self._local_of(cases, dw)
+        self.w = np.array(self.w)  # its own array (not the linear stage's output)
+        self.w[cases] += np.where(self._live_steps(cases)[..., None, None], dw, 0.0)
+        self.w_hat[cases], self.f_hat[cases] = w_hat, f_hat
+        if self.side_macro is not None:
+            self.side_macro[cases] = side_macro
+        forces: FloatArray = f_hat
+        return forces
+
+    def take_back(self, cases: IntArray) -> None:
+        """The active cases at positions ``cases`` (of the last ``moved_forces``) as they
+        were before it."""
+        moved, *before = self._before_move
+        where = np.flatnonzero(np.isin(moved, cases))
+        for name, old in zip(("w", "w_hat", "f_hat", "side_macro"), before, strict=True):
+            if old is not None:
+                getattr(self, name)[moved[where]] = old[where]
+
+    def _local_of(self, cases: IntArray, dw: FloatArray) -> tuple[Any, Any, Any]:
+        """(Ŵ, F̂, Eᵀ M0 Ŵ) of the local stage of (W + dw, F) for the active cases at
+        positions ``cases`` alone (``dw``: theirs), the engine's fields left as they are."""
+        assert self.w is not None and self.f is not None
+        kept = (self.local, self.w, self.f, self.w_hat, self.f_hat, self.side_macro,
+                self.first)
+        self.local = self.local.subset(cases)
+        self.w = self.w[cases] + np.where(self._live_steps(cases)[..., None, None], dw, 0.0)
+        self.f, self.w_hat, self.f_hat = self.f[cases], self.w_hat[cases], self.f_hat[cases]
+        self.side_macro = None if self.side_macro is None else self.side_macro[cases]
+        self.first = self.first[cases]
+        try:
+            self.local_stage()
+            return self.w_hat, self.f_hat, self.side_macro
+        finally:
+            (self.local, self.w, self.f, self.w_hat, self.f_hat, self.side_macro,
+             self.first) = kept
 
     def join(self, local: LocalStage, w_hat: FloatArray, f_hat: FloatArray,
              macro_data: FloatArray | None, functionals: list[QoiFunctionals] | None,

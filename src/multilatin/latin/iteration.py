@@ -24,6 +24,7 @@ from .guards import DRIFT_WINDOW, damp_stagnating, drifts
 from .local_stage import LocalStage
 from .operators import LatinOperators
 from .options import LatinOptions
+from .rigid_balance import RigidBalance
 from .sliding import SlidingExtrapolation
 from .tracking import WINDOW, QoiFunctionals, error_estimates, remaining_change
 
@@ -227,6 +228,7 @@ class BatchIterations:
                         if options.extrapolate_sliding and not self.anderson else None)
         self.rre = (ReducedRankExtrapolation(options.rre_cycle, *weights, n_cases)
                     if options.acceleration == "rre" else None)
+        self.balance = RigidBalance(ops) if options.rigid_balance else None
 
     def _reported(self, functionals: list[QoiFunctionals] | None,
                   shape: tuple[int, ...]) -> npt.NDArray[np.bool_]:
@@ -290,6 +292,8 @@ class BatchIterations:
         self.engine.renumber()
         if self.sliding is not None:
             self.sliding.renumber(kept, self.local)
+        if self.balance is not None:
+            self.balance.renumber(kept)
         self.active = np.arange(kept.size)
         return kept
 
@@ -372,6 +376,9 @@ class BatchIterations:
             out.stopped_on_qoi[active[on_qoi]] = True
             done |= on_qoi
         leaving = active[done]
+        if self.balance is not None:
+            for case in leaving.tolist():
+                self.balance.forget(case)
         if leaving.size:
             fields = engine.fields(np.flatnonzero(done))
             for i, case in enumerate(leaving.tolist()):
@@ -390,6 +397,9 @@ class BatchIterations:
                                      engine):
                 if self.rre is not None:
                     self.rre.forget(case)
+        if self.balance is not None and self.active.size:
+            assert isinstance(engine, NumpyFields)
+            self.balance(engine, self.active)
         out.t_linear, out.t_macro, out.t_local = engine.t_linear, engine.t_macro, engine.t_local
         return leaving
 

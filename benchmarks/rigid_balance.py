@@ -1,0 +1,121 @@
+"""Issue 15 (session 36): the rigid balance (``LatinOptions.rigid_balance``) side by side
+with today's default, in one process.
+
+After every local stage, the rigid motions each free cluster of substructures can make are
+solved for so that ŝ is in equilibrium on them (``latin.rigid_balance``). Cold solves at
+the four pairs of ``benchmarks/convergence.py`` for b1, b1-9 and b3, to the default
+tolerance (η < 1e-6) and under the studies' QoI rule: iterations, time and R_stop's error
+against a tight solve (η < 1e-10, without the balance), relative; with ``--studies``, the
+main job's B1 13 × 13 study and B3's 5 × 5 hole positions, multiresolution and cold,
+iterations and time (each case's time summed for the cold side), R_stop's largest
+difference between the two; with ``--models``, the other bundled models at their defaults.
+
+    python benchmarks/rigid_balance.py [--models b1 b1-9 b3] [--studies] [--bundled]
+    python benchmarks/rigid_balance.py --models --studies     # the studies alone
+"""
+
+from __future__ import annotations
+
+import argparse
+import time
+
+import numpy as np
+
+import multilatin as ml
+from multilatin.latin import LatinOperators, LatinOptions, solve_latin
+from multilatin.latin.options import STUDY_QOI_RTOL
+from multilatin.parameters import Grid
+from multilatin.study.runner import run_study
+
+PAIRS = [(0.3, 0.0), (0.1, 0.3), (0.35, 0.25), (0.3, 0.15)]
+STUDIES = {"B1 13 × 13": ("b1", ["mu1=0:0.6:13", "mu2=0:0.6:13"]),
+           "B3 5 × 5 positions": ("b3", ["xc=23:27:5", "yc=73:77:5", "rc=3"])}
+
+
+def pairs(models: list[str]) -> None:
+    print("| model | μ1, μ2 | rule | default: iterations, time (s), R_stop error "
+          "| rigid balance |")
+    print("|---|---|---|---|---|")
+    for name in models:
+        model = ml.load_model(name)
+        for mu1, mu2 in PAIRS:
+            assembly = model.assemble({"mu1": mu1, "mu2": mu2})
+            operators = LatinOperators(assembly, LatinOptions())
+            tight = solve_latin(assembly, LatinOptions(tol=1e-10, max_iter=20000),
+                                operators=operators)
+            exact = float(tight.qoi["R_stop"])
+            for rule, rtol in (("η < 1e-6", None), ("QoI rule", STUDY_QOI_RTOL)):
+                cells = []
+                for on in (False, True):
+                    options = LatinOptions(rigid_balance=on, qoi_rtol=rtol)
+                    start = time.perf_counter()
+                    result = solve_latin(assembly, options, operators=operators, check=False)
+                    seconds = time.perf_counter() - start
+                    error = abs(float(result.qoi["R_stop"]) - exact) / max(abs(exact), 1.0)
+                    cells.append(f"{result.iterations}, {seconds:.3f}, {error:.1e}")
+                print(f"| {name} | {mu1}, {mu2} | {rule} | {cells[0]} | {cells[1]} |",
+                      flush=True)
+
+
+def bundled() -> None:
+    print("\n| model | default: iterations, time (s) | rigid balance | largest QoI "
+          "difference (relative) |")
+    print("|---|---|---|---|")
+    for name in ("b0", "b2", "punch", "slide", "lug", "roller"):
+        model = ml.load_model(name)
+        assembly = model.assemble({})
+        operators = LatinOperators(assembly, LatinOptions())
+        results, cells = [], []
+        for on in (False, True):
+            start = time.perf_counter()
+            result = solve_latin(assembly, LatinOptions(rigid_balance=on),
+                                 operators=operators, check=False)
+            cells.append(f"{result.iterations}, {time.perf_counter() - start:.3f}")
+            results.append(result)
+        worst = max(float(np.max(np.abs(np.ravel(results[1].qoi[q])
+                                        - np.ravel(results[0].qoi[q]))))
+                    / max(float(np.max(np.abs(results[0].qoi[q]))), 1e-12)
+                    for q in results[0].qoi)
+        print(f"| {name} | {cells[0]} | {cells[1]} | {worst:.1e} |", flush=True)
+
+
+def studies() -> None:
+    print("\n| study | default: multiresolution iterations, time (s); cold iterations, "
+          "Σ time (s) | rigid balance | R_stop's largest difference (N) |")
+    print("|---|---|---|---|")
+    for label, (name, spec) in STUDIES.items():
+        model = ml.load_model(name)
+        grid = Grid.parse(spec)
+        cells, values = [], []
+        for on in (False, True):
+            options = LatinOptions(rigid_balance=on, qoi_rtol=STUDY_QOI_RTOL)
+            result = run_study(model, grid, options=options,
+                               modes=("multiresolution", "cold"), progress=False)
+            warm, cold = result.mode_records("multiresolution"), result.mode_records("cold")
+            cells.append(f"{sum(r['iterations'] for r in warm)}, "
+                         f"{result.elapsed_s['multiresolution']:.2f}; "
+                         f"{sum(r['iterations'] for r in cold)}, "
+                         f"{sum(r['wall_s'] for r in cold):.2f}")
+            values.append(np.array([r["qoi"]["R_stop"] if r["converged"] else np.nan
+                                    for r in warm + cold], dtype=float))
+        difference = float(np.nanmax(np.abs(values[1] - values[0])))
+        print(f"| {label} | {cells[0]} | {cells[1]} | {difference:.3f} |", flush=True)
+
+
+def main() -> None:
+    parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    parser.add_argument("--models", nargs="*", default=["b1", "b1-9", "b3"])
+    parser.add_argument("--studies", action="store_true")
+    parser.add_argument("--bundled", action="store_true")
+    args = parser.parse_args()
+    ml.load_model("b1").solve()  # warm-up: imports, kernels
+    if args.models:
+        pairs(args.models)
+    if args.bundled:
+        bundled()
+    if args.studies:
+        studies()
+
+
+if __name__ == "__main__":
+    main()
