@@ -83,8 +83,8 @@ class LatinOptions:
         substructures can make are solved for so that ŝ is in equilibrium on them
         (``rigid_balance``): a body's rigid slide, held back by the search direction alone,
         no longer decays by a fraction per iteration. The fixed point is unchanged. Cold
-        B1-family solves under the studies' QoI rule take 20–40 % fewer iterations, the B1
-        13 × 13 study 21 % fewer, but each iteration costs 1.4–2.4 times as much (local
+        B1-family solves under the studies' QoI rule take up to 40 % fewer iterations, the
+        B1 13 × 13 study 25 % fewer, but each iteration costs 1.4–2.4 times as much (local
         stages of its trials), so it is off by default (docs/convergence.md, session 36).
         NumPy backend and relaxation only.
     tangential_ratio: k_T / k_N on contact interfaces and stops (separate normal and

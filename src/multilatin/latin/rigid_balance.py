@@ -15,18 +15,24 @@ load step:
     r_j(τ) = Σ_p w_p F̂_p(W + Σ_i τ_i φ_i, F) · φ_j(p) = 0
 
 (φ: the cluster's rigid modes on its interface points, w: M0's weights, F̂ from the local
-stage of the moved state). One Newton step with a finite-difference Jacobian (one local
-stage per mode, all cases and steps at once), then, along a mode whose residual did not
-halve because nothing resists it (a free slide: r constant in τ), steps doubling until r
-changes sign or halves and one secant step inside that bracket. A case whose residual
-halves moves: W ← W + Σ τ_i φ_i with F kept (a rigid motion of a free cluster changes no
-stress and no macro balance, so s stays admissible), then its local stage again — the
-affine step and local stage of the sliding jumps (``latin.sliding``). At the fixed point
+stage of the moved state). One Newton step on a Jacobian measured by finite differences
+(one local stage per mode, of the cases that need it: joining, every ``REFRESH``
+iterations, after a step that lowered nothing), then, along a mode nothing resists (its
+Jacobian's diagonal near zero: a free slide, r constant in τ), steps doubling until r
+changes sign or halves and one secant step inside that bracket; the step halved up to
+twice. A case whose residual falls moves: W ← W + Σ τ_i φ_i with F kept (a rigid motion of
+a free cluster changes no stress and no macro balance, so s stays admissible), then its
+local stage again — the affine step and local stage of the sliding jumps
+(``latin.sliding``). η is read before the move, on the linear stage's own s, so a case
+that stops is converged as before; at the fixed point
 r(0) = Σ_p w_p F_p · φ_j = 0 (F is admissible), so the converged answer is unchanged.
 
-Measured (docs/convergence.md, session 36): under the studies' QoI rule the μ2 line of
-B1 (μ1 = 0.3, warm from the neighbour) 47–63 → 17–26 iterations per warm case, cold b1
-50–76 → 30–60; the remaining tail (0.87–0.91 per iteration) is not a rigid slide.
+Measured (docs/convergence.md, session 36): under the studies' QoI rule cold b1 57 / 74 /
+52 / 62 → 35 / 49 / 38 / 54 iterations, the B1 13 × 13 study 4 395 → 3 295, the B1 μ2 line
+521 → 351; but a move is a local stage, which costs on B1 what a linear stage does, so an
+iteration costs 1.4–2.4 times as much and the studies take longer: off by default
+(``LatinOptions.rigid_balance``). The remaining tail (0.87–0.91 per iteration) is not a
+rigid slide.
 """
 
 from __future__ import annotations
@@ -41,8 +47,8 @@ from ..fem.elasticity import FloatArray, IntArray
 from .engine import NumpyFields
 from .operators import LatinOperators
 
-__all__ = ["ACCEPT", "DAMPING", "FLAT", "FREE", "MAX_DOUBLINGS", "PROBE", "REFRESH", "REST",
-           "STEADY_CALLS", "STEADY_RATIO", "RigidBalance", "RigidClusters",
+__all__ = ["ACCEPT", "DAMPING", "FLAT", "FREE", "FREE_START", "MAX_DOUBLINGS", "PROBE",
+           "REFRESH", "REST", "STEADY_CALLS", "STEADY_RATIO", "RigidBalance", "RigidClusters",
            "free_rigid_modes"]
 
 #: a case moves when its residual's norm is at most this fraction of what it was
@@ -50,11 +56,14 @@ ACCEPT = 0.5
 #: the finite-difference step and the first free-slide step, as a fraction of the case's
 #: largest interface displacement
 PROBE = 1e-4
-#: the most doublings of a free slide's step (2²⁴ × ``PROBE``: far beyond any motion)
+#: the most doublings of a free slide's step
 MAX_DOUBLINGS = 24
 #: a mode's residual is flat (nothing resists the motion) where a step changes it by less
 #: than this fraction of its size
 FLAT = 0.05
+#: a free slide's first step, as a fraction of the case's largest interface displacement
+#: (from ``PROBE``: the B1 study 3 497 iterations; from 1e-2: 3 295, fewer doublings)
+FREE_START = 1e-2
 #: a mode is free (a slide: the local stage fixes every force along it) where its
 #: Jacobian's diagonal is below this fraction of the case's largest
 FREE = 1e-3
@@ -273,7 +282,7 @@ class RigidBalance:
                      ) -> tuple[FloatArray, np.ndarray]:
         """Per mode that nothing resists (its Jacobian's diagonal below ``FREE`` times the
         case's largest) and whose residual is not zero: steps along r doubling from
-        ``PROBE`` until r changes sign or halves (a stretch where r stays flat moves the
+        ``FREE_START`` until r changes sign or halves (a stretch where r stays flat moves the
         start on only where r changed), then one secant step in that bracket; only for the
         rows ``allowed``. Returns τ with those modes' amplitudes set, and the rows
         searched."""
@@ -291,7 +300,7 @@ class RigidBalance:
             low, r_low = base.copy(), start.copy()
             high, r_high = low.copy(), r_low.copy()
             found = np.zeros_like(open_)
-            step = scale[which, None] * np.ones_like(start)
+            step = FREE_START / PROBE * scale[which, None] * np.ones_like(start)
             for _ in range(MAX_DOUBLINGS):
                 moving = open_ & ~found
                 if not moving.any():
