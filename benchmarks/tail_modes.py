@@ -101,12 +101,14 @@ def main() -> None:
     parser.add_argument("--each-pair", action="store_true",
                         help="a cross point's contact pairs each on its own")
     parser.add_argument("--pairs", nargs="+", default=None, help="μ1,μ2 pairs")
+    parser.add_argument("--rigid-balance", action="store_true",
+                        help="LatinOptions(rigid_balance=True): the tail that is left")
     args = parser.parse_args()
     if args.each_pair:
         cross_points.MERGE = False
     cases = (CASES if args.pairs is None else
              [tuple(float(x) for x in pair.split(",")) for pair in args.pairs])
-    options = ml.LatinOptions()
+    options = ml.LatinOptions(rigid_balance=args.rigid_balance)
     for name in args.models:
         model = ml.load_model(name)
         for mu1, mu2 in cases:
