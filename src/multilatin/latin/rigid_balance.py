@@ -155,10 +155,11 @@ def free_rigid_modes(coords: FloatArray, held: np.ndarray) -> FloatArray:
 class RigidBalance:
     """After the local stage, each active case's free clusters moved rigidly so that ŝ is
     in equilibrium on their rigid modes (module docstring). The Jacobian of a case's
-    residual is measured by finite differences (one local stage per mode, every case at
-    once) when the case has none, every ``REFRESH`` iterations, and after a step that did
-    not halve its residual; in between one Newton step costs one local stage, whose ŝ is
-    kept. ``moves``: case moves in all; ``trials``: local stages it ran."""
+    residual is measured by finite differences (one local stage per mode, of the cases
+    that need it) when the case has none, every ``REFRESH`` iterations, and after a step
+    that lowered nothing; a move then costs a local stage of the cases moved (twice more
+    where the step is halved). ``moves``: case moves in all; ``trials``: local stages it
+    ran."""
 
     def __init__(self, ops: LatinOperators) -> None:
         self.clusters = RigidClusters(ops)
@@ -233,6 +234,8 @@ class RigidBalance:
         size = np.zeros(rows.size)  # the largest amplitude each case moved by
         for attempt, damping in enumerate(DAMPING):
             which = np.flatnonzero(pending)
+            if which.size == 0:
+                break
             self.trials += 1
             trial = damping * tau[which]
             forces = engine.moved_forces(clusters.motion(trial), rows[which])
