@@ -137,7 +137,7 @@ def _clusters_of(assembly: Assembly, points: InterfacePoints) -> list[_Cluster]:
         centre = coords.mean(axis=0)
         size = float(np.ptp(coords, axis=0).max()) or 1.0
         fixed = points.boundary[inside[points.boundary]]
-        rows = _rigid_rows(points.coords[fixed], centre, size)[
+        rows = rigid_rows(points.coords[fixed], centre, size)[
             points.boundary_is_displacement[inside[points.boundary]]]
         held = rows.T @ rows  # prescribed displacements: the same at every step
         if np.linalg.matrix_rank(held, tol=1e-10 * max(np.abs(held).max(), 1e-300)) == 3:
@@ -147,7 +147,7 @@ def _clusters_of(assembly: Assembly, points: InterfacePoints) -> list[_Cluster]:
         p = np.concatenate([a[own_a], b[own_b], points.stops[own_stops]])
         partner = np.concatenate([b[own_a], a[own_b], np.full(int(own_stops.sum()), -1)])
         normal = points.normals[p]
-        modes = _rigid_rows(points.coords[p], centre, size)  # (n, 2, 3)
+        modes = rigid_rows(points.coords[p], centre, size)  # (n, 2, 3)
         out.append(_Cluster(
             tuple(sorted({assembly.substructures[s].body for s in group})), centre, size,
             held, p, partner,
@@ -360,7 +360,7 @@ def _friction_reserve(velocity: FloatArray, into: FloatArray, normal: FloatArray
     return forward, backward
 
 
-def _rigid_rows(x: FloatArray, centre: FloatArray, size: float) -> FloatArray:
+def rigid_rows(x: FloatArray, centre: FloatArray, size: float) -> FloatArray:
     """Velocity components of the three rigid modes at points ``x``: shape (n, 2, 3), the
     rotation scaled by ``size`` so that the three modes weigh alike."""
     rows = np.zeros((x.shape[0], 2, 3))

@@ -355,8 +355,7 @@ class NumpyFields:
         self._before_move = (cases, self.w[cases], self.w_hat[cases], self.f_hat[cases],
                              None if self.side_macro is None else self.side_macro[cases])
         w_hat, f_hat, side_macro = self._local_of(cases, dw)
-        self.w = np.array(self.w)  # its own array (not the linear stage's output)
-        self.w[cases] += np.where(self._live_steps(cases)[..., None, None], dw, 0.0)
+        self.shift(cases, list(dw), list(np.zeros_like(dw)))
         self.w_hat[cases], self.f_hat[cases] = w_hat, f_hat
         if self.side_macro is not None:
             self.side_macro[cases] = side_macro

@@ -40,21 +40,17 @@ from __future__ import annotations
 from typing import Any
 
 import numpy as np
-from scipy.sparse import coo_matrix
-from scipy.sparse.csgraph import connected_components
 
+from ..decomposition.uniqueness import clusters, rigid_rows
 from ..fem.elasticity import FloatArray, IntArray
 from .engine import NumpyFields
 from .operators import LatinOperators
 
-__all__ = ["ACCEPT", "DAMPING", "FLAT", "FREE", "FREE_START", "MAX_DOUBLINGS", "PROBE",
+__all__ = ["DAMPING", "FLAT", "FREE", "FREE_START", "MAX_DOUBLINGS", "PROBE",
            "REFRESH", "REST", "STEADY_CALLS", "STEADY_RATIO", "RigidBalance", "RigidClusters",
            "free_rigid_modes"]
 
-#: a case moves when its residual's norm is at most this fraction of what it was
-ACCEPT = 0.5
-#: the finite-difference step and the first free-slide step, as a fraction of the case's
-#: largest interface displacement
+#: the finite-difference step, as a fraction of the case's largest interface displacement
 PROBE = 1e-4
 #: the most doublings of a free slide's step
 MAX_DOUBLINGS = 24
@@ -86,23 +82,13 @@ class RigidClusters:
     modes each is free to make, on its interface points (module docstring)."""
 
     def __init__(self, ops: LatinOperators) -> None:
-        pts, assembly = ops.points, ops.assembly
-        n_sub = len(assembly.substructures)
-        a, b = pts.pairs
-        links = [(pts.substructure[a], pts.substructure[b])]
-        for i in pts.macro_only:
-            sides = [side.substructure for side in assembly.interfaces[i].sides]
-            links.append((np.array(sides[:1]), np.array(sides[1:2])))
-        rows = np.concatenate([x for x, _ in links]).astype(np.int64)
-        cols = np.concatenate([y for _, y in links]).astype(np.int64)
-        graph = coo_matrix((np.ones(rows.size), (rows, cols)), shape=(n_sub, n_sub))
-        _, cluster_of = connected_components(graph, directed=False)
+        pts = ops.points
         held = np.zeros((pts.n_points, 2), dtype=bool)
         held[pts.boundary] = pts.boundary_is_displacement
         #: per cluster with a free rigid mode: (its points, its modes (m, n, 2))
         self.clusters: list[tuple[IntArray, FloatArray]] = []
-        for cluster in np.unique(cluster_of):
-            points = np.flatnonzero(cluster_of[pts.substructure] == cluster)
+        for group in clusters(ops.assembly):
+            points = np.flatnonzero(np.isin(pts.substructure, group))
             if points.size == 0:
                 continue
             modes = free_rigid_modes(pts.coords[points], held[points])
@@ -138,11 +124,7 @@ def free_rigid_modes(coords: FloatArray, held: np.ndarray) -> FloatArray:
     orthonormal combination of the three."""
     centre = coords.mean(axis=0)
     size = max(float(np.ptp(coords, axis=0).max()), 1e-300)
-    rigid = np.zeros((3, coords.shape[0], 2))
-    rigid[0, :, 0] = 1.0
-    rigid[1, :, 1] = 1.0
-    rigid[2, :, 0] = -(coords[:, 1] - centre[1]) / size
-    rigid[2, :, 1] = (coords[:, 0] - centre[0]) / size
+    rigid = rigid_rows(coords, centre, size).transpose(2, 0, 1)  # (3, n, 2)
     constraints = rigid[:, held].T  # (n_held, 3): each mode's value where held
     if constraints.size == 0:
         return rigid
@@ -166,8 +148,8 @@ class RigidBalance:
         self.moves = 0
         self.trials = 0
         #: per case (its number in the batch): its Jacobian and the Jacobian's
-        #: pseudo-inverse (2, n_steps, M, M), and their age
-        self.jacobians: dict[int, tuple[FloatArray, int]] = {}
+        #: pseudo-inverse, each (n_steps, M, M), and their age
+        self.jacobians: dict[int, tuple[FloatArray, FloatArray, int]] = {}
         #: per case: calls left without a free-slide search (after one that failed)
         self.quiet: dict[int, int] = {}
         #: per case: calls left without any balance (after a fresh Jacobian's step failed)
@@ -213,17 +195,18 @@ class RigidBalance:
             return np.where(live[which], clusters.residual(forces), 0.0)
 
         stale = np.flatnonzero([int(c) not in self.jacobians
-                                or self.jacobians[int(c)][1] >= REFRESH for c in numbers])
+                                or self.jacobians[int(c)][2] >= REFRESH for c in numbers])
         if stale.size:
             measured = self._jacobian(evaluate, r0, scale, stale)
             inverse = np.linalg.pinv(measured, rcond=1e-8)
             for i, row in enumerate(stale.tolist()):
-                self.jacobians[int(numbers[row])] = (np.stack([measured[i], inverse[i]]), 0)
-        both = np.stack([self.jacobians[int(c)][0] for c in numbers])
-        jacobian, inverse = both[:, 0], both[:, 1]
-        fresh = np.array([self.jacobians[int(c)][1] == 0 for c in numbers])
+                self.jacobians[int(numbers[row])] = (measured[i], inverse[i], 0)
+        jacobian = np.stack([self.jacobians[int(c)][0] for c in numbers])
+        inverse = np.stack([self.jacobians[int(c)][1] for c in numbers])
+        fresh = np.array([self.jacobians[int(c)][2] == 0 for c in numbers])
         for c in numbers.tolist():
-            self.jacobians[c] = (self.jacobians[c][0], self.jacobians[c][1] + 1)
+            own, own_inverse, age = self.jacobians[c]
+            self.jacobians[c] = (own, own_inverse, age + 1)
             self.quiet[c] = max(self.quiet.get(c, 0) - 1, 0)
         tau = -np.einsum("csij,csj->csi", inverse, r0)
         quiet = np.array([self.quiet[int(c)] > 0 for c in numbers])
