@@ -25,6 +25,7 @@ from .local_stage import LocalStage
 from .operators import LatinOperators
 from .options import LatinOptions
 from .rigid_balance import RigidBalance
+from .sliding import WINDOW as SLIDING_WINDOW
 from .sliding import SlidingExtrapolation
 from .tracking import WINDOW, QoiFunctionals, error_estimates, remaining_change
 
@@ -41,6 +42,17 @@ IterationObserver = Callable[[int, IntArray, FloatArray, FloatArray], None]
 ETA_STOP_UNDER = 0.1
 #: the iterations of tracked QoIs an error estimate reads (``tracking.error_estimates``)
 RECENT = WINDOW + 5
+#: with QoI stopping, no jump (``sliding``) for a case whose QoIs' estimates would fall
+#: below their bounds within ``RECENT`` iterations at the indicator's rate: a jump holds
+#: the case that long (``BatchIterations._stopping_soon``; session 37: b1-9 and b3 at
+#: (0.3, 0.15) 96 → 82 / 83 cold iterations, a jump two iterations before the stop)
+JUMP_HOLD = True
+#: a leading load step that settles within ``RECENT`` iterations of a jump keeps an
+#: estimate read after the jump alone (``IterationState.settled``'s ``since``; session 37:
+#: step 1 of b1 (0.3, 0.1), settled four iterations after a jump, kept an estimate read
+#: across it, 4 000 × its error, which held the warm start from μ2 = 0.05 until η < 1e-7:
+#: 71 iterations instead of 56)
+ESTIMATE_AFTER_JUMPS = True
 
 
 @dataclass
@@ -99,17 +111,27 @@ class IterationState:
         """The tracked QoIs of the case's last iterations (at most ``RECENT``), oldest first."""
         return np.asarray(self.qoi_recent[case, _held(iterations)], dtype=np.float64)
 
-    def settled(self, case: int, iterations: int, steps: slice) -> None:
+    def settled(self, case: int, iterations: int, steps: slice,
+                since: int | None = None) -> None:
         """The case's ``steps`` settled after ``iterations``: keep their QoIs' estimate
         now (``tracking.error_estimates``; before 6 iterations, how far each moved over
-        them), which their frozen values would read as zero from here on."""
+        them), which their frozen values would read as zero from here on. ``since``: the
+        iteration after which the case jumped (``sliding``), if within the iterations
+        held: the estimate then reads the iterates after it alone (across a jump their
+        envelope grows, and the estimate takes a rate of 0.999), and how far each moved
+        counts from the iterate before it (the jump's own shift included)."""
         self.settled_steps[case] = steps.stop
         if not self.qoi_recent.shape[2]:
             return
         series = self.recent_qoi(case, iterations)
         eta = self.eta_recent[case, _held(iterations)]
+        moved_from = series
+        if since is not None and 0 < iterations - since < series.shape[0]:
+            after = iterations - since
+            moved_from = series[-(after + 1):]
+            series, eta = series[series.shape[0] - after:], eta[eta.shape[0] - after:]
         estimate = error_estimates(series, eta[:, None, None])
-        moved = series.max(axis=0) - series.min(axis=0)
+        moved = moved_from.max(axis=0) - moved_from.min(axis=0)
         self.qoi_settled_error[case][:, steps] = np.where(np.isnan(estimate), moved,
                                                           estimate)[:, steps]
 
@@ -121,8 +143,8 @@ def _held(iterations: int) -> IntArray:
     return np.roll(np.arange(RECENT), -(iterations % RECENT))[RECENT - held:]
 
 
-def state_settled(state: IterationState, active: IntArray, counts: IntArray, rtol: float,
-                  window: int = WINDOW) -> npt.NDArray[np.bool_]:
+def state_settled(state: IterationState, active: IntArray, counts: IntArray,
+                  rtol: float | FloatArray, window: int = WINDOW) -> npt.NDArray[np.bool_]:
     """Per active case: the state's own remaining change, η / (1 − ρ) with ρ the
     indicator's rate per iteration over the last ``window`` iterations, is below ``rtol``.
     A QoI's increments can stall while the state still moves (a block sliding while the
@@ -150,20 +172,23 @@ EARLY_RATE = 0.0
 
 
 def qoi_settled(state: IterationState, active: IntArray, counts: IntArray, rtol: float,
-                window: int = WINDOW, margin: float = 1.0) -> npt.NDArray[np.bool_]:
+                window: int = WINDOW, margin: float | FloatArray = 1.0
+                ) -> npt.NDArray[np.bool_]:
     """Per active case: every QoI's estimated error (``tracking.error_estimates``, over the
     last ``window`` + 5 iterations) below ``margin`` × ``rtol`` × max(|value|,
-    ``QOI_FLOOR`` (1 %) of the largest magnitude it took), at the steps it reports.
-    ``counts``: each active case's own iterations, at least ``window`` + 5."""
+    ``QOI_FLOOR`` (1 %) of the largest magnitude it took), at the steps it reports, and
+    the state's remaining change below ``margin`` × ``rtol`` (``margin``: one, or one per
+    case). ``counts``: each active case's own iterations, at least ``window`` + 5."""
     values = state.qoi_recent[active, (counts - 1) % RECENT]
-    bound = margin * rtol * np.maximum(np.abs(values),
-                                       QOI_FLOOR * state.qoi_scale[active][:, :, None])
+    margins = np.broadcast_to(np.asarray(margin, dtype=np.float64), active.shape)
+    bound = margins[:, None, None] * rtol * np.maximum(
+        np.abs(values), QOI_FLOOR * state.qoi_scale[active][:, :, None])
     ignored = ~state.qoi_reported[active]
     # the estimate is at least the latest two-iteration change: where that alone exceeds
     # the bound, the case goes on without the full estimate
     settled = np.all((np.abs(values - state.qoi_recent[active, (counts - 3) % RECENT])
                       <= bound) | ignored, axis=(1, 2))
-    settled &= state_settled(state, active, counts, rtol, window)
+    settled &= state_settled(state, active, counts, margins * rtol, window)
     candidates = np.flatnonzero(settled)
     if candidates.size:
         # its last window + 5 iterations, oldest first (iteration i sits at (i − 1) % RECENT)
@@ -297,6 +322,31 @@ class BatchIterations:
         self.active = np.arange(kept.size)
         return kept
 
+    def _stopping_soon(self, eta: FloatArray) -> npt.NDArray[np.bool_] | None:
+        """Per active case (after this iteration's leavers went): whether, with QoI
+        stopping, its QoIs' estimates are within reach of their bounds — at the rate the
+        indicator fell over the last window, below them in fewer than ``RECENT``
+        iterations, the hold a jump imposes. A jump there costs more than it saves."""
+        options, active = self.options, self.active
+        if options.qoi_rtol is None or not self.tracked or not JUMP_HOLD:
+            return None
+        counts = self.counts[active]
+        due = np.flatnonzero((counts % SLIDING_WINDOW == 0) & (counts >= WINDOW + 5))
+        hold = np.zeros(active.size, dtype=bool)
+        if not due.size:
+            return hold
+        state = self.state
+        now = state.eta_recent[active[due], (counts[due] - 1) % RECENT]
+        before = state.eta_recent[active[due], (counts[due] - 1 - WINDOW) % RECENT]
+        with np.errstate(divide="ignore", invalid="ignore", over="ignore"):
+            rate = np.where(before > 0.0, now / np.where(before > 0.0, before, 1.0), 1.0
+                            ) ** (1.0 / WINDOW)
+        rate = np.clip(np.nan_to_num(rate, nan=1.0), 1e-3, 1.0)
+        margin = np.minimum(rate ** -float(RECENT), 1e6)
+        hold[due] = qoi_settled(state, active[due], counts[due], options.qoi_rtol,
+                                margin=margin)
+        return hold
+
     def step(self) -> IntArray:
         """One iteration of every active case; returns the cases that left the batch
         (converged, failed, or at the cap), their fields in ``state``."""
@@ -328,9 +378,13 @@ class BatchIterations:
         if isinstance(engine, NumpyFields):
             before = engine.first.copy()
             engine.settle(size, options.settled_steps * options.tol)
+            jumped = (self.sliding.jumped_at[active] if self.sliding is not None
+                      and ESTIMATE_AFTER_JUMPS else np.full(active.size, -1))
             for position in np.flatnonzero(engine.first > before).tolist():
+                since = int(jumped[position])
                 out.settled(int(active[position]), int(counts[position]),
-                            slice(int(before[position]), int(engine.first[position])))
+                            slice(int(before[position]), int(engine.first[position])),
+                            since if since >= 0 else None)
         for c, value, norm in zip(active, eta, size, strict=True):
             out.histories[c].append(float(value))
             out.sizes[c].append(float(norm))
@@ -393,8 +447,9 @@ class BatchIterations:
                 if self.sliding is not None:
                     self.sliding.forget(case)
         if self.sliding is not None and self.active.size:
+            hold = self._stopping_soon(eta[~done])
             for case in self.sliding(self.counts[self.active], self.active, eta[~done],
-                                     engine):
+                                     engine, hold):
                 if self.rre is not None:
                     self.rre.forget(case)
         if self.balance is not None and self.active.size:

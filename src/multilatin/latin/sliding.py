@@ -148,10 +148,11 @@ class SlidingExtrapolation:
         self.local = local
 
     def __call__(self, counts: IntArray | int, active: IntArray, eta: FloatArray,
-                 engine: FieldEngine) -> list[int]:
+                 engine: FieldEngine, hold: np.ndarray | None = None) -> list[int]:
         """At every ``WINDOW``-th iteration of a case (``counts``: each active case's own
         iterations): check its last jump (η per active case), record s, and shift a
-        steady crawl. Returns the cases (batch indices) moved."""
+        steady crawl. ``hold``: per active case, no jump now (its marks are still
+        recorded). Returns the cases (batch indices) moved."""
         counts = np.broadcast_to(np.asarray(counts), active.shape)  # one count for all: too
         due = counts % WINDOW == 0
         if not due.any():
@@ -219,6 +220,8 @@ class SlidingExtrapolation:
                     aligned = aligned | held
                 for k in np.flatnonzero(crawls | aligned):
                     i, case, _ = chunk[k]
+                    if hold is not None and hold[i]:
+                        continue
                     if crawls[k]:
                         ahead = self._ahead(case, engine.host(w1[k]), engine.host(w2[k]),
                                             engine.host(dw[k]))
