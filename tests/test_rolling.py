@@ -20,7 +20,7 @@ from multilatin.latin.stream import StreamCase, solve_latin_stream
 from multilatin.parameters import Grid
 from multilatin.study import starts
 from multilatin.study.plan import clear_operator_cache
-from multilatin.study.rolling import middle_starts, start_neighbours
+from multilatin.study.rolling import middle_starts, seeded_line_starts, start_neighbours
 from multilatin.study.runner import run_study
 from multilatin.study.waves import from_the_middle
 
@@ -171,6 +171,71 @@ def test_start_neighbours_follow_the_line_rule(b1: ml.Model) -> None:
     resumed = start_neighbours(plan, chain, {0, 1, 2})
     assert set(resumed) == set(range(3, 9))
     assert all(resumed[n] == parents[n] for n in resumed)
+
+
+def test_a_line_starts_from_seeds(b1: ml.Model) -> None:
+    """A study along one parameter: n // 4 seeds evenly spaced start from zero (at most
+    half the batch's width), every other case from its neighbour one step nearer its
+    nearest seed; too short a line, or too narrow a batch, goes from its first value."""
+    from multilatin.study.plan import plan_study
+
+    plan = plan_study(b1, Grid.parse(["mu1=0.3", "mu2=0:0.6:13"]), OPTIONS, 1)
+    chain = plan.chains[0]
+    seeded = seeded_line_starts(plan, chain, 16)
+    assert seeded is not None
+    parents, distance = seeded
+    position = {c.number: c.index[1] for c in chain}
+    seeds = sorted(position[n] for n, parent in parents.items() if parent is None)
+    assert seeds == [2, 6, 10]
+    for number, parent in parents.items():
+        p = position[number]
+        nearest = min(seeds, key=lambda q: (abs(q - p), q))
+        assert distance[number] == abs(p - nearest) <= 2
+        if parent is not None:
+            assert parent[1] == p + (1 if nearest > p else -1)
+    assert seeded_line_starts(plan, chain, 2) is None  # one seed: from the first value
+    short = plan_study(b1, Grid.parse(["mu1=0.3", "mu2=0:0.3:7"]), OPTIONS, 1)
+    assert seeded_line_starts(short, short.chains[0], 16) is None
+    square = plan_study(b1, Grid.parse(["mu1=0:0.6:13", "mu2=0:0.6:13"]), OPTIONS, 1)
+    assert seeded_line_starts(square, square.chains[0], 16) is None
+
+
+def test_a_seeded_line_resumes_with_its_starts_and_gives_one_chains_answers(
+        b1: ml.Model, tmp_path: Path) -> None:
+    """An 8-case line (two seeds, every case unique): the rolling batch holds several
+    cases; interrupted after three cases it resumes with every case started from the same
+    neighbour, the same iterations and answers; R_stop within 0.1 % of the line solved
+    case after case from its first value (``rolling=False``)."""
+    grid = Grid.parse(["mu1=0.33", "mu2=0:0.21:8"])
+    clear_operator_cache()
+    straight = sorted(run_study(b1, grid, out=tmp_path / "straight", progress=False).records,
+                      key=lambda r: r["number"])
+    assert sum(r["start"] == "zero" for r in straight) == 2
+    assert max(r["batch"] for r in straight) > 2
+
+    class Interrupted(Exception):
+        pass
+
+    seen: list[dict[str, object]] = []
+
+    def interrupt(record: dict[str, object]) -> None:
+        seen.append(record)
+        if len(seen) == 3:
+            raise Interrupted
+
+    with pytest.raises(Interrupted):
+        run_study(b1, grid, out=tmp_path / "cut", progress=False, on_case=interrupt)
+    resumed = sorted(run_study(b1, grid, out=tmp_path / "cut", progress=False).records,
+                     key=lambda r: r["number"])
+    assert [r["start"] for r in resumed] == [r["start"] for r in straight]
+    assert [r["iterations"] for r in resumed] == [r["iterations"] for r in straight]
+    chained = sorted(run_study(b1, grid, out=tmp_path / "chained", progress=False,
+                               rolling=False).records, key=lambda r: r["number"])
+    assert sum(r["start"] == "zero" for r in chained) == 1
+    for got, again, one_chain in zip(straight, resumed, chained, strict=True):
+        assert got["unique"]
+        assert again["qoi"]["R_stop"] == pytest.approx(got["qoi"]["R_stop"], rel=1e-9)
+        assert got["qoi"]["R_stop"] == pytest.approx(one_chain["qoi"]["R_stop"], rel=1e-3)
 
 
 def test_middle_starts_halve_the_chain_of_starts(b1: ml.Model) -> None:

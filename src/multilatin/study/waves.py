@@ -267,7 +267,8 @@ def from_the_middle(plan: StudyPlan) -> bool:
     chain of starts half as deep as from a corner): studies over two or more parameters,
     in one chain, that are all geometric (B3's hole positions: every case has operators of
     its own) or none is. A line alone goes from its first value onward (the paper's table
-    1); studies over geometries and other parameters in the traversal's order (each
+    1), or in the rolling batch from several seeds (``rolling.seeded_line_starts``);
+    studies over geometries and other parameters in the traversal's order (each
     geometry's operators built once, its cases together); several chains as Dask's
     ``"chains"`` schedule runs them."""
     varying = [name for name in plan.grid if len(plan.grid[name]) > 1]
