@@ -8,6 +8,7 @@ from __future__ import annotations
 
 from collections.abc import Hashable
 from pathlib import Path
+from typing import Any
 
 import numpy as np
 import pytest
@@ -207,11 +208,24 @@ def test_a_seeded_line_resumes_with_its_starts_and_gives_one_chains_answers(
     neighbour, the same iterations and answers; R_stop within 0.1 % of the line solved
     case after case from its first value (``rolling=False``)."""
     grid = Grid.parse(["mu1=0.33", "mu2=0:0.21:8"])
-    clear_operator_cache()
-    straight = sorted(run_study(b1, grid, out=tmp_path / "straight", progress=False).records,
-                      key=lambda r: r["number"])
+    straight = _straight_and_resumed(b1, grid, tmp_path, 3)
     assert sum(r["start"] == "zero" for r in straight) == 2
     assert max(r["batch"] for r in straight) > 2
+    chained = sorted(run_study(b1, grid, out=tmp_path / "chained", progress=False,
+                               rolling=False).records, key=lambda r: r["number"])
+    assert sum(r["start"] == "zero" for r in chained) == 1
+    for got, one_chain in zip(straight, chained, strict=True):
+        assert got["qoi"]["R_stop"] == pytest.approx(one_chain["qoi"]["R_stop"], rel=1e-3)
+
+
+def _straight_and_resumed(model: ml.Model, grid: Grid, folder: Path, after: int
+                          ) -> list[dict[str, Any]]:
+    """The study run straight, then again interrupted after ``after`` cases and resumed:
+    every case of the resumed run started from the same neighbour, with the same
+    iterations and answers, all unique; returns the straight run's records by number."""
+    clear_operator_cache()
+    straight = sorted(run_study(model, grid, out=folder / "straight", progress=False).records,
+                      key=lambda r: r["number"])
 
     class Interrupted(Exception):
         pass
@@ -220,22 +234,19 @@ def test_a_seeded_line_resumes_with_its_starts_and_gives_one_chains_answers(
 
     def interrupt(record: dict[str, object]) -> None:
         seen.append(record)
-        if len(seen) == 3:
+        if len(seen) == after:
             raise Interrupted
 
     with pytest.raises(Interrupted):
-        run_study(b1, grid, out=tmp_path / "cut", progress=False, on_case=interrupt)
-    resumed = sorted(run_study(b1, grid, out=tmp_path / "cut", progress=False).records,
+        run_study(model, grid, out=folder / "cut", progress=False, on_case=interrupt)
+    resumed = sorted(run_study(model, grid, out=folder / "cut", progress=False).records,
                      key=lambda r: r["number"])
     assert [r["start"] for r in resumed] == [r["start"] for r in straight]
     assert [r["iterations"] for r in resumed] == [r["iterations"] for r in straight]
-    chained = sorted(run_study(b1, grid, out=tmp_path / "chained", progress=False,
-                               rolling=False).records, key=lambda r: r["number"])
-    assert sum(r["start"] == "zero" for r in chained) == 1
-    for got, again, one_chain in zip(straight, resumed, chained, strict=True):
+    for got, expected in zip(resumed, straight, strict=True):
         assert got["unique"]
-        assert again["qoi"]["R_stop"] == pytest.approx(got["qoi"]["R_stop"], rel=1e-9)
-        assert got["qoi"]["R_stop"] == pytest.approx(one_chain["qoi"]["R_stop"], rel=1e-3)
+        assert got["qoi"]["R_stop"] == pytest.approx(expected["qoi"]["R_stop"], rel=1e-9)
+    return straight
 
 
 def test_middle_starts_halve_the_chain_of_starts(b1: ml.Model) -> None:
@@ -282,29 +293,7 @@ def test_an_interrupted_rolling_study_resumes_with_the_same_starts(
     monkeypatch.setattr(rolling, "_retained_capacity", lambda grid: 1)
     monkeypatch.setattr(rolling, "STATE_EVERY", 1)
     grid = Grid({"mu1": [0.25, 0.33, 0.41], "mu2": [0.0, 0.1, 0.2]})  # all unique
-    clear_operator_cache()
-    straight = sorted(run_study(b1, grid, out=tmp_path / "straight", progress=False).records,
-                      key=lambda r: r["number"])
-
-    class Interrupted(Exception):
-        pass
-
-    seen: list[dict[str, object]] = []
-
-    def interrupt(record: dict[str, object]) -> None:
-        seen.append(record)
-        if len(seen) == 4:
-            raise Interrupted
-
-    with pytest.raises(Interrupted):
-        run_study(b1, grid, out=tmp_path / "cut", progress=False, on_case=interrupt)
-    resumed = sorted(run_study(b1, grid, out=tmp_path / "cut", progress=False).records,
-                     key=lambda r: r["number"])
-    assert [r["start"] for r in resumed] == [r["start"] for r in straight]
-    assert [r["iterations"] for r in resumed] == [r["iterations"] for r in straight]
-    for got, expected in zip(resumed, straight, strict=True):
-        assert got["unique"]
-        assert got["qoi"]["R_stop"] == pytest.approx(expected["qoi"]["R_stop"], rel=1e-9)
+    _straight_and_resumed(b1, grid, tmp_path, 4)
 
 
 def test_hole_positions_join_a_rolling_batch_with_their_own_operators(
