@@ -322,7 +322,7 @@ class BatchIterations:
         self.active = np.arange(kept.size)
         return kept
 
-    def _stopping_soon(self, eta: FloatArray) -> npt.NDArray[np.bool_] | None:
+    def _stopping_soon(self) -> npt.NDArray[np.bool_] | None:
         """Per active case (after this iteration's leavers went): whether, with QoI
         stopping, its QoIs' estimates are within reach of their bounds — at the rate the
         indicator fell over the last window, below them in fewer than ``RECENT``
@@ -447,7 +447,7 @@ class BatchIterations:
                 if self.sliding is not None:
                     self.sliding.forget(case)
         if self.sliding is not None and self.active.size:
-            hold = self._stopping_soon(eta[~done])
+            hold = self._stopping_soon()
             for case in self.sliding(self.counts[self.active], self.active, eta[~done],
                                      engine, hold):
                 if self.rre is not None:
