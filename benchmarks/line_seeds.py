@@ -10,6 +10,7 @@ the study's time and the gain against its cold cases (three runs, the variants a
 and R_stop's largest difference from the first variant's.
 
     python benchmarks/line_seeds.py [--model b1] [--spacings 6 4 2] [--repeat 3]
+    python benchmarks/line_seeds.py --model b3 --grid xc=21:29:9 --spacings 4 2
 """
 
 from __future__ import annotations
@@ -36,9 +37,11 @@ def main() -> None:
     parser.add_argument("--spacings", nargs="*", type=int, default=[6, 4, 2],
                         help="cases per seed (13 cases: 2, 3 and 6 seeds)")
     parser.add_argument("--repeat", type=int, default=3)
+    parser.add_argument("--grid", nargs="*", default=GRID,
+                        help="the line, as on the command line (default: the μ2 line)")
     args = parser.parse_args()
     model = ml.load_model(args.model)
-    grid = Grid.parse(GRID)
+    grid = Grid.parse(args.grid)
     n = max(grid.shape)  # the line's cases
     variants: list[tuple[str, int, str]] = [("one chain from the first value", ONE_CHAIN,
                                              "neighbour")]
@@ -69,7 +72,7 @@ def main() -> None:
             values = np.array([r["qoi"]["R_stop"] for r in warm], dtype=float)
             reference = values if reference is None else reference
             row["difference"] = float(np.max(np.abs(values - reference)))
-    print(f"{args.model} line ({' '.join(GRID)}), {args.repeat} runs per variant\n")
+    print(f"{args.model} line ({' '.join(args.grid)}), {args.repeat} runs per variant\n")
     print("| start | iterations | study time (s) | gain | R_stop's largest difference (N) |")
     print("|---|---|---|---|---|")
     for label, row in rows.items():
