@@ -28,7 +28,7 @@ from collections.abc import Iterator
 from contextlib import contextmanager
 
 import numpy as np
-from rigid_balance import BUNDLED, largest_difference  # this script's folder
+from rigid_balance import bundled, pairs  # this script's folder
 
 import multilatin as ml
 from multilatin.latin import LatinOperators, LatinOptions, iteration, solve_latin
@@ -36,11 +36,11 @@ from multilatin.latin.options import STUDY_QOI_RTOL
 from multilatin.parameters import Grid
 from multilatin.study.runner import run_study
 
-PAIRS = [(0.3, 0.0), (0.1, 0.3), (0.35, 0.25), (0.3, 0.15)]
 STUDIES = {"B1 13 × 13": ("b1", ["mu1=0:0.6:13", "mu2=0:0.6:13"]),
            "B1 μ2 line": ("b1", ["mu1=0.3", "mu2=0:0.6:13"]),
            "B3 5 × 5 positions": ("b3", ["xc=23:27:5", "yc=73:77:5", "rc=3"])}
 TIGHT = LatinOptions(tol=1e-10, max_iter=20000)
+LABELS = ("rules off", "rules on")
 
 
 @contextmanager
@@ -58,25 +58,9 @@ def relative(value: float, exact: float) -> float:
     return abs(value - exact) / max(abs(exact), 1.0)
 
 
-def pairs(models: list[str]) -> None:
-    print("| model | μ1, μ2 | rule | rules off: iterations, R_stop error | rules on |")
-    print("|---|---|---|---|---|")
-    for name in models:
-        model = ml.load_model(name)
-        for mu1, mu2 in PAIRS:
-            assembly = model.assemble({"mu1": mu1, "mu2": mu2})
-            operators = LatinOperators(assembly, LatinOptions())
-            exact = float(solve_latin(assembly, TIGHT, operators=operators).qoi["R_stop"])
-            for rule, rtol in (("η < 1e-6", None), ("QoI rule", STUDY_QOI_RTOL)):
-                cells = []
-                for on in (False, True):
-                    with rules(on):
-                        result = solve_latin(assembly, LatinOptions(qoi_rtol=rtol),
-                                             operators=operators, check=False)
-                    cells.append(f"{result.iterations}, "
-                                 f"{relative(float(result.qoi['R_stop']), exact):.1e}")
-                print(f"| {name} | {mu1}, {mu2} | {rule} | {cells[0]} | {cells[1]} |",
-                      flush=True)
+def defaults(on: bool, rtol: float | None = None) -> LatinOptions:
+    """The options of both columns: the rules are module switches (``rules``)."""
+    return LatinOptions(qoi_rtol=rtol)
 
 
 def warm() -> None:
@@ -166,24 +150,6 @@ def accuracy() -> None:
             print(f"| {label} | {mode} | {worst:.2e} | {where} |", flush=True)
 
 
-def bundled() -> None:
-    print("\n| model | rules off: iterations | rules on | largest QoI difference "
-          "(relative) |")
-    print("|---|---|---|---|")
-    for name in BUNDLED:
-        model = ml.load_model(name)
-        assembly = model.assemble({})
-        operators = LatinOperators(assembly, LatinOptions())
-        results = []
-        for on in (False, True):
-            with rules(on):
-                results.append(solve_latin(assembly, LatinOptions(), operators=operators,
-                                           check=False))
-        worst = largest_difference(results[0], results[1])
-        print(f"| {name} | {results[0].iterations} | {results[1].iterations} | "
-              f"{worst:.1e} |", flush=True)
-
-
 def main() -> None:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument("--models", nargs="*", default=["b1", "b1-4", "b1-9", "b3"])
@@ -196,7 +162,7 @@ def main() -> None:
     start = time.perf_counter()
     ml.load_model("b1").solve()  # warm-up: imports, kernels
     if args.models:
-        pairs(args.models)
+        pairs(args.models, LABELS, defaults, rules)
     if args.warm:
         warm()
     if args.studies:
@@ -204,7 +170,7 @@ def main() -> None:
     if args.accuracy:
         accuracy()
     if args.bundled:
-        bundled()
+        bundled(LABELS, defaults, rules)
     print(f"\n({time.perf_counter() - start:.0f} s)")
 
 

@@ -19,6 +19,9 @@ from __future__ import annotations
 
 import argparse
 import time
+from collections.abc import Callable
+from contextlib import AbstractContextManager, nullcontext
+from typing import Any
 
 import numpy as np
 
@@ -34,9 +37,19 @@ STUDIES = {"B1 13 × 13": ("b1", ["mu1=0:0.6:13", "mu2=0:0.6:13"]),
            "B3 5 × 5 positions": ("b3", ["xc=23:27:5", "yc=73:77:5", "rc=3"])}
 
 
-def pairs(models: list[str]) -> None:
-    print("| model | μ1, μ2 | rule | default: iterations, time (s), R_stop error "
-          "| rigid balance |")
+def balance(on: bool, rtol: float | None = None) -> LatinOptions:
+    """The default's options (``on`` False) or the rigid balance's."""
+    return LatinOptions(rigid_balance=on, qoi_rtol=rtol)
+
+
+def pairs(models: list[str], labels: tuple[str, str] = ("default", "rigid balance"),
+          options: Callable[[bool, float | None], LatinOptions] = balance,
+          setting: Callable[[bool], AbstractContextManager[Any]] = nullcontext) -> None:
+    """Cold solves at ``PAIRS``, to η < 1e-6 and under the QoI rule, in two variants side
+    by side (``options`` and ``setting`` for each: False, then True): iterations, time and
+    R_stop's error against a tight solve of the default, relative."""
+    print(f"| model | μ1, μ2 | rule | {labels[0]}: iterations, time (s), R_stop error "
+          f"| {labels[1]} |")
     print("|---|---|---|---|---|")
     for name in models:
         model = ml.load_model(name)
@@ -49,9 +62,10 @@ def pairs(models: list[str]) -> None:
             for rule, rtol in (("η < 1e-6", None), ("QoI rule", STUDY_QOI_RTOL)):
                 cells = []
                 for on in (False, True):
-                    options = LatinOptions(rigid_balance=on, qoi_rtol=rtol)
                     start = time.perf_counter()
-                    result = solve_latin(assembly, options, operators=operators, check=False)
+                    with setting(on):
+                        result = solve_latin(assembly, options(on, rtol),
+                                             operators=operators, check=False)
                     seconds = time.perf_counter() - start
                     error = abs(float(result.qoi["R_stop"]) - exact) / max(abs(exact), 1.0)
                     cells.append(f"{result.iterations}, {seconds:.3f}, {error:.1e}")
@@ -70,8 +84,12 @@ def largest_difference(first: SolveResult, second: SolveResult) -> float:
                / max(float(np.max(np.abs(first.qoi[q]))), 1e-12) for q in first.qoi)
 
 
-def bundled() -> None:
-    print("\n| model | default: iterations, time (s) | rigid balance | largest QoI "
+def bundled(labels: tuple[str, str] = ("default", "rigid balance"),
+            options: Callable[[bool, float | None], LatinOptions] = balance,
+            setting: Callable[[bool], AbstractContextManager[Any]] = nullcontext) -> None:
+    """The other bundled models at their defaults in the two variants (as ``pairs``):
+    iterations, time, and the largest difference of their QoIs."""
+    print(f"\n| model | {labels[0]}: iterations, time (s) | {labels[1]} | largest QoI "
           "difference (relative) |")
     print("|---|---|---|---|")
     for name in BUNDLED:
@@ -81,8 +99,9 @@ def bundled() -> None:
         results, cells = [], []
         for on in (False, True):
             start = time.perf_counter()
-            result = solve_latin(assembly, LatinOptions(rigid_balance=on),
-                                 operators=operators, check=False)
+            with setting(on):
+                result = solve_latin(assembly, options(on, None), operators=operators,
+                                     check=False)
             cells.append(f"{result.iterations}, {time.perf_counter() - start:.3f}")
             results.append(result)
         worst = largest_difference(results[0], results[1])

@@ -27,7 +27,13 @@ from .options import LatinOptions
 from .rigid_balance import RigidBalance
 from .sliding import WINDOW as SLIDING_WINDOW
 from .sliding import SlidingExtrapolation
-from .tracking import WINDOW, QoiFunctionals, error_estimates, remaining_change
+from .tracking import (
+    WINDOW,
+    QoiFunctionals,
+    error_estimates,
+    indicator_rate,
+    remaining_change,
+)
 
 log = logging.getLogger(__name__)
 
@@ -128,8 +134,7 @@ class IterationState:
         moved_from = series
         if since is not None and 0 < iterations - since < series.shape[0]:
             after = iterations - since
-            moved_from = series[-(after + 1):]
-            series, eta = series[series.shape[0] - after:], eta[eta.shape[0] - after:]
+            moved_from, series, eta = series[-after - 1:], series[-after:], eta[-after:]
         estimate = error_estimates(series, eta[:, None, None])
         moved = moved_from.max(axis=0) - moved_from.min(axis=0)
         self.qoi_settled_error[case][:, steps] = np.where(np.isnan(estimate), moved,
@@ -338,10 +343,8 @@ class BatchIterations:
         state = self.state
         now = state.eta_recent[active[due], (counts[due] - 1) % RECENT]
         before = state.eta_recent[active[due], (counts[due] - 1 - WINDOW) % RECENT]
-        with np.errstate(divide="ignore", invalid="ignore", over="ignore"):
-            rate = np.where(before > 0.0, now / np.where(before > 0.0, before, 1.0), 1.0
-                            ) ** (1.0 / WINDOW)
-        rate = np.clip(np.nan_to_num(rate, nan=1.0), 1e-3, 1.0)
+        rate = np.clip(np.nan_to_num(indicator_rate(now, before, WINDOW), nan=1.0), 1e-3,
+                       1.0)
         margin = np.minimum(rate ** -float(RECENT), 1e6)
         hold[due] = qoi_settled(state, active[due], counts[due], options.qoi_rtol,
                                 margin=margin)
@@ -378,10 +381,9 @@ class BatchIterations:
         if isinstance(engine, NumpyFields):
             before = engine.first.copy()
             engine.settle(size, options.settled_steps * options.tol)
-            jumped = (self.sliding.jumped_at[active] if self.sliding is not None
-                      and ESTIMATE_AFTER_JUMPS else np.full(active.size, -1))
             for position in np.flatnonzero(engine.first > before).tolist():
-                since = int(jumped[position])
+                since = (int(self.sliding.jumped_at[active[position]])
+                         if self.sliding is not None and ESTIMATE_AFTER_JUMPS else -1)
                 out.settled(int(active[position]), int(counts[position]),
                             slice(int(before[position]), int(engine.first[position])),
                             since if since >= 0 else None)

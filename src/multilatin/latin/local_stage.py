@@ -114,8 +114,8 @@ class LocalStage:
         for name in _PER_CASE:
             setattr(out, name, np.concatenate([getattr(self, name), getattr(other, name)]))
         if not np.array_equal(other.group_pairs, self.group_pairs):  # the groups of both
-            both = [i for i, row in enumerate(self.group_pairs.tolist())
-                    if row in other.group_pairs.tolist()]
+            theirs = other.group_pairs.tolist()
+            both = [i for i, row in enumerate(self.group_pairs.tolist()) if row in theirs]
             out.group_pairs, out.group_share = self.group_pairs[both], self.group_share[both]
             out.group_sides = tuple(side[both] for side in self.group_sides)  # type: ignore[assignment]
             out.group_k = tuple(k[both] for k in self.group_k)  # type: ignore[assignment]

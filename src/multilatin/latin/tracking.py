@@ -60,15 +60,23 @@ OSCILLATION_RATE = 0.97
 OSCILLATION_SAFETY = 2.0
 
 
+def indicator_rate(eta: FloatArray, before: FloatArray, width: int | IntArray
+                   ) -> FloatArray:
+    """The indicator's rate per iteration over the last ``width`` iterations, (η /
+    η_before)^(1 / width): 1 where η_before is zero, NaN where η is."""
+    with np.errstate(divide="ignore", invalid="ignore", over="ignore"):
+        rate: FloatArray = np.where(before > 0.0, eta / np.where(before > 0.0, before, 1.0),
+                                    1.0) ** (1.0 / np.asarray(width, dtype=np.float64))
+    return rate
+
+
 def remaining_change(eta: FloatArray, before: FloatArray, width: int | IntArray
                      ) -> FloatArray:
     """The state's estimated remaining relative change η / (1 − ρ), ρ = (η / η_before)^(1 /
     width) the indicator's rate per iteration over the last ``width`` iterations (taken
     as ``MAX_RATE`` where it is not measured: η_before zero, or a rate ≥ 1)."""
-    with np.errstate(divide="ignore", invalid="ignore", over="ignore"):
-        rate = np.where(before > 0.0, eta / np.where(before > 0.0, before, 1.0), 1.0
-                        ) ** (1.0 / np.asarray(width, dtype=np.float64))
-    rate = np.clip(np.nan_to_num(rate, nan=MAX_RATE), 0.0, MAX_RATE)
+    rate = np.clip(np.nan_to_num(indicator_rate(eta, before, width), nan=MAX_RATE), 0.0,
+                   MAX_RATE)
     return np.asarray(eta / (1.0 - rate), dtype=np.float64)
 
 

@@ -17,8 +17,8 @@ Either way every case starts from the same neighbour as in the line-by-line stud
 grouping of the products changes — but for a study over one parameter (a line), which the
 rolling batch starts from several *seeds* (``seeded_line_starts``: on B1's μ2 line one
 chain from the first value kept one case at a time in the batch; three seeds solve the line
-in 0.27–0.28 s instead of 0.37–0.38, for 557 iterations instead of 511). Ready cases join nearest a
-case from zero first (their dependants are the most).
+in 0.27–0.28 s instead of 0.37–0.38, for 557 iterations instead of 511). Ready cases join
+nearest a case from zero first (their dependants are the most).
 
 A warm-started case whose answer the discrete problem does not determine is solved again
 from zero (``starts.solve_again``, the line batches' rule) inside the same rolling batch; the cases
