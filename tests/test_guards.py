@@ -17,7 +17,7 @@ from multilatin import limits
 from multilatin.cli import main
 from multilatin.errors import ModelError, NotConvergedError
 from multilatin.io.expressions import evaluate
-from multilatin.latin import LatinOptions
+from multilatin.latin import LatinOptions, engine, guards
 from multilatin.limits import MEMORY_ENVIRONMENT, substructure_cost
 from multilatin.parameters import Grid
 from multilatin.study import runner
@@ -67,6 +67,28 @@ def test_non_finite_fields_end_the_solve_as_a_failure(monkeypatch: pytest.Monkey
     json.dumps(data, allow_nan=False)  # valid JSON: no NaN or Infinity
     with pytest.raises(NotConvergedError, match="non-finite"):
         model.solve({"P": 1e308})
+
+
+def test_a_diverging_iteration_is_stopped_as_such(monkeypatch: pytest.MonkeyPatch) -> None:
+    """An iteration made unstable (every local stage's ŝ × 1.5) is stopped as diverged
+    once its fields pass ``guards.BLOWUP`` times their first size, and says so. Without
+    the guard it ran 200 iterations, its QoIs at 1e19, and the drift check blamed a body
+    sliding without end. In a study the case is a failure, never a result."""
+    local_stage = engine.NumpyFields.local_stage
+
+    def grown(self: engine.NumpyFields) -> None:
+        local_stage(self)
+        self.w_hat, self.f_hat = 1.5 * self.w_hat, 1.5 * self.f_hat
+
+    monkeypatch.setattr(engine.NumpyFields, "local_stage", grown)
+    model = ml.load_model("b0")
+    result = model.solve({}, check=False)
+    assert not result.converged and result.failure.startswith("diverged")
+    assert result.iterations <= 50  # 35: the fields grow by about 1.2 per iteration
+    with pytest.raises(NotConvergedError, match="diverged"):
+        model.solve({})
+    monkeypatch.setattr(guards, "BLOWUP", math.inf)
+    assert "diverged" not in model.solve({}, check=False).failure
 
 
 @pytest.mark.parametrize(("value", "message"), [

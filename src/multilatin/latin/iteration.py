@@ -20,7 +20,7 @@ import numpy.typing as npt
 from ..fem.elasticity import FloatArray, IntArray
 from .engine import FieldEngine, NumpyFields, indicator_weights
 from .extrapolation import ReducedRankExtrapolation
-from .guards import DRIFT_WINDOW, damp_stagnating, drifts
+from .guards import DRIFT_WINDOW, blows_up, damp_stagnating, drifts
 from .local_stage import LocalStage
 from .operators import LatinOperators
 from .options import LatinOptions
@@ -61,6 +61,11 @@ JUMP_HOLD = True
 ESTIMATE_AFTER_JUMPS = True
 
 
+#: the per-case arrays of ``IterationState`` (first axis: the case)
+PER_CASE = ("qoi_recent", "eta_recent", "qoi_scale", "qoi_reported", "stopped_on_qoi",
+            "drifting", "first_size", "diverged", "qoi_settled_error", "settled_steps")
+
+
 @dataclass
 class IterationState:
     """Per case: s = (W, F), ŝ = (Ŵ, F̂) at exit and the history of η; batch timings."""
@@ -78,6 +83,10 @@ class IterationState:
     stopped_on_qoi: npt.NDArray[np.bool_]  # per case: stopped by ``qoi_rtol`` before η < tol
     sizes: list[list[float]]  # per case, ½(‖s‖ + ‖ŝ‖) after each iteration
     drifting: npt.NDArray[np.bool_]  # per case: stopped as s grows without bound
+    #: per case: ½(‖s‖ + ‖ŝ‖) after its first iteration, and whether it was stopped as
+    #: diverging, grown beyond ``guards.BLOWUP`` times that
+    first_size: FloatArray = field(default_factory=lambda: np.zeros(0))
+    diverged: npt.NDArray[np.bool_] = field(default_factory=lambda: np.zeros(0, dtype=bool))
     #: per case, QoI and step: the estimate a settled step had when it settled (its QoIs
     #: move no more, so the estimate from their increments would read zero; ``settled``)
     qoi_settled_error: FloatArray = field(default_factory=lambda: np.zeros((0, 0, 0)))
@@ -94,8 +103,8 @@ class IterationState:
         return cls({}, [[] for _ in range(n_cases)], np.zeros((n_cases, RECENT, n_qoi, n_steps)),
                    np.zeros((n_cases, RECENT)), np.zeros((n_cases, n_qoi)), reported,
                    np.zeros(n_cases, dtype=bool), [[] for _ in range(n_cases)],
-                   np.zeros(n_cases, dtype=bool), np.zeros(reported.shape),
-                   np.zeros(n_cases, dtype=np.int64))
+                   np.zeros(n_cases, dtype=bool), np.zeros(n_cases), np.zeros(n_cases, dtype=bool),
+                   np.zeros(reported.shape), np.zeros(n_cases, dtype=np.int64))
 
     def extend(self, reported: npt.NDArray[np.bool_]) -> None:
         """Room for more cases after these (cases joining a rolling batch): the per-case
@@ -103,8 +112,7 @@ class IterationState:
         first, n_new = len(self.histories), reported.shape[0]
         if first + n_new > self.stopped_on_qoi.size:
             capacity = max(2 * self.stopped_on_qoi.size, first + n_new)
-            for name in ("qoi_recent", "eta_recent", "qoi_scale", "qoi_reported",
-                         "stopped_on_qoi", "drifting", "qoi_settled_error", "settled_steps"):
+            for name in PER_CASE:
                 old = getattr(self, name)
                 grown = np.zeros((capacity, *old.shape[1:]), dtype=old.dtype)
                 grown[:old.shape[0]] = old
@@ -312,8 +320,7 @@ class BatchIterations:
             raise ValueError("renumber: NumPy backend, exit fields handed on first")
         kept = self.active.copy()
         state = self.state
-        for name in ("qoi_recent", "eta_recent", "qoi_scale", "qoi_reported",
-                     "stopped_on_qoi", "drifting", "qoi_settled_error", "settled_steps"):
+        for name in PER_CASE:
             setattr(state, name, getattr(state, name)[kept])
         state.histories = [state.histories[c] for c in kept]
         state.sizes = [state.sizes[c] for c in kept]
@@ -404,7 +411,10 @@ class BatchIterations:
         after_jumps = (np.ones_like(capped) if self.sliding is None else
                        (self.sliding.jumped_at[active] < 0)
                        | (counts - self.sliding.jumped_at[active] > RECENT))
-        done = ((eta < options.tol) & after_jumps) | ~np.isfinite(eta) | capped
+        out.first_size[active[counts == 1]] = size[counts == 1]
+        blown = blows_up(size, out.first_size[active])
+        out.diverged[active[blown]] = True
+        done = ((eta < options.tol) & after_jumps) | ~np.isfinite(eta) | capped | blown
         due = (counts % DRIFT_WINDOW == 0) & ~done
         if due.any():
             drifting = np.zeros_like(done)

@@ -26,7 +26,7 @@ from ..fem.elasticity import FloatArray, IntArray
 from ..limits import check_scale
 from .batching import interface_families, operators_per_case
 from .engine import one_blas_thread
-from .guards import DRIFT_WINDOW
+from .guards import BLOWUP, DRIFT_WINDOW
 from .iteration import IterationObserver, IterationState, iterate
 from .local_stage import LocalStage
 from .operators import LatinOperators
@@ -280,6 +280,13 @@ def _result(c: int, assembly: Assembly, pts: InterfacePoints, state: IterationSt
             f"{DRIFT_WINDOW} iterations (eta = {history[-1]:.2e}, falling only because "
             "they grow): a body slides without end, the load exceeding what friction, "
             "contact and stops can hold (or the iteration is too slow to finish)")
+    if state.diverged[c]:
+        converged, failure = False, (
+            f"diverged: the interface fields grew to more than {BLOWUP:g} times their size "
+            f"after the first iteration (to {state.sizes[c][-1]:.3e} from "
+            f"{state.sizes[c][0]:.3e} in {history.size} iterations); the iteration is "
+            f"unstable (its acceleration, relaxation or search direction), and eta "
+            f"(= {history[-1]:.2e}, relative to that size) measures no error")
     # Anderson's and RRE's steps break the contraction the estimate reads, and a state
     # still changing by more than SETTLED may hold changes its QoIs have not begun: NaN (None)
     change = state_change(history)
