@@ -162,8 +162,12 @@ def test_estimates_reach_json_study_nc_and_table(tmp_path: Path) -> None:
     from multilatin.study.report import summary_lines, write_study_outputs
 
     write_study_outputs(study, tmp_path)
-    assert any(line.startswith("estimated errors (largest over the converged cases): R_stop ≤ ")
-               and line.split("≤ ")[1].endswith(" N") for line in summary_lines(study))
+    lines = [line for line in summary_lines(study) if line.startswith("estimated errors")]
+    assert lines[0].startswith("estimated errors (largest over the converged cases): R_stop ≤ ")
+    parts = lines[0].split(": ", 1)[1].split(", ")
+    assert parts[0].endswith(" N")
+    # a QoI over the load steps: its largest over them
+    assert parts[1].startswith("u_A ≤ ") and parts[1].endswith(" mm (any step)")
     with xr.open_dataset(tmp_path / "study.nc", engine="scipy") as stored:
         assert stored["R_stop_err"].attrs["units"] == "N"
         assert np.all(stored["R_stop_err"].sel(mode="multiresolution").values >= 0)
@@ -171,6 +175,8 @@ def test_estimates_reach_json_study_nc_and_table(tmp_path: Path) -> None:
     with (tmp_path / "table.csv").open(encoding="utf-8") as stream:
         header = next(csv.reader(stream))
     assert "R_stop_err [N]" in header
+    # QoIs over the load steps by their last step (every step is in study.nc)
+    assert "u_A at step 15 [mm]" in header and "p_B_err at step 15 [MPa]" in header
 
 
 def test_stopping_on_the_qoi_estimates_stops_earlier_and_keeps_r_stop(capsys) -> None:

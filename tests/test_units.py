@@ -56,3 +56,27 @@ def test_solve_outputs_carry_the_units(tmp_path: Path, capsys: pytest.CaptureFix
     assert main(["show", "b1"]) == 0
     shown = capsys.readouterr().out
     assert "mu1 = 0.3 [–]" in shown and "R_stop [N]" in shown
+
+
+def test_a_study_of_quantities_over_the_load_steps_tabulates_their_last_step(
+        tmp_path: Path) -> None:
+    """The slide's QoIs are lists over the load steps: table.csv, the summary and the
+    response figures carry each at its last step (they carried none of them before), and
+    the value is study.nc's and the closed form's — the block slides, R_push = μ p × 20 mm."""
+    from multilatin.study.report import summary_lines, write_study_outputs
+
+    study = ml.run_study(ml.load_model("slide"), ml.Grid({"mu": [0.2, 0.4], "p": [10.0]}),
+                         out=tmp_path, progress=False)
+    paths = write_study_outputs(study, tmp_path)
+    with (tmp_path / "table.csv").open(encoding="utf-8") as stream:
+        rows = list(csv.DictReader(stream))
+    with xr.open_dataset(tmp_path / "study.nc", engine="scipy") as stored:
+        last = stored["R_push"].sel(mode="multiresolution", p=10.0).isel(step=-1)
+        for row in rows:
+            mu = float(row["mu [–]"])
+            value = float(row["R_push at step 10 [N]"])
+            assert value == float(last.sel(mu=mu))
+            assert value == pytest.approx(mu * 10.0 * 20.0, rel=1e-3)
+            assert float(row["R_push_err at step 10 [N]"]) >= 0.0
+    assert tmp_path / "response_R_push.png" in paths
+    assert any("R_push ≤ " in line and "N (any step)" in line for line in summary_lines(study))

@@ -24,21 +24,24 @@ from .runner import StudyResult  # noqa: E402
 def case_table(result: StudyResult) -> tuple[list[str], list[list[Any]]]:
     """One row per case in traversal order: parameters, iterations and time normalised by
     the first cold computation (the paper's unit; by the first computation when no cold run),
-    for each mode run, and the scalar quantities of interest."""
+    for each mode run, and the quantities of interest with their estimated errors — a QoI
+    over the load steps by its last step's value (``u_A at step 15 [mm]``; every step is in
+    study.nc)."""
     main = result.main_mode
     rows_main = result.mode_records(main)
     cold = {r["number"]: r for r in result.mode_records("cold")}
     unit = (cold[0]["wall_s"] if 0 in cold else rows_main[0]["wall_s"])
     names = list(result.plan.grid)
-    scalar_qois = [k for k, v in rows_main[0]["qoi"].items() if not isinstance(v, list)]
-    errors = [q for q in scalar_qois if q in rows_main[0].get("qoi_error", {})]
+    qois = list(rows_main[0]["qoi"])
+    errors = [q for q in qois if q in rows_main[0].get("qoi_error", {})]
     units = {str(n): str(v.attrs.get("units", "")) for n, v in result.dataset.variables.items()}
     header = ["case", *[label(n, units.get(n, "")) for n in names], "iterations",
               "time / first cold"]
     if main == "multiresolution" and cold:
         header += ["cold iterations", "cold time / first cold"]
-    header += [label(q, units.get(q, "")) for q in scalar_qois]
-    header += [label(f"{q}_err", units.get(q, "")) for q in errors]
+    header += [label(_column(q, rows_main[0]["qoi"][q]), units.get(q, "")) for q in qois]
+    header += [label(_column(f"{q}_err", rows_main[0]["qoi"][q]), units.get(q, ""))
+               for q in errors]
     header += ["converged", "unique", "start"]
     rows = []
     for record in rows_main:
@@ -48,12 +51,23 @@ def case_table(result: StudyResult) -> tuple[list[str], list[list[Any]]]:
             other = cold.get(record["number"])
             row += ([other["iterations"], other["wall_s"] / unit] if other else ["", ""])
         # no answer from a case that did not converge: masked, as in study.nc
-        row += [record["qoi"][q] if record["converged"] else float("nan") for q in scalar_qois]
-        row += [_or_nan(record["qoi_error"].get(q)) if record["converged"] else float("nan")
-                for q in errors]
+        row += [_or_nan(_last(record["qoi"][q])) if record["converged"] else float("nan")
+                for q in qois]
+        row += [_or_nan(_last(record["qoi_error"].get(q))) if record["converged"]
+                else float("nan") for q in errors]
         row += [record["converged"], record.get("unique", True), record["start"]]
         rows.append(row)
     return header, rows
+
+
+def _column(name: str, value: Any) -> str:
+    """A column's name: a QoI over the load steps by its last step."""
+    return f"{name} at step {len(value)}" if isinstance(value, list) else name
+
+
+def _last(value: Any) -> Any:
+    """A QoI's value, its last step's for one over the load steps."""
+    return (value[-1] if value else None) if isinstance(value, list) else value
 
 
 def _or_nan(value: Any) -> float:
@@ -119,22 +133,23 @@ def _unsettled_note(records: list[dict[str, Any]]) -> str:
 
 
 def _error_lines(result: StudyResult, records: list[dict[str, Any]]) -> list[str]:
-    """The largest estimated error of each scalar QoI over the converged cases."""
+    """The largest estimated error of each QoI over the converged cases (and over the load
+    steps of one that has several)."""
     converged = [r for r in records if r["converged"]]
     if not converged:
         return []
     units = {str(n): str(v.attrs.get("units", "")) for n, v in result.dataset.variables.items()}
     parts, missing = [], 0
     for name, value in converged[0]["qoi"].items():
-        if isinstance(value, list):
-            continue
         errors = [r.get("qoi_error", {}).get(name) for r in converged]
         known = [e for e in errors if e is not None]
         missing = max(missing, len(errors) - len(known))
+        largest = [np.nanmax(np.asarray(e, dtype=float), initial=0.0) for e in known]
         if known:
             unit = units.get(name, "")
             shown = "" if unit in ("", "1", "-") else f" {unit}"
-            parts.append(f"{name} ≤ {max(known):.3g}{shown}")
+            steps = " (any step)" if isinstance(value, list) else ""
+            parts.append(f"{name} ≤ {max(largest):.3g}{shown}{steps}")
     unsettled = _unsettled(converged)
     if not parts and not unsettled:
         return []
@@ -182,23 +197,28 @@ def write_study_outputs(result: StudyResult, folder: Path) -> list[Path]:
 
 
 def plot_response(dataset: xr.Dataset, folder: Path, mode: str) -> list[Path]:
-    """Each scalar quantity of interest over the varied parameters: a curve for one, a
-    surface for two (paper fig. 12), small multiples over the others beyond."""
+    """Each quantity of interest over the varied parameters (one over the load steps at
+    its last step): a curve for one, a surface for two (paper fig. 12), small multiples
+    over the others beyond."""
     data = dataset.sel(mode=mode)
     varied = [str(d) for d in data["iterations"].dims if data.sizes[d] > 1]
-    scalars = [str(name) for name, var in data.data_vars.items()
-               if name not in ("iterations", "indicator", "wall_s", "setup_s", "finished",
-                               "converged", "unique", "log", "start")
-               and not str(name).endswith("_err") and "step" not in var.dims]
+    qois = [str(name) for name in data.data_vars
+            if name not in ("iterations", "indicator", "wall_s", "setup_s", "finished",
+                            "converged", "unique", "log", "start")
+            and not str(name).endswith("_err")]
     paths = []
 
     def axis(name: str) -> str:
-        return label(name, str(data[name].attrs.get("units", "")))
+        shown = name if "step" not in data[name].dims else \
+            f"{name} at step {int(data['step'][-1])}"
+        return label(shown, str(data[name].attrs.get("units", "")))
 
-    for name in scalars:
+    for name in qois:
         values = data[name].where(data["converged"])
+        if "step" in values.dims:
+            values = values.isel(step=-1)
         path = folder / f"response_{name}.png"
-        if len(varied) == 0:
+        if len(varied) == 0 or not np.isfinite(values.values).any():
             continue
         if len(varied) == 1:
             fig, ax = plt.subplots(figsize=(6, 4))
@@ -251,7 +271,7 @@ def plot_response(dataset: xr.Dataset, folder: Path, mode: str) -> list[Path]:
                 fig.colorbar(contour, ax=axes.ravel().tolist(), label=axis(name))
             fig.supxlabel(axis(inner[0]))
             fig.supylabel(axis(inner[1]))
-        fig.suptitle(f"{dataset.attrs.get('model', '')}: {name} over "
+        fig.suptitle(f"{dataset.attrs.get('model', '')}: {axis(name)} over "
                      f"{' × '.join(varied)} ({mode} study)")
         if len(varied) <= 2:
             fig.tight_layout()
