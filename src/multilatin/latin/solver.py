@@ -196,7 +196,9 @@ def _outcome(history: FloatArray, qoi: dict[str, float | list[float]],
         return False, f"non-finite quantities of interest ({', '.join(bad)})"
     if eta >= options.tol and not stopped_on_qoi:
         return False, (f"eta = {eta:.3e} >= tol = {options.tol:g} after {history.size} "
-                       "iterations (max_iter)")
+                       "iterations (max_iter); a larger max_iter or another kappa (the "
+                       "search direction, which the answer does not depend on; "
+                       "docs/convergence.md, 'kappa on every bundled model') may converge")
     return True, ""
 
 
