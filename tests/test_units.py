@@ -80,3 +80,31 @@ def test_a_study_of_quantities_over_the_load_steps_tabulates_their_last_step(
             assert float(row["R_push_err at step 10 [N]"]) >= 0.0
     assert tmp_path / "response_R_push.png" in paths
     assert any("R_push ≤ " in line and "N (any step)" in line for line in summary_lines(study))
+
+
+def test_response_figures_mark_the_cases_whose_answer_is_not_unique(
+        tmp_path: Path, monkeypatch: pytest.MonkeyPatch) -> None:
+    """B1 at (0.2, 0.1) is at the friction limit (``decomposition.uniqueness``): its R_stop
+    is one of several, and the response curve marks it — there and nowhere else."""
+    import matplotlib.figure
+
+    from multilatin.study.report import plot_response
+
+    study = ml.run_study(ml.load_model("b1"), ml.Grid({"mu1": [0.15, 0.2, 0.25],
+                                                       "mu2": [0.1]}),
+                         out=tmp_path, progress=False)
+    unique = study.dataset["unique"].sel(mode="multiresolution").squeeze().values
+    assert list(unique) == [True, False, True]
+    marked: dict[str, list[tuple[float, float]]] = {}
+
+    def savefig(self: matplotlib.figure.Figure, path: Path, **kwargs: object) -> None:
+        for line in self.axes[0].get_lines():
+            if line.get_label() == "not unique":
+                marked[Path(path).name] = list(zip(line.get_xdata(), line.get_ydata(),
+                                                   strict=True))
+
+    monkeypatch.setattr(matplotlib.figure.Figure, "savefig", savefig)
+    plot_response(study.dataset, tmp_path, "multiresolution")
+    r_stop = float(study.dataset["R_stop"].sel(mode="multiresolution", mu1=0.2).squeeze())
+    assert marked["response_R_stop.png"] == [(0.2, r_stop)]
+    assert set(marked) == {"response_R_stop.png", "response_u_A.png", "response_p_B.png"}

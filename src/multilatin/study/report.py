@@ -213,6 +213,24 @@ def plot_response(dataset: xr.Dataset, folder: Path, mode: str) -> list[Path]:
             f"{name} at step {int(data['step'][-1])}"
         return label(shown, str(data[name].attrs.get("units", "")))
 
+    # cases whose answer the discrete problem does not determine (a body at the friction
+    # limit, ``decomposition.uniqueness``): marked, the value one of several
+    flagged = (data["converged"] & ~data["unique"]) if "unique" in data else None
+
+    def mark(ax: Any, panel: xr.DataArray, dims: list[str]) -> None:
+        if flagged is None:
+            return
+        where = flagged.sel({d: panel[d] for d in dims if d in panel.coords})
+        where = where.squeeze(drop=True).transpose(*dims)
+        points = np.argwhere(where.values)
+        if not points.size:
+            return
+        coords = [where[d].values[points[:, i]] for i, d in enumerate(dims)]
+        ax.plot(*(coords if len(dims) == 2 else
+                  [coords[0], panel.values[tuple(points.T)]]),
+                "x", color="red", ms=5, label="not unique")
+        ax.legend(loc="best", fontsize=8)
+
     for name in qois:
         values = data[name].where(data["converged"])
         if "step" in values.dims:
@@ -224,6 +242,7 @@ def plot_response(dataset: xr.Dataset, folder: Path, mode: str) -> list[Path]:
             fig, ax = plt.subplots(figsize=(6, 4))
             curve = values.squeeze(drop=True)
             ax.plot(curve[varied[0]], curve.values, "o-")
+            mark(ax, curve, varied)
             ax.set_xlabel(axis(varied[0]))
             ax.set_ylabel(axis(name))
             ax.grid(alpha=0.3)
@@ -240,6 +259,7 @@ def plot_response(dataset: xr.Dataset, folder: Path, mode: str) -> list[Path]:
             ax = fig.add_subplot(1, 2, 2)
             contour = ax.contourf(x, y, surface.values, levels=15, cmap="viridis")
             fig.colorbar(contour, ax=ax, label=axis(name))
+            mark(ax, surface, varied)
             ax.set_xlabel(axis(varied[0]))
             ax.set_ylabel(axis(varied[1]))
         else:
