@@ -108,3 +108,30 @@ def test_response_figures_mark_the_cases_whose_answer_is_not_unique(
     r_stop = float(study.dataset["R_stop"].sel(mode="multiresolution", mu1=0.2).squeeze())
     assert marked["response_R_stop.png"] == [(0.2, r_stop)]
     assert set(marked) == {"response_R_stop.png", "response_u_A.png", "response_p_B.png"}
+
+
+def test_small_multiples_mark_the_cases_whose_answer_is_not_unique_in_their_panel(
+        tmp_path: Path, monkeypatch: pytest.MonkeyPatch) -> None:
+    """Over three parameters the maps are one panel per hole position: each marks the
+    friction pairs at the limit in its own panel (μ1 + μ2 = 0.3 here, at both positions)."""
+    import matplotlib.figure
+
+    from multilatin.study.report import plot_response
+
+    study = ml.run_study(ml.load_model("b3"), ml.Grid({"mu1": [0.15, 0.2], "mu2": [0.1, 0.15],
+                                                       "xc": [24.0, 26.0]}),
+                         out=tmp_path, progress=False)
+    flagged = ~study.dataset["unique"].sel(mode="multiresolution")
+    assert int(flagged.sum()) == 4
+    marked: dict[str, list[set[tuple[float, float]]]] = {}
+
+    def savefig(self: matplotlib.figure.Figure, path: Path, **kwargs: object) -> None:
+        marked[Path(path).name] = [
+            {(float(x), float(y)) for line in ax.get_lines()
+             if line.get_label() == "not unique"
+             for x, y in zip(line.get_xdata(), line.get_ydata(), strict=True)}
+            for ax in self.axes if ax.get_visible() and ax.get_title()]
+
+    monkeypatch.setattr(matplotlib.figure.Figure, "savefig", savefig)
+    plot_response(study.dataset, tmp_path, "multiresolution")
+    assert marked["response_R_stop.png"] == [{(0.15, 0.15), (0.2, 0.1)}] * 2

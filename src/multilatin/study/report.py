@@ -217,10 +217,13 @@ def plot_response(dataset: xr.Dataset, folder: Path, mode: str) -> list[Path]:
     # limit, ``decomposition.uniqueness``): marked, the value one of several
     flagged = (data["converged"] & ~data["unique"]) if "unique" in data else None
 
-    def mark(ax: Any, panel: xr.DataArray, dims: list[str]) -> None:
+    def mark(ax: Any, panel: xr.DataArray, dims: list[str],
+             fixed: dict[str, int] | None = None) -> None:
+        """Red × on ``ax`` at the flagged cases of ``panel`` (over ``dims``; ``fixed``: the
+        indices of the other varied parameters, a small multiple's)."""
         if flagged is None:
             return
-        where = flagged.sel({d: panel[d] for d in dims if d in panel.coords})
+        where = flagged.isel(fixed or {}).sel({d: panel[d] for d in dims})
         where = where.squeeze(drop=True).transpose(*dims)
         points = np.argwhere(where.values)
         if not points.size:
@@ -228,8 +231,9 @@ def plot_response(dataset: xr.Dataset, folder: Path, mode: str) -> list[Path]:
         coords = [where[d].values[points[:, i]] for i, d in enumerate(dims)]
         ax.plot(*(coords if len(dims) == 2 else
                   [coords[0], panel.values[tuple(points.T)]]),
-                "x", color="red", ms=5, label="not unique")
-        ax.legend(loc="best", fontsize=8)
+                "x", color="red", ms=6, mew=1.5, clip_on=False, zorder=5, label="not unique")
+        if fixed is None:
+            ax.legend(loc="best", fontsize=8)
 
     for name in qois:
         values = data[name].where(data["converged"])
@@ -285,14 +289,17 @@ def plot_response(dataset: xr.Dataset, folder: Path, mode: str) -> list[Path]:
                 ax.set_title(", ".join(f"{d}={float(data[d][i]):g}"
                                        for d, i in zip(outer, where, strict=True)), fontsize=9)
                 ax.set_aspect("equal", adjustable="box")
+                mark(ax, panel, inner, dict(zip(outer, where, strict=True)))
             for ax in axes.ravel()[len(panels):]:
                 ax.set_visible(False)
             if contour is not None:
                 fig.colorbar(contour, ax=axes.ravel().tolist(), label=axis(name))
             fig.supxlabel(axis(inner[0]))
             fig.supylabel(axis(inner[1]))
+        several = len(varied) > 2 and flagged is not None and bool(flagged.any())
         fig.suptitle(f"{dataset.attrs.get('model', '')}: {axis(name)} over "
-                     f"{' × '.join(varied)} ({mode} study)")
+                     f"{' × '.join(varied)} ({mode} study)"
+                     + ("; ×: not unique" if several else ""))
         if len(varied) <= 2:
             fig.tight_layout()
         fig.savefig(path, dpi=110)
