@@ -1,0 +1,79 @@
+"""A study's search direction chosen on one of its cases (``--kappa auto``, session 38).
+
+The converged answer does not depend on κ (k = κ E / L), the iterations do, and by model:
+B1's models converge fastest at the default 0.5, curved contacts at 2–5 (the roller 319
+iterations at 0.5, 64 at 5; the Hertz cylinder at h = 0.05 mm 988 → 79 at 10;
+``benchmarks/kappa_scan.py``, docs/convergence.md "κ on every bundled model"). No rule
+found yet picks κ from the model, so ``choose_kappa`` measures: the case solved from zero
+at κ = 0.5, 1, 2, … in turn under the study's own stopping rule, each capped at one
+iteration fewer than the best so far, the climb stopped at the first κ that does not beat
+it. A study of many cases pays two to five solves of one for it.
+"""
+
+from __future__ import annotations
+
+import logging
+import time
+from collections.abc import Mapping, Sequence
+from dataclasses import dataclass, replace
+
+from ..latin import LatinOptions, solve_latin
+from ..model import Model
+
+__all__ = ["KAPPA_LADDER", "KappaChoice", "choose_kappa"]
+
+log = logging.getLogger(__name__)
+
+#: the κ tried, in turn from the default up (the bundled models' best lie in 0.5 … 10)
+KAPPA_LADDER = (0.5, 1.0, 2.0, 5.0, 10.0)
+
+
+@dataclass(frozen=True)
+class KappaChoice:
+    """The κ kept, and per κ tried its iterations (None: it did not converge in fewer
+    than the best before it), the case they were read on and the seconds it took."""
+
+    kappa: float
+    iterations: dict[float, int | None]
+    params: dict[str, float]
+    seconds: float
+
+    def describe(self) -> str:
+        tried = ", ".join(f"{k:g}: {'no fewer' if n is None else n}"
+                          for k, n in self.iterations.items())
+        case = ", ".join(f"{name}={value:g}" for name, value in self.params.items())
+        return (f"kappa auto: {self.kappa:g} (iterations from zero at "
+                f"({case or 'the defaults'}): {tried}; "
+                f"{self.seconds:.2f} s)")
+
+
+def choose_kappa(model: Model, mu: Mapping[str, float] | None = None,
+                 options: LatinOptions | None = None,
+                 ladder: Sequence[float] = KAPPA_LADDER) -> KappaChoice:
+    """The κ of ``ladder`` (increasing) under which the case ``mu`` converges from zero in
+    the fewest iterations, with ``options``' other settings and stopping rule (module
+    docstring). Where no κ converges, ``options.kappa``: the study then reports its cases
+    as it would have."""
+    options = options or LatinOptions()
+    start = time.perf_counter()
+    assembly = model.assemble(mu)
+    params = {name: float(value) for name, value in (mu or {}).items()}
+    tried: dict[float, int | None] = {}
+    best: tuple[int, float] | None = None
+    for kappa in ladder:
+        cap = options.max_iter if best is None else best[0] - 1
+        if cap < 1:
+            break
+        result = solve_latin(assembly, replace(options, kappa=kappa, max_iter=cap),
+                             check=False)
+        if not result.converged:
+            tried[kappa] = None
+            if best is not None:
+                break  # the iterations rise beyond the best: climbing further costs more
+            continue
+        tried[kappa] = result.iterations
+        best = (result.iterations, kappa)
+    choice = KappaChoice(options.kappa if best is None else best[1], tried, params,
+                         time.perf_counter() - start)
+    log.info("%s", choice.describe())
+    return choice

@@ -1,0 +1,56 @@
+"""``--kappa auto`` (session 38): a study's search direction chosen on its central case,
+the κ of 0.5, 1, 2, … that converges there from zero in the fewest iterations under the
+study's stopping rule (``study.kappa.choose_kappa``). The answer does not depend on κ; the
+iterations do, and by model."""
+
+from __future__ import annotations
+
+import json
+from pathlib import Path
+
+import pytest
+
+import multilatin as ml
+from multilatin.cli import main
+from multilatin.latin import LatinOptions
+from multilatin.latin.options import STUDY_QOI_RTOL
+from multilatin.study.kappa import choose_kappa
+
+STUDY = LatinOptions(qoi_rtol=STUDY_QOI_RTOL)
+
+
+def test_b1_keeps_the_default_and_the_roller_climbs() -> None:
+    """B1 converges fastest at the default (κ = 1 capped at one iteration fewer fails, and
+    the climb stops there); the roller's curved contact wants a stiffer direction and takes
+    less than half the iterations with it."""
+    b1 = choose_kappa(ml.load_model("b1"), {"mu1": 0.3, "mu2": 0.3}, STUDY)
+    assert b1.kappa == 0.5 and list(b1.iterations) == [0.5, 1.0]
+    assert b1.iterations[1.0] is None
+    roller = choose_kappa(ml.load_model("roller"), None, STUDY)
+    at_default = roller.iterations[0.5]
+    assert roller.kappa > 0.5 and at_default is not None
+    assert roller.iterations[roller.kappa] is not None
+    assert 2 * roller.iterations[roller.kappa] < at_default  # type: ignore[operator]
+    assert "kappa auto: " in roller.describe()
+
+
+def test_a_study_runs_at_the_chosen_kappa_and_says_so(
+        tmp_path: Path, capsys: pytest.CaptureFixture[str]) -> None:
+    assert main(["study", "lug", "--grid", "mu=0.1,0.2,0.3", "--kappa", "auto", "--json",
+                 "--out", str(tmp_path), "--no-progress"]) == 0
+    data = json.loads(capsys.readouterr().out)
+    chosen = data["kappa_auto"]
+    assert chosen["params"] == {"mu": 0.2}  # the grid's central case
+    assert chosen["kappa"] in (0.5, 1.0, 2.0, 5.0, 10.0)
+    stored = json.loads((tmp_path / "study.json").read_text())
+    assert stored["identity"]["options"]["kappa"] == chosen["kappa"]
+    # the same command again resumes the study: the same case, the same choice
+    assert main(["study", "lug", "--grid", "mu=0.1,0.2,0.3", "--kappa", "auto",
+                 "--out", str(tmp_path), "--no-progress"]) == 0
+    assert f"kappa auto: {chosen['kappa']:g} " in capsys.readouterr().out
+
+
+def test_kappa_auto_is_refused_for_one_solve(capsys: pytest.CaptureFixture[str]) -> None:
+    assert main(["solve", "b0", "--kappa", "auto"]) == 2
+    err = capsys.readouterr().err
+    assert err.startswith("error: --kappa auto: chooses the search direction of a study")
