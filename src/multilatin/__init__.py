@@ -42,6 +42,7 @@ _EXPORTS = {
     "SolveResult": "multilatin.decomposition.result",
     "StudyResult": "multilatin.study.runner",
     "bundled_models": "multilatin.model",
+    "choose_kappa": "multilatin.study.kappa",
     "load_model": "multilatin.model",
     "run_study": "multilatin.study.runner",
     "solve_latin": "multilatin.latin.solver",
@@ -63,6 +64,7 @@ __all__ = [
     "SolveResult",
     "StudyResult",
     "bundled_models",
+    "choose_kappa",
     "load_model",
     "run_study",
     "solve_latin",
@@ -80,6 +82,7 @@ if TYPE_CHECKING:  # for type checkers and IDEs: the same names, eagerly
     from .model import Model, bundled_models, load_model
     from .parameters import Grid, Mu, Parameter, Parameters, ParameterSpace
     from .reference.monolithic import solve_monolithic
+    from .study.kappa import choose_kappa
     from .study.runner import StudyResult, run_study
 
 
