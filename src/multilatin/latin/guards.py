@@ -43,8 +43,9 @@ def blows_up(size: FloatArray, first_size: FloatArray) -> npt.NDArray[np.bool_]:
     """Per case: its ½(‖s‖ + ‖ŝ‖) ``size`` beyond ``BLOWUP`` times ``first_size``, its
     value after the first iteration. η is relative to that size: an iteration that grows
     without bound in a mode the local stage keeps (s ≈ ŝ there) sees η fall while its
-    fields run away (session 37: a trial step reached η < tol with fields of 1e14)."""
-    return np.asarray(size > BLOWUP * first_size, dtype=bool)
+    fields run away (session 37: a trial step reached η < tol with fields of 1e14). A
+    first size of zero (no load yet) sets no bound."""
+    return np.asarray((first_size > 0.0) & (size > BLOWUP * first_size), dtype=bool)
 
 
 def damp_stagnating(histories: list[list[float]], active: IntArray, relaxation: FloatArray,
