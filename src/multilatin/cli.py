@@ -304,12 +304,15 @@ def _show(model: Model) -> None:
     print("quantities of interest: " + ", ".join(label(q.name, q.unit) for q in assembly.qois))
 
 
-def _latin_options(args: argparse.Namespace) -> LatinOptions:
-    if args.kappa == "auto":
+def _latin_options(args: argparse.Namespace, kappa: float | None = None) -> LatinOptions:
+    """The options of ``args``, with ``kappa`` instead of theirs when given (a study's
+    ``--kappa auto``, once chosen)."""
+    kappa = args.kappa if kappa is None else kappa
+    if kappa == "auto":
         raise ModelError("--kappa auto: chooses the search direction of a study (`multilatin "
                          "study ... --kappa auto`); for one solve give a number (curved "
                          "contacts converge faster at 2-5, B1's models at 0.5)")
-    return LatinOptions(kappa=args.kappa, tol=args.tol, max_iter=args.max_iter,
+    return LatinOptions(kappa=kappa, tol=args.tol, max_iter=args.max_iter,
                         qoi_rtol=args.qoi_rtol,
                         relaxation=args.relaxation, macro=not args.no_macro,
                         extrapolate_sliding=not args.no_sliding_jumps,
@@ -343,12 +346,11 @@ def _study(model: Model, args: argparse.Namespace, argv: list[str] | None) -> in
         from .study.kappa import choose_kappa
 
         centre = {name: values[len(values) // 2] for name, values in grid.items()}
-        args.kappa = LatinOptions.kappa
-        choice = choose_kappa(model, centre, _latin_options(args))
-        args.kappa = choice.kappa
+        choice = choose_kappa(model, centre, _latin_options(args, LatinOptions.kappa))
         if not args.json:
             print(choice.describe())
-    result = run_study(model, grid, options=_latin_options(args), modes=modes, out=out,
+    options = _latin_options(args, None if choice is None else choice.kappa)
+    result = run_study(model, grid, options=options, modes=modes, out=out,
                        chains=args.chains, batch=args.batch, start=args.start,
                        workers=args.workers, scheduler=args.scheduler,
                        schedule=args.schedule, rolling=not args.lines,

@@ -63,7 +63,7 @@ ESTIMATE_AFTER_JUMPS = True
 
 #: the per-case arrays of ``IterationState`` (first axis: the case)
 PER_CASE = ("qoi_recent", "eta_recent", "qoi_scale", "qoi_reported", "stopped_on_qoi",
-            "drifting", "first_size", "diverged", "qoi_settled_error", "settled_steps")
+            "drifting", "first_size", "qoi_settled_error", "settled_steps")
 
 
 @dataclass
@@ -83,10 +83,9 @@ class IterationState:
     stopped_on_qoi: npt.NDArray[np.bool_]  # per case: stopped by ``qoi_rtol`` before η < tol
     sizes: list[list[float]]  # per case, ½(‖s‖ + ‖ŝ‖) after each iteration
     drifting: npt.NDArray[np.bool_]  # per case: stopped as s grows without bound
-    #: per case: ½(‖s‖ + ‖ŝ‖) after its first iteration, and whether it was stopped as
-    #: diverging, grown beyond ``guards.BLOWUP`` times that
+    #: per case: ½(‖s‖ + ‖ŝ‖) after its first iteration (``sizes[c][0]``, as an array for
+    #: the blow-up check of every step, ``guards.blows_up``)
     first_size: FloatArray = field(default_factory=lambda: np.zeros(0))
-    diverged: npt.NDArray[np.bool_] = field(default_factory=lambda: np.zeros(0, dtype=bool))
     #: per case, QoI and step: the estimate a settled step had when it settled (its QoIs
     #: move no more, so the estimate from their increments would read zero; ``settled``)
     qoi_settled_error: FloatArray = field(default_factory=lambda: np.zeros((0, 0, 0)))
@@ -103,8 +102,8 @@ class IterationState:
         return cls({}, [[] for _ in range(n_cases)], np.zeros((n_cases, RECENT, n_qoi, n_steps)),
                    np.zeros((n_cases, RECENT)), np.zeros((n_cases, n_qoi)), reported,
                    np.zeros(n_cases, dtype=bool), [[] for _ in range(n_cases)],
-                   np.zeros(n_cases, dtype=bool), np.zeros(n_cases), np.zeros(n_cases, dtype=bool),
-                   np.zeros(reported.shape), np.zeros(n_cases, dtype=np.int64))
+                   np.zeros(n_cases, dtype=bool), np.zeros(n_cases), np.zeros(reported.shape),
+                   np.zeros(n_cases, dtype=np.int64))
 
     def extend(self, reported: npt.NDArray[np.bool_]) -> None:
         """Room for more cases after these (cases joining a rolling batch): the per-case
@@ -411,9 +410,9 @@ class BatchIterations:
         after_jumps = (np.ones_like(capped) if self.sliding is None else
                        (self.sliding.jumped_at[active] < 0)
                        | (counts - self.sliding.jumped_at[active] > RECENT))
-        out.first_size[active[counts == 1]] = size[counts == 1]
+        first = counts == 1
+        out.first_size[active[first]] = size[first]
         blown = blows_up(size, out.first_size[active])
-        out.diverged[active[blown]] = True
         done = ((eta < options.tol) & after_jumps) | ~np.isfinite(eta) | capped | blown
         due = (counts % DRIFT_WINDOW == 0) & ~done
         if due.any():

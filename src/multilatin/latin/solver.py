@@ -26,7 +26,7 @@ from ..fem.elasticity import FloatArray, IntArray
 from ..limits import check_scale
 from .batching import interface_families, operators_per_case
 from .engine import one_blas_thread
-from .guards import BLOWUP, DRIFT_WINDOW
+from .guards import BLOWUP, DRIFT_WINDOW, blows_up
 from .iteration import IterationObserver, IterationState, iterate
 from .local_stage import LocalStage
 from .operators import LatinOperators
@@ -282,7 +282,7 @@ def _result(c: int, assembly: Assembly, pts: InterfacePoints, state: IterationSt
             f"{DRIFT_WINDOW} iterations (eta = {history[-1]:.2e}, falling only because "
             "they grow): a body slides without end, the load exceeding what friction, "
             "contact and stops can hold (or the iteration is too slow to finish)")
-    if state.diverged[c]:
+    if blows_up(np.asarray(state.sizes[c][-1:]), np.asarray(state.sizes[c][:1])).any():
         converged, failure = False, (
             f"diverged: the interface fields grew to more than {BLOWUP:g} times their size "
             f"after the first iteration (to {state.sizes[c][-1]:.3e} from "

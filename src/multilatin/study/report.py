@@ -62,7 +62,12 @@ def case_table(result: StudyResult) -> tuple[list[str], list[list[Any]]]:
 
 def _column(name: str, value: Any) -> str:
     """A column's name: a QoI over the load steps by its last step."""
-    return f"{name} at step {len(value)}" if isinstance(value, list) else name
+    return _at_step(name, len(value)) if isinstance(value, list) else name
+
+
+def _at_step(name: str, step: int) -> str:
+    """A QoI over the load steps, shown at one of them (the tables', the figures' label)."""
+    return f"{name} at step {step}"
 
 
 def _last(value: Any) -> Any:
@@ -209,8 +214,8 @@ def plot_response(dataset: xr.Dataset, folder: Path, mode: str) -> list[Path]:
     paths = []
 
     def axis(name: str) -> str:
-        shown = name if "step" not in data[name].dims else \
-            f"{name} at step {int(data['step'][-1])}"
+        shown = (name if "step" not in data[name].dims
+                 else _at_step(name, int(data["step"][-1])))
         return label(shown, str(data[name].attrs.get("units", "")))
 
     # cases whose answer the discrete problem does not determine (a body at the friction
