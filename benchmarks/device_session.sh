@@ -11,6 +11,8 @@
 #                                                   #   (meshio, dask, py-spy: docs/gpu.md)
 #   WHEELS=.whl FULL_WORKERS=0,4,8 bash ...         # the whole study on 1, 4 and 8 processes
 #   WHEELS=.whl CORES=1 bash ...                    # + the 16 cores
+#   WHEELS=.whl REFERENCE=.ref/b3-full-cpu.nc bash ...  # + the whole study's R_stop against
+#                                                   #   the CPU path's study.nc (carried)
 set -uo pipefail
 source "$(dirname "$0")/device_env.sh" device-session
 export PATH="/tmp/site/bin:$PATH"
@@ -29,7 +31,7 @@ fi
 workers=${FULL_WORKERS:-0,8}  # the study in this process, then on 8 processes
 timeout $((150 + 100 * $(tr -cd , <<< "$workers" | wc -c))) "${spy[@]}" python3 \
     benchmarks/gpu.py --device cuda --no-tight --only none --full --full-start zero \
-    --full-workers "$workers" 2>&1 | grep -v Warning | tee "$out/full.log"
+    --full-workers "$workers" ${REFERENCE:+--full-reference "$REFERENCE"} 2>&1 | grep -v Warning | tee "$out/full.log"
 if [ "${CORES:-0}" = 0 ]; then echo "device session done (GPU part)"; exit 0; fi
 timeout 120 python3 benchmarks/core_contention.py --copies 1 16 2>&1 | tee "$out/contention.log"
 timeout 150 python3 benchmarks/dask_waves.py --study b3 --no-predict --dask 16 2>&1 \

@@ -58,7 +58,8 @@ B3_MIXED = ["xc=23:27:3", "mu1=0:0.6:4", "mu2=0:0.6:4"]
 B3_FULL = ["mu1=0:0.6:13", "mu2=0:0.6:13", "xc=23:27:5", "yc=73:77:5", "rc=1:5:5"]
 TIGHT = LatinOptions(tol=1e-9, max_iter=5000)
 #: the --full study's starts: row label and run_study's arguments
-FULL_STARTS = {"zero": ("zero", {"start": "zero"}), "neighbour": ("neighbour (wavefront)", {})}
+FULL_STARTS = {"zero": ("zero", {"start": "zero"}),
+               "neighbour": ("neighbour (wavefront)", {"start": "neighbour"})}
 
 
 def peak_memory(torch: Any, device: str) -> str:
@@ -136,6 +137,30 @@ def relative(a: np.ndarray, b: np.ndarray) -> float:
     return float(np.max(np.abs(a - b) / np.maximum(np.abs(a), 1e-12)))
 
 
+def against_reference(path: str, values: np.ndarray) -> str:
+    """R_stop of the --full study against a study.nc of the same grid from the CPU path
+    (NumPy; any starts): the largest relative difference over the cases whose answer is
+    unique, and apart over those at the friction limit (not unique: either answer holds)."""
+    import xarray as xr
+
+    with xr.open_dataset(path) as reference:
+        expected = np.asarray(reference["R_stop"].values, dtype=float).reshape(-1)
+        unique = np.asarray(reference["unique"].values, dtype=bool).reshape(-1)
+        converged = np.asarray(reference["converged"].values, dtype=bool).reshape(-1)
+    got = values.reshape(-1)
+    if got.size != expected.size:
+        return f"  {path}: {expected.size} cases, not this study's {got.size}"
+    difference = np.abs(got - expected) / np.maximum(np.abs(expected), 1e-12)
+    kept = unique & converged & np.isfinite(got)
+    limit = ~unique & converged & np.isfinite(got)
+    return (f"  R_stop against the CPU path ({path}): over the {kept.sum()} unique cases the "
+            f"largest relative difference {difference[kept].max():.1e} (99.9 % of them "
+            f"≤ {np.quantile(difference[kept], 0.999):.1e}, {np.sum(difference[kept] > 2e-3)} "
+            f"above 2e-3, twice the QoI tolerance); {limit.sum()} cases at the friction "
+            f"limit (either answer holds) up to {difference[limit].max(initial=0):.1e}; "
+            f"{np.sum(~np.isfinite(got))} without an answer here")
+
+
 def row(workload: str, path: str, wall: float, cases: int, iterations: int, memory: str,
         same: float | None, tight: np.ndarray | None, values: np.ndarray | None) -> None:
     def text(x: float | None) -> str:
@@ -156,12 +181,16 @@ def main() -> None:
     parser.add_argument("--full-rc", default="1:5:5",
                         help="the hole radii of the --full study (e.g. 3: one fifth of it, "
                              "4 225 cases)")
-    parser.add_argument("--full-start", default="zero,neighbour",
-                        help="the --full study's starts, in this order")
+    parser.add_argument("--full-start", default="zero",
+                        help="the --full study's starts, in this order (zero, neighbour: "
+                             "the wavefront, on a GPU slower, docs/gpu.md session 39)")
     parser.add_argument("--full-workers", default="0",
                         help="the --full study's processes, in this order (0: this one; W: "
                              "a local Dask cluster of W, batches W × narrower, each batch "
                              "a task; W:chains: each process a chain of batches)")
+    parser.add_argument("--full-reference",
+                        help="a study.nc of the --full grid from the CPU path (e.g. "
+                             "benchmarks/b3_full_study.py's), for R_stop side by side")
     parser.add_argument("--fuse", action="store_true",
                         help="torch rows with the compiled local stage (LatinOptions.fuse); "
                              "its compilation happens in the warm-up solves, not the rows")
@@ -213,13 +242,16 @@ def main() -> None:
         row("b3 solve", label, wall, 1, result.iterations,
             peak_memory(torch, args.device) if "torch" in label else "—", same, None, None)
 
-    runs = [("B1 13 × 13", b1, B1_GRID, [("neighbour, batch 13", {"batch": 13}),
+    # the starts named: on a CUDA device a study starts from zero unless told
+    runs = [("B1 13 × 13", b1, B1_GRID, [("neighbour, batch 13", {"batch": 13,
+                                                                   "start": "neighbour"}),
                                           ("zero, batch 169", {"batch": 169,
                                                                "start": "zero"})]),
             ("B3 5 × 5 positions", b3, B3_POSITIONS, [("zero, batch 25", {"batch": 25,
                                                                            "start": "zero"})]),
             ("B3 3 positions × 4 × 4", b3, B3_MIXED,
-             [("neighbour (torch: wavefront), batch 1000", {"batch": 1000}),
+             [("neighbour (torch: wavefront), batch 1000", {"batch": 1000,
+                                                             "start": "neighbour"}),
               ("zero, batch 1000", {"batch": 1000, "start": "zero"})])]
     if args.only:
         runs = [run for run in runs if any(run[0].startswith(prefix)
@@ -270,6 +302,8 @@ def main() -> None:
                     None if first is None else relative(first, values), None, None)
                 first = values if first is None else first
                 print(split, flush=True)
+                if args.full_reference:
+                    print(against_reference(args.full_reference, values), flush=True)
 
 if __name__ == "__main__":
     main()
