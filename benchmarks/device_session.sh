@@ -13,6 +13,7 @@
 #   WHEELS=.whl CORES=1 bash ...                    # + the 16 cores
 #   WHEELS=.whl REFERENCE=.ref/b3-full-cpu.nc bash ...  # + the whole study's R_stop against
 #                                                   #   the CPU path's study.nc (carried)
+#   WHEELS=.whl FULL_START=zero,neighbour bash ...  # + the study in geometry waves
 set -uo pipefail
 source "$(dirname "$0")/device_env.sh" device-session
 export PATH="/tmp/site/bin:$PATH"
@@ -29,8 +30,11 @@ if py-spy record -d 1 -o /tmp/spy-test.txt -f raw -- python3 -c "import time; ti
     spy=(py-spy record -r 20 --nonblocking -f raw -o "$out/full-spy.txt" --)
 fi
 workers=${FULL_WORKERS:-0,8}  # the study in this process, then on 8 processes
-timeout $((150 + 100 * $(tr -cd , <<< "$workers" | wc -c))) "${spy[@]}" python3 \
-    benchmarks/gpu.py --device cuda --no-tight --only none --full --full-start zero \
+starts=${FULL_START:-zero}  # from zero; zero,neighbour: then in geometry waves
+runs=$(( ($(tr -cd , <<< "$workers" | wc -c) + 1) * ($(tr -cd , <<< "$starts" | wc -c) + 1) ))
+timeout $((50 + 100 * runs)) "${spy[@]}" python3 \
+    benchmarks/gpu.py --device cuda --no-tight --only none --full \
+    --full-start "$starts" \
     --full-workers "$workers" ${REFERENCE:+--full-reference "$REFERENCE"} 2>&1 | grep -v Warning | tee "$out/full.log"
 if [ "${CORES:-0}" = 0 ]; then echo "device session done (GPU part)"; exit 0; fi
 timeout 120 python3 benchmarks/core_contention.py --copies 1 16 2>&1 | tee "$out/contention.log"

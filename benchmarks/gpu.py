@@ -59,7 +59,7 @@ B3_FULL = ["mu1=0:0.6:13", "mu2=0:0.6:13", "xc=23:27:5", "yc=73:77:5", "rc=1:5:5
 TIGHT = LatinOptions(tol=1e-9, max_iter=5000)
 #: the --full study's starts: row label and run_study's arguments
 FULL_STARTS = {"zero": ("zero", {"start": "zero"}),
-               "neighbour": ("neighbour (wavefront)", {"start": "neighbour"})}
+               "neighbour": ("neighbour (geometry waves)", {"start": "neighbour"})}
 
 
 def peak_memory(torch: Any, device: str) -> str:

@@ -19,9 +19,15 @@ import multilatin as ml
 from multilatin.errors import ModelError
 from multilatin.latin import LatinOptions
 from multilatin.parameters import Grid, ParameterSpace
-from multilatin.study.plan import boustrophedon, clear_operator_cache, plan_study
+from multilatin.study.chain_state import STORED_CASES, ChainState, nearest_index
+from multilatin.study.plan import (
+    boustrophedon,
+    chain_step_stored,
+    clear_operator_cache,
+    plan_study,
+)
 from multilatin.study.runner import run_study
-from multilatin.study.store import load_study
+from multilatin.study.store import StudyStore, load_study
 
 MU2_LINE = Grid({"mu1": [0.3], "mu2": [0.0, 0.1, 0.2, 0.3]})
 
@@ -221,6 +227,50 @@ def test_journal_lines_lost_after_a_batch_are_recovered_from_its_chain_state(
         (json.loads(line) for line in lines), key=lambda r: r["number"])
     assert any("recovered 3 case(s)" in repair for repair in result.repairs)
     assert all(r["converged"] for r in result.records)
+
+
+def test_a_chain_state_is_stored_bounded(tmp_path: Path) -> None:
+    """A torch wavefront retains two batches' worth of cases (GBs at B3's scale): the store,
+    and a Dask chain's client, get the most recent ``STORED_CASES`` alone, with their flags;
+    the chain itself goes on with the whole state."""
+    state = ChainState(300)
+    for i in range(150):
+        state = state.added((i, 0), (np.full((1, 2, 2), float(i)), np.zeros((1, 2, 2))),
+                            unsettled=i in (20, 140))
+    kept = state.stored()
+    latest = [(i, 0) for i in range(150 - STORED_CASES, 150)]
+    assert list(kept.retained) == latest and kept.unsettled == frozenset({(140, 0)})
+    assert len(state.retained) == 150 and state.stored(300) is state
+    record = {"mode": "multiresolution", "number": 0, "chain": 0}
+    records, shipped = chain_step_stored(([record], state))
+    assert records == [record] and shipped is not None and list(shipped.retained) == latest
+    store = StudyStore(tmp_path, {"model": "test"})
+    try:
+        store.add_batch([record], state)
+        resumed = store.chain_state("multiresolution", 0)
+    finally:
+        store.close()
+    assert resumed is not None and list(resumed.retained) == latest
+    assert resumed.unsettled == frozenset({(140, 0)})
+    assert float(resumed.retained[latest[0]][0][0, 0, 0]) == latest[0][0]
+
+
+def test_a_chain_state_takes_a_batch_as_its_cases_one_by_one() -> None:
+    """``added_all`` (a batch's converged cases at once, one copy of the state) keeps what
+    ``added`` case by case keeps: the latest ``capacity`` cases, in order, with their flags;
+    the nearest retained case one grid step away found by lookup, ties to the latest."""
+    cases = [((i % 4, i // 4), (np.full((1, 1, 2), float(i)), np.zeros((1, 1, 2))), i % 3 == 0)
+             for i in range(12)]
+    start = ChainState(7).added((9, 9), cases[0][1], True)
+    one_by_one = start
+    for index, fields, flag in cases:
+        one_by_one = one_by_one.added(index, fields, flag)
+    together = start.added_all(cases)
+    assert list(together.retained) == list(one_by_one.retained) == [c[0] for c in cases[5:]]
+    assert together.unsettled == one_by_one.unsettled == {(2, 1), (1, 2)}
+    for index in [(i, j) for i in range(-1, 5) for j in range(-1, 4)]:  # as the scan finds
+        assert together.nearest(index)[0] == nearest_index(list(together.retained), index)[0]
+    assert together.nearest((2, 2))[0] == (3, 2)  # of (1, 2), (3, 2), (2, 1): the latest
 
 
 def test_dask_cluster_gives_the_serial_results(b1: ml.Model, tmp_path: Path) -> None:

@@ -308,10 +308,11 @@ def test_a_batch_larger_than_the_memory_is_solved_in_chunks(
         cases_per_chunk(assemblies[0].n_steps, n_points, DEVICE)
 
 
-def test_multiresolution_on_torch_runs_a_wavefront_across_geometries(tmp_path: Path) -> None:
-    """``start="neighbour"`` on torch: the k-th line of every geometry in one batch, each
-    case warm-started from its own geometry's previous line; the answers those of the NumPy
-    study (its lines one geometry at a time) to the tolerance. (Nearest starts: with the
+def test_multiresolution_on_torch_runs_geometry_waves(tmp_path: Path) -> None:
+    """``start="neighbour"`` on torch: the geometries in waves (``StudyPlan.geometry_waves``),
+    the first geometry's cases from zero in one batch, then the other's, each warm-started
+    from the same frictions one hole position away; the answers those of the NumPy study
+    (its lines one geometry at a time) to the tolerance. (Nearest starts: with the
     default ones a case beside a position flagged not unique starts from zero,
     ``predictors.not_unique_beside``, tested in test_predictors.py.)"""
 
@@ -319,16 +320,16 @@ def test_multiresolution_on_torch_runs_a_wavefront_across_geometries(tmp_path: P
     grid = ml.Grid({"xc": [23.0, 26.0], "mu1": [0.1, 0.3], "mu2": [0.0, 0.2]})
     options = LatinOptions()  # the default η: R_stop within 0.1 % (docs/tolerance.md)
     reference, got = _on_both_backends(model, grid, options, start="nearest")
-    assert {r["batch"] for r in got.records} == {4}  # 2 geometries × a line of 2
-    for record in got.records:  # the second batch from the first, one grid step away
+    assert {r["batch"] for r in got.records} == {4}  # 2 geometries, 2 × 2 frictions each
+    for record in got.records:  # the second batch from the first, one hole position away
         if not record["start"].startswith("zero"):
             start = dict(item.split("=") for item in record["start"].split(", "))
-            steps = sum(grid[name].index(float(value)) != grid[name].index(record["params"][name])
-                        for name, value in start.items())
-            assert steps == 1, record["start"]
-    # the first batch (each geometry's first line) from zero, and (26, 0.1, 0.2) of the
-    # second: at the friction limit (μ1 + μ2 = 0.3), foreseen from its neighbour's state
-    # (``starts.at_limit``), not unique
+            moved = [name for name, value in start.items()
+                     if grid[name].index(float(value)) != grid[name].index(record["params"][name])]
+            assert moved == ["xc"] and record["params"]["xc"] == 26.0, record["start"]
+    # the first batch (the first geometry) from zero, and (26, 0.1, 0.2) of the second:
+    # beside (23, 0.1, 0.2), at the friction limit (μ1 + μ2 = 0.3) and flagged not unique
+    # (``predictors.not_unique_beside``)
     zero = {(r["params"]["xc"], r["params"]["mu1"], r["params"]["mu2"]): r["unique"]
             for r in got.records if r["start"] == "zero"}
     assert len(zero) == 5 and zero[(26.0, 0.1, 0.2)] is False

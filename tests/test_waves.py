@@ -328,3 +328,31 @@ def test_line_tasks_start_from_parallelograms_across_geometries(tmp_path: Path) 
     for got, nearest in zip(runs[True], runs[False], strict=True):
         assert got["converged"] and got["unique"]
         assert got["qoi"]["R_stop"] == pytest.approx(nearest["qoi"]["R_stop"], rel=1e-3)
+
+
+def test_geometry_waves_go_outward_one_hole_step_at_a_time() -> None:
+    """The torch backend's multiresolution (``StudyPlan.geometry_waves``): the 21 125-case
+    study's 125 hole geometries in waves from the middle one (1, 6, 18, 32, 36, 24, 8
+    geometries: an octahedron's shells in the 5 × 5 × 5 box), each geometry's 169 frictions
+    in its wave, and every geometry of a wave one step (along one of xc, yc, rc) from one
+    of the wave before; with 8 chains each chain's waves alike over its own geometries. A
+    grid of one geometry has none (the lines' wavefront then)."""
+    model = ml.load_model("b3")
+    grid = Grid.parse(["mu1=0:0.6:13", "mu2=0:0.6:13", "xc=23:27:5", "yc=73:77:5",
+                       "rc=1:5:5"])
+    options = LatinOptions(backend="torch")
+    for chains in (1, 8):
+        plan = plan_study(model, grid, options, chains)
+        for chain in plan.chains:
+            waves = plan.geometry_waves(chain)
+            assert sorted(c.number for wave in waves for c in wave) == sorted(
+                c.number for c in chain)
+            shells = [{c.index[2:] for c in wave} for wave in waves]
+            assert len(shells[0]) == 1
+            for before, wave in zip(shells, shells[1:], strict=False):
+                assert all(min(_distance(g, b) for b in before) == 1 for g in wave)
+            if chains == 1:
+                assert [len(s) for s in shells] == [1, 6, 18, 32, 36, 24, 8]
+                assert shells[0] == {(2, 2, 2)} and all(len(w) % 169 == 0 for w in waves)
+    one = plan_study(model, Grid.parse(["mu1=0:0.6:13", "mu2=0:0.6:13"]), options, 1)
+    assert one.geometry_waves(one.chains[0]) == []

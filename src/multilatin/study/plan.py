@@ -14,8 +14,8 @@ from __future__ import annotations
 import logging
 import time
 from collections import OrderedDict
-from collections.abc import Iterator, Sequence
-from dataclasses import dataclass, field
+from collections.abc import Iterator
+from dataclasses import dataclass
 from typing import Any
 
 import numpy as np
@@ -29,6 +29,7 @@ from ..latin.operators import LatinOperators, operator_signature
 from ..model import Model
 from ..parameters import Grid, Mu
 from . import starts
+from .chain_state import ChainState
 from .predictors import along_geometry
 from .records import case_record
 
@@ -117,6 +118,40 @@ class StudyPlan:
         return [tuple(wave[i:i + size]) for k in sorted(waves) for wave in [waves[k]]
                 for i in range(0, len(wave), size)]
 
+    def geometry_waves(self, chain: tuple[Case, ...]) -> list[tuple[Case, ...]]:
+        """The geometries of ``chain`` in waves outward from its middle one: its cases first
+        (from zero), then every geometry one step (along one geometric parameter) from a
+        geometry of the wave before, all its cases in one batch, each starting from the
+        same other parameters' case there (torch multiresolution: B3's 125 hole
+        geometries in 7 waves of up to 36 × 169 cases, where ``wavefront`` takes 13 of
+        1 625). A wave is one batch, however wide: the device chunks it by its memory.
+        None for a chain of one geometry (``wavefront``'s lines then)."""
+        geometric = [d for d, name in enumerate(self.grid) if name in self.geometric]
+        by_geometry: dict[tuple[int, ...], list[Case]] = {}
+        for case in chain:
+            by_geometry.setdefault(tuple(case.index[d] for d in geometric), []).append(case)
+        if len(by_geometry) < 2:
+            return []
+        keys = list(by_geometry)
+
+        def steps(a: tuple[int, ...], b: tuple[int, ...]) -> int:
+            return sum(abs(x - y) for x, y in zip(a, b, strict=True))
+
+        root = min(keys, key=lambda k: sum(steps(k, other) for other in keys))
+        level, frontier = {root: 0}, [root]
+        while frontier:  # breadth first over geometries one step apart
+            depth = level[frontier[0]] + 1
+            frontier = [k for k in keys if k not in level
+                        and any(steps(k, f) == 1 for f in frontier)]
+            level.update(dict.fromkeys(frontier, depth))
+        last = max(level.values())
+        for k in keys:  # not reached one step at a time: a wave of its own, at the end
+            level.setdefault(k, last + 1)
+        waves: dict[int, list[Case]] = {}
+        for k in keys:
+            waves.setdefault(level[k], []).extend(by_geometry[k])
+        return [tuple(waves[n]) for n in sorted(waves)]
+
     @property
     def cases(self) -> list[Case]:
         return [case for chain in self.chains for case in chain]
@@ -201,88 +236,6 @@ def _assemble(model: Model, grid: Grid, index: tuple[int, ...]) -> Any:
     except ModelError as error:
         params = ", ".join(f"{k}={v:g}" for k, v in mu.items())
         raise ModelError(f"parameter set ({params}): {error}") from None
-
-
-def nearest_index(indices: Sequence[tuple[int, ...]], index: tuple[int, ...]
-                  ) -> tuple[tuple[int, ...] | None, int | None]:
-    """Of ``indices`` (oldest first), the one nearest ``index`` in grid steps (L1; ties: the
-    latest), never ``index`` itself, and its distance; (None, None) when there is none."""
-    best, best_distance = None, None
-    for other in reversed(indices):
-        if other == index:
-            continue
-        distance = sum(abs(a - b) for a, b in zip(other, index, strict=True))
-        if best_distance is None or distance < best_distance:
-            best, best_distance = other, distance
-    return best, best_distance
-
-
-@dataclass
-class ChainState:
-    """What a chain carries from case to case: the converged interface fields ŝ of its
-    latest converged cases, by grid index (most recent last)."""
-
-    capacity: int = 32
-    retained: OrderedDict[tuple[int, ...], tuple[FloatArray, FloatArray]] = field(
-        default_factory=OrderedDict)
-    #: retained cases flagged not unique: a case at the same frictions one hole position
-    #: away starts from zero (``predictors.not_unique_beside``)
-    unsettled: frozenset[tuple[int, ...]] = frozenset()
-
-    def nearest(self, index: tuple[int, ...]) -> tuple[tuple[int, ...] | None,
-                                                      tuple[FloatArray, FloatArray] | None]:
-        """The retained case nearest to ``index`` (``nearest_index``), never ``index``
-        itself: a case recomputed after its record was lost must not start from its own
-        earlier answer."""
-        best, _ = nearest_index(list(self.retained), index)
-        return (best, self.retained[best]) if best is not None else (None, None)
-
-    def distance(self, index: tuple[int, ...]) -> int | None:
-        """Grid steps (L1) to the nearest retained case other than ``index``; None when
-        there is none."""
-        return nearest_index(list(self.retained), index)[1]
-
-    def added(self, index: tuple[int, ...], fields: tuple[FloatArray, FloatArray],
-              unsettled: bool = False) -> ChainState:
-        """A new state with ``fields`` retained, flagged ``unsettled`` or not (this one is
-        left unchanged: distributed tasks share their inputs)."""
-        retained = OrderedDict(self.retained)
-        retained[index] = fields
-        retained.move_to_end(index)
-        while len(retained) > self.capacity:
-            retained.popitem(last=False)
-        flagged = (self.unsettled | {index}) if unsettled else self.unsettled - {index}
-        return ChainState(self.capacity, retained, frozenset(flagged & retained.keys()))
-
-    def keeping(self, retained: OrderedDict[tuple[int, ...], tuple[FloatArray, FloatArray]],
-                unsettled: frozenset[tuple[int, ...]] | None = None,
-                capacity: int | None = None) -> ChainState:
-        """These retained cases, with their flags (this state's, or ``unsettled``)."""
-        flagged = (self.unsettled if unsettled is None else unsettled) & retained.keys()
-        return ChainState(capacity or self.capacity, retained, frozenset(flagged))
-
-    def to_arrays(self) -> dict[str, FloatArray]:
-        out: dict[str, FloatArray] = {"capacity": np.array(self.capacity)}
-        for n, (index, (w_hat, f_hat)) in enumerate(self.retained.items()):
-            out[f"index_{n}"] = np.array(index)
-            out[f"w_hat_{n}"] = w_hat
-            out[f"f_hat_{n}"] = f_hat
-        if self.unsettled:
-            out["unsettled"] = np.array(sorted(self.unsettled))
-        return out
-
-    @classmethod
-    def from_arrays(cls, arrays: dict[str, FloatArray]) -> ChainState:
-        state = cls(int(arrays["capacity"]))
-        n = 0
-        while f"index_{n}" in arrays:
-            index = tuple(int(i) for i in arrays[f"index_{n}"])
-            state.retained[index] = (arrays[f"w_hat_{n}"], arrays[f"f_hat_{n}"])
-            n += 1
-        if "unsettled" in arrays:
-            state = state.keeping(state.retained, frozenset(
-                tuple(int(i) for i in row) for row in arrays["unsettled"]))
-        return state
 
 
 # operators of the latest geometries met by this process (a worker keeps its own); lines
@@ -408,8 +361,9 @@ def _solve_together(model: Model, grid: Grid, cases: tuple[Case, ...], mode: str
         share = (result.iterations + spent) / total_iterations
         records.append(case_record(grid, case, mode, result, share * wall_s, share * setup_s,
                                     built, start_index, len(cases), spent, extra))
-        if result.converged and state is not None:
-            state = _retain(state, case, result)
+    if state is not None:  # the converged ones, retained in one copy of the state
+        state = state.added_all([_retained(case, result) for case, (result, _) in
+                                 zip(cases, kept, strict=True) if result.converged])
     return records, state
 
 
@@ -419,10 +373,16 @@ def _has_neighbour(state: ChainState | None, case: Case) -> bool:
     return distance is not None and distance <= 1
 
 
-def _retain(state: ChainState, case: Case, result: SolveResult) -> ChainState:
+def _retained(case: Case, result: SolveResult
+              ) -> tuple[tuple[int, ...], tuple[FloatArray, FloatArray], bool]:
+    """What a chain's state keeps of a converged case: its ŝ, flagged when not unique."""
     assert result.interface is not None
-    return state.added(case.index, (result.interface.displacement_hat,
-                                    result.interface.force_hat), not result.unique)
+    return (case.index, (result.interface.displacement_hat, result.interface.force_hat),
+            not result.unique)
+
+
+def _retain(state: ChainState, case: Case, result: SolveResult) -> ChainState:
+    return state.added_all([_retained(case, result)])
 
 
 def _retained_capacity(grid: Grid) -> int:
@@ -439,3 +399,11 @@ def run_chain_step(model: Model, grid: Grid, cases: tuple[Case, ...], mode: str,
     task's output (or a resumed state, or None at the start of a chain)."""
     state = previous[1] if isinstance(previous, tuple) else previous
     return run_batch(model, grid, cases, mode, options, state, start)
+
+
+def chain_step_stored(output: tuple[list[dict[str, Any]], ChainState | None]
+                      ) -> tuple[list[dict[str, Any]], ChainState | None]:
+    """A chain task's records and the state its store keeps (``ChainState.stored``): run
+    beside the task on its worker, so that only this much travels to the client."""
+    records, state = output
+    return records, state.stored() if state is not None else None

@@ -41,15 +41,8 @@ from ..latin.stream import StreamCase, solve_latin_stream
 from ..model import Model
 from ..parameters import Grid
 from . import starts
-from .plan import (
-    Case,
-    ChainState,
-    StudyPlan,
-    _operators,
-    _retain,
-    _retained_capacity,
-    nearest_index,
-)
+from .chain_state import ChainState, nearest_index
+from .plan import Case, StudyPlan, _operators, _retain, _retained_capacity
 from .predictors import (
     across_geometries,
     along_geometry,

@@ -26,8 +26,10 @@ from ..latin.options import STUDY_QOI_RTOL
 from ..limits import check_study
 from ..model import Model
 from ..parameters import Grid
+from . import plan as plans
+from .chain_state import ChainState
 from .cluster import load_kernels, local_cluster, warm_workers, worker_addresses
-from .plan import MODES, SCHEDULES, START_FROM, Case, ChainState, StudyPlan, plan_study, run_chain_step
+from .plan import MODES, SCHEDULES, START_FROM, Case, StudyPlan, plan_study
 from .rolling import rolls, run_rolling
 from .store import StudyStore
 from .waves import from_the_middle, run_line_tasks, submit_line_tasks
@@ -198,9 +200,10 @@ def run_study(
         neighbour line one step nearer the middle one (``study.waves``: one start from
         zero, lines side by side where the grid allows); ``"chains"``, ``chains``
         contiguous pieces of the traversal, each from zero (the earlier rule: 29 % more
-        iterations on B1's 13 × 13 grid with 16). The torch backend's wavefront uses
-        chains; from zero (``start="zero"``) ``"waves"`` makes every batch its own task,
-        handed to the workers as they free up (its batches need no other's output).
+        iterations on B1's 13 × 13 grid with 16). The torch backend's multiresolution
+        (geometry waves, or a wavefront of lines) uses chains; from zero
+        (``start="zero"``) ``"waves"`` makes every batch its own task, handed to the
+        workers as they free up (its batches need no other's output).
     options: the solver's; default ``LatinOptions(qoi_rtol=STUDY_QOI_RTOL)``: a case stops
         once its QoIs' estimated errors are below 0.1 % (or at η < 3e-6 before), which keeps
         R_stop within 0.1 % of its tight value on B1's 13 × 13 and B3's 5 × 5 grids with 27 %
@@ -234,7 +237,7 @@ def run_study(
     if on_failure not in ("warn", "raise", "ignore"):
         raise ModelError(f"on_failure: expected 'warn', 'raise' or 'ignore', got {on_failure!r}")
     if start == "neighbour" and options.backend == "torch":
-        schedule = "chains"  # the device batches lines of many geometries (wavefront)
+        schedule = "chains"  # the device batches many geometries (geometry waves)
     n_chains = (chains if chains is not None else
                 1 if schedule == "waves" else max(workers, 1))
     check_study(grid.size, len(modes))
@@ -386,11 +389,11 @@ def _pending_batches(plan: StudyPlan, chain: tuple[Case, ...], mode: str, store:
                      size: int, start: str = "neighbour", backend: str = "numpy"
                      ) -> list[tuple[Case, ...]]:
     """The batches of ``chain`` still to compute, finished cases left out: grid lines (or
-    whole geometries from zero) on NumPy; on torch, which batches several geometries,
-    consecutive cases from zero, or the wavefront of lines across geometries."""
+    whole geometries from zero) on NumPy; on torch, consecutive cases from zero, or from
+    the neighbour geometry waves (one geometry: the wavefront of its lines)."""
     if mode != "cold" and backend == "torch":
         batches = (plan.batches(chain, size, "any") if start == "zero" else
-                   plan.wavefront(chain, size))
+                   plan.geometry_waves(chain) or plan.wavefront(chain, size))
     else:
         batches = plan.batches(chain, size,
                                "geometry" if start == "zero" and mode != "cold" else "line")
@@ -418,7 +421,7 @@ def _run_serial(model: Model, grid: Grid, plan: StudyPlan, mode: str, options: L
             continue
         for cases in _pending_batches(plan, chain, mode, store, batch, start,
                                       options.backend):
-            records, state = run_chain_step(model, grid, cases, mode, options, state, start)
+            records, state = plans.run_chain_step(model, grid, cases, mode, options, state, start)
             finished(records, state)
 
 
@@ -470,15 +473,17 @@ def _run_dask(model: Model, grid: Grid, plan: StudyPlan, mode: str, options: Lat
                                  if chained and mode != "cold" else None)
                 for cases in _pending_batches(plan, chain, mode, store, batch, start,
                                               options.backend):
-                    task = client.submit(run_chain_step, model_future, grid, cases, mode,
+                    task = client.submit(plans.run_chain_step, model_future, grid, cases, mode,
                                          options, previous, start, pure=False,
                                          key=f"{mode}-batch-{cases[0].number}-{id(store)}")
-                    futures.append(task)
+                    # the chain's state (GBs on torch) stays on its worker for the next
+                    # batch; the client gets the records and what the store keeps
+                    futures.append(client.submit(plans.chain_step_stored, task, pure=False)
+                                   if chained and mode != "cold" else task)
                     previous = task if chained else None
             previous = task = None
-        # as_completed holds each future until it is done; the client then drops it, so a
-        # finished batch's chain state (tens of MB for b3) leaves the workers as soon as the
-        # chain's next batch has started from it — a 21 125-case study keeps two, not 1 600
+        # as_completed holds each future until done; a chained batch's full state is held by
+        # the chain's next batch and its summary alone, and leaves its worker after both
         completed = as_completed(futures)
         futures.clear()
         for future in completed:

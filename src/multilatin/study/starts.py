@@ -28,7 +28,8 @@ from .predictors import (
 )
 
 if TYPE_CHECKING:
-    from .plan import Case, ChainState
+    from .chain_state import ChainState
+    from .plan import Case
 
 log = logging.getLogger(__name__)
 

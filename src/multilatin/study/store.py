@@ -46,7 +46,7 @@ import xarray as xr
 from ..errors import ModelError
 from ..io.files import ensure_writable_folder
 from ..parameters import Grid
-from .plan import ChainState
+from .chain_state import ChainState
 
 log = logging.getLogger(__name__)
 
@@ -209,7 +209,7 @@ class StudyStore:
             path = self.folder / "chains" / f"{first['mode']}-{first['chain']}.npz"
             buffer = io.BytesIO()
             arrays: dict[str, Any] = {"records": np.array(json.dumps(records)),
-                                      **state.to_arrays()}
+                                      **state.stored().to_arrays()}
             np.savez(buffer, **arrays)
             _write_atomic(path, buffer.getvalue())
         self._append(records)

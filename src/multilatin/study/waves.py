@@ -35,7 +35,8 @@ from typing import Any
 from ..latin import LatinOptions
 from ..model import Model
 from ..parameters import Grid
-from .plan import Case, ChainState, StudyPlan, _retained_capacity, run_batch
+from .chain_state import ChainState
+from .plan import Case, StudyPlan, _retained_capacity, run_batch
 from .predictors import beside
 from .store import StudyStore
 
