@@ -201,7 +201,8 @@ def build_parser() -> argparse.ArgumentParser:
     study.add_argument("--batch", type=int, default=None,
                        help="multiresolution: iterate up to N cases together, each from its "
                             "nearest converged neighbour (1: one by one; default: 16; "
-                            "4225 on a GPU from zero)")
+                            "4225 on a GPU from zero; on torch over several geometries a "
+                            "whole geometry wave, as the memory holds)")
     study.add_argument("--lines", action="store_true",
                        help="serial multiresolution: solve grid lines batch after batch "
                             "instead of one rolling batch that a case joins once its "
