@@ -337,6 +337,38 @@ def test_multiresolution_on_torch_runs_geometry_waves(tmp_path: Path) -> None:
                                reference.dataset["R_stop"].values, rtol=2e-3)
 
 
+def test_geometry_waves_on_dask_chains_each_start_once_from_zero(tmp_path: Path) -> None:
+    """Torch multiresolution on two Dask processes (``schedule="chains"``): each chain's
+    geometry waves start from zero once, at the chain's middle geometry, every other case
+    one hole position away in its chain; the answers those of the serial study to the
+    tolerance; the chains' states, kept whole on their workers, reach the store as their
+    latest cases alone (``ChainState.stored``)."""
+    pytest.importorskip("dask.distributed")
+    model = ml.load_model("b3")
+    grid = ml.Grid({"mu1": [0.1, 0.4], "mu2": [0.1, 0.4], "xc": [24.0, 25.0, 26.0],
+                    "yc": [74.0, 75.0, 76.0], "rc": [3.0]})
+    options = LatinOptions(qoi_rtol=1e-3, backend="torch", device=DEVICE)
+    serial = ml.run_study(model, grid, options=options, out=tmp_path / "serial",
+                          progress=False)
+    chains = ml.run_study(model, grid, options=options, out=tmp_path / "dask", workers=2,
+                          progress=False)
+    for result, n_chains in ((serial, 1), (chains, 2)):
+        zero = [r for r in result.records if r["start"] == "zero"]
+        geometries = {(r["params"]["xc"], r["params"]["yc"]) for r in zero}
+        assert len(geometries) == n_chains and len(zero) == 4 * n_chains
+        for record in result.records:
+            if record["start"] != "zero":  # "<neighbour> (parallelogram with …)" or alone
+                neighbour = record["start"].split(" (")[0]
+                start = dict(item.split("=") for item in neighbour.split(", "))
+                moved = [name for name in ("xc", "yc")
+                         if float(start[name]) != record["params"][name]]
+                assert len(moved) == 1 and all(float(start[name]) == record["params"][name]
+                                               for name in ("mu1", "mu2")), record["start"]
+    np.testing.assert_allclose(chains.dataset["R_stop"].values,
+                               serial.dataset["R_stop"].values, rtol=2e-3)
+    assert len(list((tmp_path / "dask" / "chains").glob("*.npz"))) == 2
+
+
 def _on_both_backends(model: ml.Model, grid: ml.Grid, options: LatinOptions, **kwargs: Any
                       ) -> tuple[ml.StudyResult, ml.StudyResult]:
     """The same study on the NumPy and the torch backend (each in a folder of its own)."""
