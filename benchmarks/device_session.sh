@@ -14,6 +14,8 @@
 #   WHEELS=.whl REFERENCE=.ref/b3-full-cpu.nc bash ...  # + the whole study's R_stop against
 #                                                   #   the CPU path's study.nc (carried)
 #   WHEELS=.whl FULL_START=zero,neighbour bash ...  # + the study in geometry waves
+#   WHEELS=.whl MPS=1 bash ...                      # + the studies again under CUDA's MPS
+#   WHEELS=.whl ROWS=0 bash ...                     # without the B1 and B3 rows
 set -uo pipefail
 source "$(dirname "$0")/device_env.sh" device-session
 export PATH="/tmp/site/bin:$PATH"
@@ -22,8 +24,10 @@ lscpu | grep -E "^(Model name|CPU\(s\)|Thread|Core|Socket|L3)" | tee -a "$out/de
 python3 -c "import torch, numpy, numba; print('torch', torch.__version__, 'numpy', \
 numpy.__version__, 'numba', numba.__version__)" | tee -a "$out/device.log"
 timeout 90 python3 benchmarks/gpu_check.py --device cuda 2>&1 | tee "$out/check.log" || exit 2
-timeout 80 python3 benchmarks/gpu.py --device cuda --no-tight --only "B1,B3 5" 2>&1 \
-    | tee "$out/rows.log"
+if [ "${ROWS:-1}" = 1 ]; then  # ROWS=0: straight to the whole study
+    timeout 80 python3 benchmarks/gpu.py --device cuda --no-tight --only "B1,B3 5" 2>&1 \
+        | tee "$out/rows.log"
+fi
 spy=()
 if py-spy record -d 1 -o /tmp/spy-test.txt -f raw -- python3 -c "import time; time.sleep(2)" \
     > /dev/null 2>&1; then
@@ -36,6 +40,19 @@ timeout $((50 + 100 * runs)) "${spy[@]}" python3 \
     benchmarks/gpu.py --device cuda --no-tight --only none --full \
     --full-start "$starts" \
     --full-workers "$workers" ${REFERENCE:+--full-reference "$REFERENCE"} 2>&1 | grep -v Warning | tee "$out/full.log"
+if [ "${MPS:-0}" = 1 ]; then  # the same studies again under CUDA's Multi-Process Service,
+    # which lets the processes' kernels share the GPU at once instead of in time slices
+    export CUDA_MPS_PIPE_DIRECTORY=/tmp/mps-pipe CUDA_MPS_LOG_DIRECTORY=/tmp/mps-log
+    mkdir -p "$CUDA_MPS_PIPE_DIRECTORY" "$CUDA_MPS_LOG_DIRECTORY"
+    if nvidia-cuda-mps-control -d; then
+        timeout $((50 + 100 * runs)) python3 benchmarks/gpu.py --device cuda --no-tight \
+            --only none --full --full-start "$starts" --full-workers "$workers" 2>&1 \
+            | grep -v Warning | tee "$out/full-mps.log"
+        echo quit | nvidia-cuda-mps-control
+    else
+        echo "MPS: nvidia-cuda-mps-control did not start" | tee "$out/full-mps.log"
+    fi
+fi
 if [ "${CORES:-0}" = 0 ]; then echo "device session done (GPU part)"; exit 0; fi
 timeout 120 python3 benchmarks/core_contention.py --copies 1 16 2>&1 | tee "$out/contention.log"
 timeout 150 python3 benchmarks/dask_waves.py --study b3 --no-predict --dask 16 2>&1 \
