@@ -50,14 +50,17 @@ class ChainState:
         """The retained case nearest to ``index`` (``nearest_index``), never ``index``
         itself: a case recomputed after its record was lost must not start from its own
         earlier answer."""
-        # one grid step away, by lookup (a torch wavefront retains thousands of cases):
-        # what the scan finds whenever such a case is retained (ties: the latest)
-        near = [n for d in range(len(index)) for n in (
-            index[:d] + (index[d] - 1,) + index[d + 1:],
-            index[:d] + (index[d] + 1,) + index[d + 1:]) if n in self.retained]
+        near = self._one_step(index)
         best = (max(near, key=self._positions.__getitem__) if near else
                 nearest_index(list(self.retained), index)[0])
         return (best, self.retained[best]) if best is not None else (None, None)
+
+    def _one_step(self, index: tuple[int, ...]) -> list[tuple[int, ...]]:
+        """The retained cases one grid step from ``index``, by lookup (a torch wavefront
+        retains thousands of cases): the scan's nearest whenever there is one."""
+        return [n for d in range(len(index)) for n in (
+            index[:d] + (index[d] - 1,) + index[d + 1:],
+            index[:d] + (index[d] + 1,) + index[d + 1:]) if n in self.retained]
 
     @functools.cached_property
     def _positions(self) -> dict[tuple[int, ...], int]:
@@ -68,7 +71,7 @@ class ChainState:
     def distance(self, index: tuple[int, ...]) -> int | None:
         """Grid steps (L1) to the nearest retained case other than ``index``; None when
         there is none."""
-        return nearest_index(list(self.retained), index)[1]
+        return 1 if self._one_step(index) else nearest_index(list(self.retained), index)[1]
 
     def added(self, index: tuple[int, ...], fields: tuple[FloatArray, FloatArray],
               unsettled: bool = False) -> ChainState:
@@ -105,8 +108,7 @@ class ChainState:
         cases from the nearest of these, or from zero."""
         if len(self.retained) <= limit:
             return self
-        kept = OrderedDict(list(self.retained.items())[-limit:])
-        return self.keeping(kept, capacity=self.capacity)
+        return self.keeping(OrderedDict(list(self.retained.items())[-limit:]))
 
     def to_arrays(self) -> dict[str, FloatArray]:
         out: dict[str, FloatArray] = {"capacity": np.array(self.capacity)}
