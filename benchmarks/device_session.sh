@@ -34,7 +34,7 @@ if py-spy record -d 1 -o /tmp/spy-test.txt -f raw -- python3 -c "import time; ti
     spy=(py-spy record -r 20 --nonblocking -f raw -o "$out/full-spy.txt" --)
 fi
 workers=${FULL_WORKERS:-0,8}  # the study in this process, then on 8 processes
-starts=${FULL_START:-zero}  # from zero; zero,neighbour: then in geometry waves
+starts=${FULL_START:-default}  # the study's default start (geometry waves); or zero,neighbour
 runs=$(( ($(tr -cd , <<< "$workers" | wc -c) + 1) * ($(tr -cd , <<< "$starts" | wc -c) + 1) ))
 timeout $((50 + 100 * runs)) "${spy[@]}" python3 \
     benchmarks/gpu.py --device cuda --no-tight --only none --full \

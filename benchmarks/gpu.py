@@ -17,8 +17,10 @@ Every study runs with the study defaults (QoI stopping at 1e-3). Rows:
     geometries, one per batch on NumPy) — so that "vs NumPy" compares equal computations
     (on the mixed B3 grid, torch's multiresolution is a wavefront across geometries and
     NumPy's a line per batch: equal strategy, other batches);
-- with ``--full``, the B3 21 125-case study on torch, from zero and as a wavefront, in
-  batches of ``--full-batch`` cases (25 geometries × 169 frictions by default); the NumPy
+- with ``--full``, the B3 21 125-case study on torch with the study's default start
+  (geometry waves here, ``study.defaults``), or ``--full-start zero,neighbour``: from zero
+  in batches of ``--full-batch`` cases (25 geometries × 169 frictions by default), then in
+  geometry waves (a wave one batch, chunked by the device's memory); the NumPy
   figure is docs/performance.md's 2-worker run (28 min; running it here would take as long).
   With ``--full-workers 0,4``: in this process, then on a local Dask cluster of 4 processes
   sharing the GPU (each with its share of its memory, its batches as many and 4 × narrower:
@@ -50,6 +52,7 @@ import numpy as np
 import multilatin as ml
 from multilatin.latin import LatinOptions, solve_latin, solve_latin_batch
 from multilatin.latin.options import STUDY_QOI_RTOL
+from multilatin.study.defaults import count_geometries, study_defaults
 from multilatin.study.plan import clear_operator_cache, plan_study
 
 B1_GRID = ["mu1=0:0.6:13", "mu2=0:0.6:13"]
@@ -59,7 +62,8 @@ B3_FULL = ["mu1=0:0.6:13", "mu2=0:0.6:13", "xc=23:27:5", "yc=73:77:5", "rc=1:5:5
 TIGHT = LatinOptions(tol=1e-9, max_iter=5000)
 #: the --full study's starts: row label and run_study's arguments
 FULL_STARTS = {"zero": ("zero", {"start": "zero"}),
-               "neighbour": ("neighbour (geometry waves)", {"start": "neighbour"})}
+               "neighbour": ("neighbour (geometry waves)", {"start": "neighbour"}),
+               "default": ("the study's default start", {})}
 
 
 def peak_memory(torch: Any, device: str) -> str:
@@ -181,9 +185,10 @@ def main() -> None:
     parser.add_argument("--full-rc", default="1:5:5",
                         help="the hole radii of the --full study (e.g. 3: one fifth of it, "
                              "4 225 cases)")
-    parser.add_argument("--full-start", default="zero",
-                        help="the --full study's starts, in this order (zero, neighbour: "
-                             "the wavefront, on a GPU slower, docs/gpu.md session 39)")
+    parser.add_argument("--full-start", default="default",
+                        help="the --full study's starts, in this order: zero, neighbour "
+                             "(geometry waves) and/or default (the study's choice, "
+                             "study.defaults: geometry waves for this study)")
     parser.add_argument("--full-workers", default="0",
                         help="the --full study's processes, in this order (0: this one; W: "
                              "a local Dask cluster of W, batches W × narrower, each batch "
@@ -201,7 +206,8 @@ def main() -> None:
                         help="skip the tight reference solves (the last column)")
     args = parser.parse_args()
     if not set(args.full_start.split(",")) <= set(FULL_STARTS):
-        parser.error(f"--full-start: expected zero and/or neighbour, got {args.full_start!r}")
+        parser.error(f"--full-start: expected zero, neighbour and/or default, got "
+                     f"{args.full_start!r}")
     import torch
 
     torch.set_num_threads(args.threads)
@@ -297,6 +303,10 @@ def main() -> None:
                           sampler.text() if sampler is not None else "—")
                 where = (f"{workers} Dask processes ({schedule})" if workers else
                          "this process")
+                if not kwargs:  # the default: which start it chose
+                    label = "default: " + study_defaults(
+                        device_options, batch, None, workers, n_full,
+                        count_geometries(b3, ml.Grid.parse(full), device_options))[1]
                 row(f"B3 {n_full} cases", f"torch {args.device}, {label}, batch {batch}, "
                     f"{where}", wall, values.size, iterations, memory,
                     None if first is None else relative(first, values), None, None)

@@ -181,10 +181,12 @@ def test_a_small_study_equals_the_numpy_one(tmp_path: object) -> None:
         assert abs(record["iterations"] - iterations[record["number"]]) <= 2
 
 
-def test_a_study_on_a_gpu_starts_from_zero_in_wide_batches() -> None:
-    """Measured on an H200 (docs/gpu.md), every case from zero beat the wavefront 4 to 7 ×:
-    a study's default there; given values and other devices keep theirs."""
-    from multilatin.study.runner import GPU_BATCH, study_defaults
+def test_a_study_on_a_gpu_starts_from_zero_or_in_geometry_waves() -> None:
+    """Measured on GPUs (docs/gpu.md): a study too small to keep the device busy goes from
+    zero in wide batches (4 to 7 × faster than the lines' wavefront), a wide one over many
+    geometries in geometry waves (the 21 125-case B3 study on 8 processes of an H100: 51–53
+    s against 59 s); given values and other devices keep theirs."""
+    from multilatin.study.defaults import GPU_BATCH, count_geometries, study_defaults
 
     gpu = LatinOptions(backend="torch", device="cuda:0")
     assert study_defaults(gpu, None, None) == (GPU_BATCH, "zero")
@@ -194,8 +196,20 @@ def test_a_study_on_a_gpu_starts_from_zero_in_wide_batches() -> None:
     assert study_defaults(gpu, None, None, 8, 21125) == (529, "zero")
     assert study_defaults(gpu, None, None, 2, 10**6) == (GPU_BATCH, "zero")
     assert study_defaults(gpu, None, None, 8, 3) == (1, "zero")
+    # wide and over two geometries or more per process: geometry waves
+    assert study_defaults(gpu, None, None, 8, 21125, 125) == (16, "neighbour")
+    assert study_defaults(gpu, None, None, 0, 21125, 2) == (16, "neighbour")
+    assert study_defaults(gpu, None, None, 8, 21125, 15)[1] == "zero"  # < 2 per process
+    assert study_defaults(gpu, None, None, 0, GPU_BATCH - 1, 125)[1] == "zero"  # narrow
+    assert study_defaults(gpu, None, "zero", 8, 21125, 125) == (529, "zero")
     for options in (LatinOptions(backend="torch"), LatinOptions()):
         assert study_defaults(options, None, None) == (16, "neighbour")
+        assert study_defaults(options, None, None, 0, 21125, 125) == (16, "neighbour")
+    # the geometries a grid's cases take: hole positions and radii, not frictions
+    b3 = ml.load_model("b3")
+    grid = ml.Grid.parse(["mu1=0:0.6:13", "xc=23:27:5", "yc=73:77:2", "rc=3"])
+    assert count_geometries(b3, grid, gpu) == 10
+    assert count_geometries(b3, ml.Grid.parse(["mu1=0:0.6:13"]), gpu) == 1
 
 
 def test_options_say_what_is_wrong() -> None:
@@ -306,6 +320,43 @@ def test_a_batch_larger_than_the_memory_is_solved_in_chunks(
     monkeypatch.setenv("MULTILATIN_DEVICE_SHARE", "none")
     with pytest.raises(ModelError, match="MULTILATIN_DEVICE_SHARE: expected a number"):
         cases_per_chunk(assemblies[0].n_steps, n_points, DEVICE)
+
+
+def test_a_batch_the_device_runs_out_of_memory_for_is_solved_again_in_halves(
+        monkeypatch: pytest.MonkeyPatch, caplog: pytest.LogCaptureFixture) -> None:
+    """Where the device runs out of memory after all (other processes sharing it: 8 under
+    CUDA's MPS filled an H100, session 40), the batch is solved again in halves with the
+    same answers; where not even one case fits, an error naming the device, never an
+    out-of-memory crash. The device's error is raised here for batches over 2 cases."""
+    from multilatin.latin import solver
+
+    model = ml.load_model("b1")
+    assemblies = [model.assemble({"mu1": mu}) for mu in (0.1, 0.2, 0.3, 0.4, 0.5)]
+    options = LatinOptions(backend="torch", device=DEVICE, tol=1e-4)
+    whole = solve_latin_batch(assemblies, options)
+    iterate, widths = solver.iterate, []
+
+    def full_above(limit: int) -> Callable[..., Any]:
+        def iterate_or_fill(*args: Any) -> Any:
+            widths.append(args[3].shape[0])
+            if args[3].shape[0] > limit:
+                raise torch.OutOfMemoryError("CUDA out of memory. Tried to allocate 198 MiB")
+            return iterate(*args)
+        return iterate_or_fill
+
+    monkeypatch.setattr(solver, "iterate", full_above(2))
+    with caplog.at_level("WARNING", logger="multilatin.latin.solver"):
+        halves = solve_latin_batch(assemblies, options)
+    assert widths == [5, 3, 2, 1, 2]  # 5 → 3 + 2, 3 → 2 + 1
+    assert ("ran out of memory for a batch of 5 cases (CUDA out of memory); solving it "
+            "again as batches of 3") in caplog.text
+    for one, other in zip(whole, halves, strict=True):
+        assert one.iterations == other.iterations
+        assert _relative(one.qoi["R_stop"], other.qoi["R_stop"]) < 1e-7  # as in chunks
+    monkeypatch.setattr(solver, "iterate", full_above(0))
+    with pytest.raises(ModelError, match="device: one case does not fit in the memory left "
+                                         f"on '{DEVICE}' \\(CUDA out of memory\\)"):
+        solve_latin_batch(assemblies[:2], options)
 
 
 def test_multiresolution_on_torch_runs_geometry_waves(tmp_path: Path) -> None:

@@ -9,6 +9,7 @@ Interior displacements are recovered once, at the end.
 
 from __future__ import annotations
 
+import gc
 import logging
 import time
 from collections.abc import Sequence
@@ -84,7 +85,8 @@ def solve_latin_batch(
     initial: per case, the interface fields to start from (see ``solve_latin``) or None.
     observer: see ``IterationObserver``.
     With the torch backend, a batch larger than the device's memory holds is solved in
-    chunks (``torch_engine.cases_per_chunk``); the observer then sees each chunk's cases.
+    chunks (``torch_engine.cases_per_chunk``), and one the device runs out of memory for
+    again in halves (``_in_halves``); the observer then sees each chunk's cases.
     Results carry the batch's timings (``timings["batch_size"]``) and the leading steps
     each case settled (``timings["settled_steps"]``).
     """
@@ -152,13 +154,20 @@ def solve_latin_batch(
     # cases' iterations (B3 5 × 5 study: 2.2 s against 2.0). Overflow and NaN are detected
     # in η and end the case as a failure (``_outcome``)
     with one_blas_thread(), np.errstate(over="ignore", invalid="ignore"):
-        state = iterate(ops, local, options, w_hat, f_hat, observer, functionals,
-                        (ops_list, geometry))
-        t_iter = time.perf_counter() - t1
-
-        t2 = time.perf_counter()
-        fields_of = (_recovered(state, range(n_cases), ops_list, geometry)
-                     if options.recover_displacements else [{} for _ in range(n_cases)])
+        try:
+            state = iterate(ops, local, options, w_hat, f_hat, observer, functionals,
+                            (ops_list, geometry))
+        except _out_of_memory(options) as exc:  # the failed batch's tensors go with exc
+            short = str(exc).split(". ")[0]
+        else:
+            short = ""
+            t_iter = time.perf_counter() - t1
+            t2 = time.perf_counter()
+            fields_of = (_recovered(state, range(n_cases), ops_list, geometry)
+                         if options.recover_displacements else [{} for _ in range(n_cases)])
+    if short:
+        return _in_halves(assemblies, options, [ops_list[g] for g in geometry], check,
+                          starts, observer, short)
     results = results_of(range(n_cases), assemblies, points, state, fields_of, options,
                          functionals)
     t_post = time.perf_counter() - t2
@@ -181,6 +190,49 @@ def solve_latin_batch(
             if not result.converged:
                 raise NotConvergedError(f"LATIN did not converge: {result.failure}", result)
     return results
+
+
+def _out_of_memory(options: LatinOptions) -> type[Exception]:
+    """The exception a device that ran out of memory raises (PyTorch's), or one never
+    raised (the NumPy backend)."""
+    if options.backend != "torch":
+        return _NeverRaised
+    from .torch_engine import load_torch
+
+    error: type[Exception] = load_torch(options.device).OutOfMemoryError
+    return error
+
+
+class _NeverRaised(Exception):
+    """Stands for a device's out-of-memory error where there is no device."""
+
+
+def _in_halves(assemblies: Sequence[Assembly], options: LatinOptions,
+               per_case: list[LatinOperators], check: bool,
+               starts: Sequence[tuple[FloatArray, FloatArray] | None],
+               observer: IterationObserver | None, why: str) -> list[SolveResult]:
+    """A batch the device ran out of memory for, solved again as two halves: its footprint
+    beyond ``cases_per_chunk``'s estimate, or other processes sharing the GPU (session 40:
+    8 processes under CUDA's MPS filled an H100). Never an out-of-memory crash (issue 19);
+    a ``ModelError`` where one case does not fit. The observer has seen the failed
+    attempt's iterations too."""
+    n_cases = len(assemblies)
+    if n_cases == 1:
+        raise ModelError(f"device: one case does not fit in the memory left on "
+                         f"{options.device!r} ({why})")
+    from .torch_engine import load_torch
+
+    torch = load_torch(options.device)
+    gc.collect()  # the failed batch's tensors and graphs, then the cache they leave
+    if options.device.startswith("cuda"):  # pragma: no cover - a GPU's
+        torch.cuda.empty_cache()
+    half = (n_cases + 1) // 2
+    log.warning("%s ran out of memory for a batch of %d cases (%s); solving it again as "
+                "batches of %d", options.device, n_cases, why, half)
+    return [result for lo in (0, half)
+            for result in solve_latin_batch(assemblies[lo:lo + half], options,
+                                            per_case[lo:lo + half], check,
+                                            starts[lo:lo + half], observer)]
 
 
 def _outcome(history: FloatArray, qoi: dict[str, float | list[float]],

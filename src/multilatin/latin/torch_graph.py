@@ -4,6 +4,7 @@ an H200: B1's 169 cases, 6 303 kernels per iteration, the device busy 12.5 ms of
 
 from __future__ import annotations
 
+import gc
 import logging
 from typing import Any
 
@@ -53,8 +54,19 @@ class DeviceGraph:
                 self.compute(*self.inputs)
             torch.cuda.current_stream().wait_stream(stream)
             graph = torch.cuda.CUDAGraph()
-            with torch.cuda.graph(graph):
-                self.outputs = tuple(self.compute(*self.inputs))
+            # no garbage collection inside the capture (``torch.cuda.graph`` collects just
+            # before): B1's wavefront on an H100 (session 40) logged 7 × "operation not
+            # permitted when stream is capturing (function reset)", most likely an earlier
+            # batch's engine (a cycle through its graphs' bound methods) collected during a
+            # capture, its graph reset there; not yet rerun on a GPU with this
+            collecting = gc.isenabled()
+            gc.disable()
+            try:
+                with torch.cuda.graph(graph):
+                    self.outputs = tuple(self.compute(*self.inputs))
+            finally:
+                if collecting:
+                    gc.enable()
         except Exception as exc:  # noqa: BLE001
             log.warning("%s could not be captured as a CUDA graph (%s); it runs operation "
                         "by operation", getattr(self.compute, "__name__", "the work"), exc)

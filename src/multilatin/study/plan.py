@@ -173,6 +173,19 @@ def boustrophedon(shape: tuple[int, ...]) -> Iterator[tuple[int, ...]]:
             yield (i, *rest)
 
 
+def geometric_parameters(model: Model, grid: Grid, options: LatinOptions) -> list[str]:
+    """The grid's parameters with several values that change an operator (a geometry), in
+    the grid's order, found by assembling a case one step along each; the grid validated
+    against the model first."""
+    grid.validate(model.parameters)
+    names = list(grid)
+    base = operator_signature(_assemble(model, grid, (0,) * len(names)), options)
+    return [name for d, name in enumerate(names) if len(grid[name]) > 1 and
+            operator_signature(_assemble(model, grid, tuple(int(e == d) for e in
+                                                            range(len(names)))),
+                               options) != base]
+
+
 def plan_study(model: Model, grid: Grid, options: LatinOptions | None = None,
                chains: int = 1, extrapolate: bool = True) -> StudyPlan:
     """Validate the grid against the model (names, ranges, geometry of every distinct
@@ -181,18 +194,10 @@ def plan_study(model: Model, grid: Grid, options: LatinOptions | None = None,
     (``Case.axes``, ``predictors``) and retimed along the others (``Case.retime``,
     ``retiming``); False: from the nearest alone."""
     options = options or LatinOptions()
-    grid.validate(model.parameters)
     if chains < 1:
         raise ModelError(f"chains: must be >= 1, got {chains}")
     names = list(grid)
-    first = (0,) * len(names)
-    base = operator_signature(_assemble(model, grid, first), options)
-    geometric = []
-    for d, name in enumerate(names):
-        if len(grid[name]) > 1:
-            probe = tuple(1 if e == d else 0 for e in range(len(names)))
-            if operator_signature(_assemble(model, grid, probe), options) != base:
-                geometric.append(name)
+    geometric = geometric_parameters(model, grid, options)
     # every geometry of the study is built once now, so that a bad one fails before any work
     geometric_dims = [names.index(name) for name in geometric]
     for sub_index in np.ndindex(*[len(grid[name]) for name in geometric]):

@@ -5,7 +5,6 @@ from __future__ import annotations
 import functools
 import json
 import logging
-import math
 import os
 import sys
 import tempfile
@@ -29,6 +28,7 @@ from ..parameters import Grid
 from . import plan as plans
 from .chain_state import ChainState
 from .cluster import load_kernels, local_cluster, warm_workers, worker_addresses
+from .defaults import count_geometries, on_gpu, study_defaults
 from .plan import MODES, SCHEDULES, START_FROM, Case, StudyPlan, plan_study
 from .rolling import rolls, run_rolling
 from .store import StudyStore
@@ -38,13 +38,6 @@ log = logging.getLogger(__name__)
 
 #: seconds to reach a Dask scheduler given by address before giving up
 SCHEDULER_TIMEOUT_S = 10.0
-#: a study's default batch from zero on a GPU: 25 B3 geometries × 169 frictions, one fifth
-#: of the 21 125-case study, 15 GiB of an H200 (docs/gpu.md)
-GPU_BATCH = 4225
-#: batches per process where several share a GPU (``workers``): the 21 125-case study on 8
-#: processes in batches of 529, 56 s on an H100 (each batch a task; 58–61 s as chains)
-#: against 105 s in one (docs/gpu.md, session 29)
-GPU_BATCHES_PER_WORKER = 5
 
 
 @dataclass(frozen=True)
@@ -137,23 +130,6 @@ def _case_json(record: dict[str, Any]) -> dict[str, Any]:
 OUTPUT_CHOICES = ("recover_displacements",)
 
 
-def study_defaults(options: LatinOptions, batch: int | None, start: str | None,
-                   workers: int = 0, n_cases: int = 0) -> tuple[int, str]:
-    """``run_study``'s batch and start where not given: on a GPU (the torch backend on a
-    CUDA device) every case from zero in batches of ``GPU_BATCH`` (measured 4 to 7 × faster
-    there than the multiresolution wavefront, docs/gpu.md) — with ``workers`` processes
-    sharing the GPU, ``GPU_BATCHES_PER_WORKER`` batches each of the ``n_cases``; else from
-    the neighbour, 16."""
-    on_gpu = options.backend == "torch" and options.device.startswith("cuda")
-    if start is None:
-        start = "zero" if on_gpu else "neighbour"
-    if batch is None:  # (a given 0 stays, for run_study's error)
-        batch = GPU_BATCH if on_gpu and start == "zero" else 16
-        if on_gpu and start == "zero" and workers > 1:
-            batch = min(batch, max(1, math.ceil(n_cases / (GPU_BATCHES_PER_WORKER * workers))))
-    return batch, start
-
-
 def run_study(
     model: Model,
     grid: Grid,
@@ -191,8 +167,8 @@ def run_study(
         alone, as the paper), or ``"zero"``: every case of a geometry from zero, in
         batches of up to ``batch`` cases sharing the operators (for the torch backend on a
         GPU: a wide batch there costs little more than a narrow one). Default:
-        ``"neighbour"``; ``"zero"`` for the torch backend on a CUDA device, where it was
-        measured faster (docs/gpu.md).
+        ``"neighbour"``; on a CUDA device (torch) ``"zero"`` unless the study is wide enough
+        for geometry waves to pay (``defaults.study_defaults``, docs/gpu.md).
     workers / scheduler: run the study's cases as tasks on a local Dask cluster of
         ``workers`` processes, or on the cluster at ``scheduler``; 0 and None: serial.
     schedule: how a Dask run shares out multiresolution work (``SCHEDULES``):
@@ -219,7 +195,9 @@ def run_study(
     """
     options = options or LatinOptions(qoi_rtol=STUDY_QOI_RTOL)
     options = replace(options, recover_displacements=False)  # a study keeps the QoIs alone
-    batch, start = study_defaults(options, batch, start, workers, grid.size)
+    geometries = (count_geometries(model, grid, options) if start is None and on_gpu(options)
+                  else 1)
+    batch, start = study_defaults(options, batch, start, workers, grid.size, geometries)
     for mode in modes:
         if mode not in MODES:
             raise ModelError(f"mode: expected one of {MODES}, got {mode!r}")
