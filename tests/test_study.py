@@ -332,3 +332,22 @@ def test_each_geometry_is_built_once_in_a_serial_study(tmp_path: Path) -> None:
     records = result.records
     assert len(records) == 9 and all(r["converged"] for r in records)
     assert sum(bool(r["operators_built"]) for r in records) == 3
+
+
+def test_a_default_start_chosen_for_a_gpu_says_so(
+        b1: ml.Model, tmp_path: Path, monkeypatch: pytest.MonkeyPatch,
+        caplog: pytest.LogCaptureFixture) -> None:
+    """Where a study's start is the device's default (``study.defaults``), the log says
+    which it is and over how many geometries (a GPU stood in for: the choice itself is
+    ``study_defaults``', tested in test_torch_backend.py)."""
+    from multilatin.study import runner
+
+    monkeypatch.setattr(runner, "on_gpu", lambda options: True)
+    with caplog.at_level("INFO", logger="multilatin.study.runner"):
+        run_study(b1, Grid.parse(["mu1=0.1:0.2:2"]), out=tmp_path, progress=False)
+    assert "2 cases over 1 geometries: start 'neighbour' (study.defaults)" in caplog.text
+    caplog.clear()
+    with caplog.at_level("INFO", logger="multilatin.study.runner"):
+        run_study(b1, Grid.parse(["mu1=0.1:0.2:2"]), out=tmp_path / "zero", progress=False,
+                  start="zero")
+    assert "study.defaults" not in caplog.text

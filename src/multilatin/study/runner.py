@@ -195,9 +195,12 @@ def run_study(
     """
     options = options or LatinOptions(qoi_rtol=STUDY_QOI_RTOL)
     options = replace(options, recover_displacements=False)  # a study keeps the QoIs alone
-    geometries = (count_geometries(model, grid, options) if start is None and on_gpu(options)
-                  else 1)
+    chosen_on_gpu = start is None and on_gpu(options)
+    geometries = count_geometries(model, grid, options) if chosen_on_gpu else 1
     batch, start = study_defaults(options, batch, start, workers, grid.size, geometries)
+    if chosen_on_gpu:
+        log.info("on %s, %d cases over %d geometries: start %r (study.defaults)",
+                 options.device, grid.size, geometries, start)
     for mode in modes:
         if mode not in MODES:
             raise ModelError(f"mode: expected one of {MODES}, got {mode!r}")
