@@ -1,9 +1,9 @@
 #!/usr/bin/env bash
 # One prepared call on a lent GPU machine with 16 cores (issues 19 and 16), about 6 minutes:
 # the GPU's answers against NumPy (it stops the call where one differs), the B1 and B3 rows
-# side by side, the whole 21 125-case B3 study from zero in this process (sampled by py-spy:
-# where the host's time goes, the waits for the GPU included) and on 8 processes sharing the
-# GPU (`--workers 8`, the client sampled); with CORES=1 then the 16 cores (~4 minutes more):
+# side by side, the whole 21 125-case B3 study with the study's default start (geometry
+# waves) in this process (sampled by py-spy: where the host's time goes, the waits for the
+# GPU included) and on 8 processes sharing the GPU (`--workers 8`, the client sampled); with CORES=1 then the 16 cores (~4 minutes more):
 # N copies of a serial study at once (no Dask) and the 845-case B3 study on 16 Dask workers
 # against the serial one. Logs go to $OUT (the device tool's folder) or ./device-session.
 #
@@ -13,9 +13,10 @@
 #   WHEELS=.whl CORES=1 bash ...                    # + the 16 cores
 #   WHEELS=.whl REFERENCE=.ref/b3-full-cpu.nc bash ...  # + the whole study's R_stop against
 #                                                   #   the CPU path's study.nc (carried)
-#   WHEELS=.whl FULL_START=zero,neighbour bash ...  # + the study in geometry waves
+#   WHEELS=.whl FULL_START=zero,neighbour bash ...  # from zero, then in geometry waves
 #   WHEELS=.whl MPS=1 bash ...                      # + the studies again under CUDA's MPS
 #   WHEELS=.whl ROWS=0 bash ...                     # without the B1 and B3 rows
+#   WHEELS=.whl ROWS=3 bash ...                     # the rows three times (B1's spread)
 set -uo pipefail
 source "$(dirname "$0")/device_env.sh" device-session
 export PATH="/tmp/site/bin:$PATH"
@@ -24,10 +25,10 @@ lscpu | grep -E "^(Model name|CPU\(s\)|Thread|Core|Socket|L3)" | tee -a "$out/de
 python3 -c "import torch, numpy, numba; print('torch', torch.__version__, 'numpy', \
 numpy.__version__, 'numba', numba.__version__)" | tee -a "$out/device.log"
 timeout 90 python3 benchmarks/gpu_check.py --device cuda 2>&1 | tee "$out/check.log" || exit 2
-if [ "${ROWS:-1}" = 1 ]; then  # ROWS=0: straight to the whole study
+for _ in $(seq "${ROWS:-1}"); do  # ROWS=0: straight to the whole study; ROWS=3: 3 times
     timeout 80 python3 benchmarks/gpu.py --device cuda --no-tight --only "B1,B3 5" 2>&1 \
-        | tee "$out/rows.log"
-fi
+        | tee -a "$out/rows.log"
+done
 spy=()
 if py-spy record -d 1 -o /tmp/spy-test.txt -f raw -- python3 -c "import time; time.sleep(2)" \
     > /dev/null 2>&1; then
