@@ -184,7 +184,7 @@ def test_a_small_study_equals_the_numpy_one(tmp_path: object) -> None:
 def test_a_study_on_a_gpu_starts_from_zero_or_in_geometry_waves() -> None:
     """Measured on GPUs (docs/gpu.md): a study too small to keep the device busy goes from
     zero in wide batches (4 to 7 × faster than the lines' wavefront), a wide one over many
-    geometries in geometry waves (the 21 125-case B3 study on 8 processes of an H100: 51–53
+    geometries in geometry waves (the 21 125-case B3 study on 8 processes of an H100: 51–57
     s against 59 s); given values and other devices keep theirs."""
     from multilatin.study.defaults import GPU_BATCH, count_geometries, study_defaults
 

@@ -20,6 +20,7 @@ GPU_BATCHES_PER_WORKER = 5
 
 
 def on_gpu(options: LatinOptions) -> bool:
+    """The torch backend on a CUDA device."""
     return options.backend == "torch" and options.device.startswith("cuda")
 
 
@@ -30,12 +31,12 @@ def study_defaults(options: LatinOptions, batch: int | None, start: str | None,
     CUDA device), a study of at least ``GPU_BATCH`` cases over at least two geometries per
     process (``geometries``, ``workers``) runs from the neighbour in geometry waves
     (``StudyPlan.geometry_waves``: the 21 125-case B3 study on 8 processes of an H100 in
-    51–53 s against 59 s from zero, with 47 % fewer iterations; docs/gpu.md, session 40);
+    51–57 s against 59 s from zero, with 47 % fewer iterations; docs/gpu.md, session 40);
     a smaller one, whose batches leave the device waiting on launches rather than on
-    arithmetic, every case from zero in batches of ``GPU_BATCH`` (B1's 13 × 13 grid: 0.83 s,
-    4 to 7 × faster than the lines' wavefront) — with ``workers`` processes sharing the GPU,
-    ``GPU_BATCHES_PER_WORKER`` batches each of the ``n_cases``. Elsewhere from the
-    neighbour, 16."""
+    arithmetic, every case from zero in batches of ``GPU_BATCH`` (B1's 13 × 13 grid in
+    0.83–1.22 s, 4 to 7 × faster than the lines' wavefront) — with ``workers`` processes
+    sharing the GPU, ``GPU_BATCHES_PER_WORKER`` batches each of the ``n_cases``. Elsewhere
+    from the neighbour, 16."""
     gpu = on_gpu(options)
     if start is None:
         waves = n_cases >= GPU_BATCH and geometries >= 2 * max(workers, 1)
