@@ -17,6 +17,8 @@
 #   WHEELS=.whl MPS=1 bash ...                      # + the studies again under CUDA's MPS
 #   WHEELS=.whl ROWS=0 bash ...                     # without the B1 and B3 rows
 #   WHEELS=.whl ROWS=3 bash ...                     # the rows three times (B1's spread)
+#   WHEELS=.whl COMPACT="0.5 0.25 0.5 0.25" bash ...  # + torch's rows alone, batches
+#                                                   #   compacting at half, a quarter, ...
 set -uo pipefail
 source "$(dirname "$0")/device_env.sh" device-session
 export PATH="/tmp/site/bin:$PATH"
@@ -28,6 +30,10 @@ timeout 90 python3 benchmarks/gpu_check.py --device cuda 2>&1 | tee "$out/check.
 for _ in $(seq "${ROWS:-1}"); do  # ROWS=0: straight to the whole study; ROWS=3: 3 times
     timeout 80 python3 benchmarks/gpu.py --device cuda --no-tight --only "B1,B3 5" 2>&1 \
         | tee -a "$out/rows.log"
+done
+for compact in ${COMPACT:-}; do  # torch's rows alone, batches compacting at each fraction
+    timeout 40 python3 benchmarks/gpu.py --device cuda --no-tight --only "B1,B3 5" \
+        --torch-only --compact-below "$compact" 2>&1 | tee -a "$out/compact.log"
 done
 spy=()
 if py-spy record -d 1 -o /tmp/spy-test.txt -f raw -- python3 -c "import time; time.sleep(2)" \

@@ -204,17 +204,32 @@ def main() -> None:
                                            "always runs")
     parser.add_argument("--no-tight", action="store_true",
                         help="skip the tight reference solves (the last column)")
+    parser.add_argument("--torch-only", action="store_true",
+                        help="the study rows on torch alone (no NumPy rows beside them)")
+    parser.add_argument("--compact-below", type=float,
+                        help="this process's batches compact at this fraction of active rows "
+                             "(torch_engine.COMPACT_BELOW, default 0.5; fewer CUDA graph "
+                             "captures for more idle rows); the --full study's Dask "
+                             "processes keep the default")
     args = parser.parse_args()
     if not set(args.full_start.split(",")) <= set(FULL_STARTS):
         parser.error(f"--full-start: expected zero, neighbour and/or default, got "
                      f"{args.full_start!r}")
     import torch
 
+    from multilatin.latin import torch_engine
+
+    if args.compact_below is not None:
+        if not 0.0 < args.compact_below <= 1.0:
+            parser.error(f"--compact-below: expected a fraction in (0, 1], got "
+                         f"{args.compact_below}")
+        torch_engine.COMPACT_BELOW = args.compact_below
     torch.set_num_threads(args.threads)
     name = (torch.cuda.get_device_name(args.device) if args.device.startswith("cuda")
             else f"CPU, {args.threads} PyTorch threads")
     print(f"torch {torch.__version__} on {args.device} ({name})"
-          f"{', fused local stage' if args.fuse else ''}\n")
+          f"{', fused local stage' if args.fuse else ''}, batches compact at "
+          f"{torch_engine.COMPACT_BELOW:g} of their rows active\n")
     print("| workload | path | wall (s) | cases/s | iterations | peak memory | "
           "R_stop vs NumPy, same strategy | R_stop vs tight |")
     print("|---|---|---|---|---|---|---|---|")
@@ -265,18 +280,23 @@ def main() -> None:
     for workload, model, grid, variants in runs:
         cases = int(np.prod([len(v) for v in ml.Grid.parse(grid).values()]))
         tight = None if args.no_tight else tight_values(model, grid)
-        wall, values, iterations, _ = study(model, grid, numpy_options, workers=args.cpu_workers)
-        row(workload, f"NumPy, neighbour, {args.cpu_workers} workers", wall, cases,
-            iterations, "—", None, tight, values)
+        if not args.torch_only:
+            wall, values, iterations, _ = study(model, grid, numpy_options,
+                                                workers=args.cpu_workers)
+            row(workload, f"NumPy, neighbour, {args.cpu_workers} workers", wall, cases,
+                iterations, "—", None, tight, values)
         for label, kwargs in variants:
-            wall, numpy_values, iterations, _ = study(model, grid, numpy_options, **kwargs)
-            row(workload, f"NumPy, {label}", wall, cases, iterations, "—", None, tight,
-                numpy_values)
+            numpy_values = None
+            if not args.torch_only:
+                wall, numpy_values, iterations, _ = study(model, grid, numpy_options, **kwargs)
+                row(workload, f"NumPy, {label}", wall, cases, iterations, "—", None, tight,
+                    numpy_values)
             if args.device.startswith("cuda"):
                 torch.cuda.reset_peak_memory_stats()
             wall, values, iterations, _ = study(model, grid, device_options, **kwargs)
             row(workload, f"torch {args.device}, {label}", wall, cases, iterations,
-                peak_memory(torch, args.device), relative(numpy_values, values), tight,
+                peak_memory(torch, args.device),
+                None if numpy_values is None else relative(numpy_values, values), tight,
                 values)
 
     if args.full:

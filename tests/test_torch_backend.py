@@ -77,20 +77,23 @@ def test_a_tight_solve_equals_the_numpy_one(name: str, mu: dict[str, float]) -> 
 
 @pytest.mark.parametrize(("acceleration", "padded"), [("relaxation", False), ("anderson", False),
                                                      ("rre", False), ("relaxation", True),
-                                                     ("rre", True)])
-def test_a_warm_batch_equals_the_numpy_one(acceleration: str, padded: bool,
+                                                     ("rre", True), ("relaxation", 0.25)])
+def test_a_warm_batch_equals_the_numpy_one(acceleration: str, padded: bool | float,
                                           monkeypatch: pytest.MonkeyPatch) -> None:
     """Cold and warm starts mixed in one batch, cases leaving at different iterations, the
     QoI stopping rule on (η alone with Anderson or RRE, which give no QoI estimates),
     relaxation, Anderson mixing or RRE: the same stops and answers. ``padded``: the rows of
-    the cases that left stay in the batch until at most half are active (as on a GPU,
-    where the local stage is one CUDA graph per width; no graph on the CPU)."""
+    the cases that left stay in the batch until at most half (or the fraction given) are
+    active (as on a GPU, where the local stage is one CUDA graph per width; no graph on the
+    CPU)."""
     from multilatin.latin import torch_engine
 
+    if padded is not True and padded:
+        monkeypatch.setattr(torch_engine, "COMPACT_BELOW", padded)
     if padded:  # and the whole iteration as one function, as the graph a GPU replays
         monkeypatch.setattr(torch_engine, "PADDED_DEVICES", ("cuda", "cpu"))
         monkeypatch.setattr(torch_engine, "FUSED_DEVICES", ("cuda", "cpu"))
-        fused = []
+        fused: list[int] = []
         monkeypatch.setattr(torch_engine.TorchFields, "_iteration", _counted(
             torch_engine.TorchFields._iteration, fused))
     options = LatinOptions(qoi_rtol=1e-3 if acceleration == "relaxation" else None,
@@ -104,6 +107,8 @@ def test_a_warm_batch_equals_the_numpy_one(acceleration: str, padded: bool,
     assert len({r.iterations for r in reference}) > 2  # padded: kept rows, then compacted
     if padded:  # every iteration after the first as one (RRE's steps shift the fields)
         assert len(fused) > max(r.iterations for r in got) // 2
+        # the widths the rows took: 4 until at most 2 (or 1) are active, then compacted
+        assert sorted(set(fused), reverse=True) == ([4, 2, 1] if padded is True else [4, 1])
     for one, other in zip(reference, got, strict=True):
         assert abs(one.iterations - other.iterations) <= 2
         assert one.stopped_on_qoi == other.stopped_on_qoi
@@ -433,7 +438,8 @@ def _on_both_backends(model: ml.Model, grid: ml.Grid, options: LatinOptions, **k
 
 
 def _counted(function: Any, calls: list[int]) -> Any:
+    """``function`` (a method of an engine) recording each call's batch width."""
     def counted(*args: Any) -> Any:
-        calls.append(1)
+        calls.append(args[0].w.shape[0])
         return function(*args)
     return counted

@@ -64,19 +64,19 @@ def load_torch(device: str) -> Any:
 FIELDS_PER_CASE = 36
 #: share of the free device memory a batch may take
 MEMORY_SHARE = 0.7
-#: the devices on which a batch keeps the rows of cases that left it until at most half
-#: remain (then compacts): the local stage is replayed as one CUDA graph per batch width
-#: (``torch_graph.DeviceGraph``), and a graph holds its shapes. (Tests add "cpu" to check the
-#: bookkeeping on PyTorch's CPU build, where no graph is captured.)
+#: the devices on which a batch keeps the rows of cases that left it until at most
+#: ``COMPACT_BELOW`` of them remain (then compacts: a new width, new CUDA graphs, as a graph
+#: holds its shapes, ``torch_graph.DeviceGraph``; a smaller fraction, fewer captures for
+#: more idle rows: ``gpu.py --compact-below``). Tests add "cpu" (no graph there).
 PADDED_DEVICES = ("cuda",)
+COMPACT_BELOW = 0.5
 #: the devices on which a padded batch's whole iteration — linear stage with the macro
 #: problem, relaxation, local stage, η's norms and the tracked QoIs — is one graph per
 #: width (``TorchFields._iteration``); its first replay is checked against the operations.
 #: (Tests add "cpu", where the same function runs eagerly, to check the bookkeeping.)
 FUSED_DEVICES = ("cuda",)
 #: largest relative difference between the iteration graph's first replay and the same
-#: operations run one by one: the same operations, but CUDA's atomic sums (``index_add_``)
-#: round in any order; a defect (a value baked into the graph) differs by far more
+#: operations one by one (CUDA's atomic sums round in any order; a defect, far more)
 GRAPH_CHECK_RTOL = 1e-9
 
 
@@ -424,10 +424,10 @@ class TorchFields:
 
     def keep(self, cases: IntArray) -> None:
         """The active cases at positions ``cases`` go on; padded (``PADDED_DEVICES``), the
-        rows stay as they are while more than half of them are active."""
+        rows stay as they are while more than ``COMPACT_BELOW`` of them are active."""
         assert self.w is not None and self.f is not None
         rows = self.slots[cases]
-        if self.padded and 2 * rows.size > self.w.shape[0]:
+        if self.padded and rows.size > COMPACT_BELOW * self.w.shape[0]:
             self.slots = rows
             return
         self.slots = np.arange(rows.size)
