@@ -1,8 +1,8 @@
 #!/usr/bin/env bash
 # One prepared call on a lent GPU machine with 16 cores (issues 19 and 16), about 6 minutes:
 # the GPU's answers against NumPy (it stops the call where one differs), the B1 and B3 rows
-# side by side, the whole 21 125-case B3 study with the study's default start (geometry
-# waves) in this process (sampled by py-spy: where the host's time goes, the waits for the
+# side by side, the whole 21 125-case B3 study with the study's default start (from zero
+# on one process, geometry waves on several) in this process (sampled by py-spy: where the host's time goes, the waits for the
 # GPU included) and on 8 processes sharing the GPU (`--workers 8`, the client sampled); with CORES=1 then the 16 cores (~4 minutes more):
 # N copies of a serial study at once (no Dask) and the 845-case B3 study on 16 Dask workers
 # against the serial one. Logs go to $OUT (the device tool's folder) or ./device-session.
@@ -41,7 +41,7 @@ if py-spy record -d 1 -o /tmp/spy-test.txt -f raw -- python3 -c "import time; ti
     spy=(py-spy record -r 20 --nonblocking -f raw -o "$out/full-spy.txt" --)
 fi
 workers=${FULL_WORKERS:-0,8}  # the study in this process, then on 8 processes
-starts=${FULL_START:-default}  # the study's default start (geometry waves); or zero,neighbour
+starts=${FULL_START:-default}  # the study's default start; or zero,neighbour
 runs=$(( ($(tr -cd , <<< "$workers" | wc -c) + 1) * ($(tr -cd , <<< "$starts" | wc -c) + 1) ))
 timeout $((50 + 100 * runs)) "${spy[@]}" python3 \
     benchmarks/gpu.py --device cuda --no-tight --only none --full \

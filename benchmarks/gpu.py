@@ -18,7 +18,8 @@ Every study runs with the study defaults (QoI stopping at 1e-3). Rows:
     (on the mixed B3 grid, torch's multiresolution is a wavefront across geometries and
     NumPy's a line per batch: equal strategy, other batches);
 - with ``--full``, the B3 21 125-case study on torch with the study's default start
-  (geometry waves here, ``study.defaults``), or ``--full-start zero,neighbour``: from zero
+  (``study.defaults``: geometry waves on several processes, from zero on one), or
+  ``--full-start zero,neighbour``: from zero
   in batches of ``--full-batch`` cases (25 geometries × 169 frictions by default), then in
   geometry waves (a wave one batch, chunked by the device's memory); the NumPy
   figure is docs/performance.md's 2-worker run (28 min; running it here would take as long).
@@ -188,7 +189,8 @@ def main() -> None:
     parser.add_argument("--full-start", default="default",
                         help="the --full study's starts, in this order: zero, neighbour "
                              "(geometry waves) and/or default (the study's choice, "
-                             "study.defaults: geometry waves for this study)")
+                             "study.defaults: geometry waves on several processes, from "
+                             "zero on one)")
     parser.add_argument("--full-workers", default="0",
                         help="the --full study's processes, in this order (0: this one; W: "
                              "a local Dask cluster of W, batches W × narrower, each batch "

@@ -189,8 +189,9 @@ def test_a_small_study_equals_the_numpy_one(tmp_path: object) -> None:
 def test_a_study_on_a_gpu_starts_from_zero_or_in_geometry_waves() -> None:
     """Measured on GPUs (docs/gpu.md): a study too small to keep the device busy goes from
     zero in wide batches (4 to 7 × faster than the lines' wavefront), a wide one over many
-    geometries in geometry waves (the 21 125-case B3 study on 8 processes of an H100: 51–57
-    s against 59 s); given values and other devices keep theirs."""
+    geometries on several processes in geometry waves (the 21 125-case B3 study on 8
+    processes of an H100: 51–57 s against 59 s); one process, not measured in waves, from
+    zero; given values and other devices keep theirs."""
     from multilatin.study.defaults import GPU_BATCH, count_geometries, study_defaults
 
     gpu = LatinOptions(backend="torch", device="cuda:0")
@@ -201,11 +202,12 @@ def test_a_study_on_a_gpu_starts_from_zero_or_in_geometry_waves() -> None:
     assert study_defaults(gpu, None, None, 8, 21125) == (529, "zero")
     assert study_defaults(gpu, None, None, 2, 10**6) == (GPU_BATCH, "zero")
     assert study_defaults(gpu, None, None, 8, 3) == (1, "zero")
-    # wide and over two geometries or more per process: geometry waves
+    # wide, on several processes, two geometries or more each: geometry waves
     assert study_defaults(gpu, None, None, 8, 21125, 125) == (16, "neighbour")
-    assert study_defaults(gpu, None, None, 0, 21125, 2) == (16, "neighbour")
+    assert study_defaults(gpu, None, None, 2, 21125, 4) == (16, "neighbour")
     assert study_defaults(gpu, None, None, 8, 21125, 15)[1] == "zero"  # < 2 per process
-    assert study_defaults(gpu, None, None, 0, GPU_BATCH - 1, 125)[1] == "zero"  # narrow
+    assert study_defaults(gpu, None, None, 8, GPU_BATCH - 1, 125)[1] == "zero"  # narrow
+    assert study_defaults(gpu, None, None, 0, 21125, 125)[1] == "zero"  # one process
     assert study_defaults(gpu, None, "zero", 8, 21125, 125) == (529, "zero")
     for options in (LatinOptions(backend="torch"), LatinOptions()):
         assert study_defaults(options, None, None) == (16, "neighbour")

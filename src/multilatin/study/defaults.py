@@ -28,18 +28,19 @@ def study_defaults(options: LatinOptions, batch: int | None, start: str | None,
                    workers: int = 0, n_cases: int = 0, geometries: int = 1
                    ) -> tuple[int, str]:
     """``run_study``'s batch and start where not given. On a GPU (the torch backend on a
-    CUDA device), a study of at least ``GPU_BATCH`` cases over at least two geometries per
-    process (``geometries``, ``workers``) runs from the neighbour in geometry waves
-    (``StudyPlan.geometry_waves``: the 21 125-case B3 study on 8 processes of an H100 in
-    51–57 s against 59 s from zero, with 47 % fewer iterations; docs/gpu.md, session 40);
-    a smaller one, whose batches leave the device waiting on launches rather than on
-    arithmetic, every case from zero in batches of ``GPU_BATCH`` (B1's 13 × 13 grid in
-    0.83–1.22 s, 4 to 7 × faster than the lines' wavefront) — with ``workers`` processes
-    sharing the GPU, ``GPU_BATCHES_PER_WORKER`` batches each of the ``n_cases``. Elsewhere
-    from the neighbour, 16."""
+    CUDA device), a study of at least ``GPU_BATCH`` cases on several processes sharing it
+    (``workers``), each with at least two geometries (``geometries``), runs from the
+    neighbour in geometry waves (``StudyPlan.geometry_waves``: the 21 125-case B3 study on
+    8 processes of an H100 in 51–57 s against 59 s from zero, 47 % fewer iterations; on 6,
+    46 s against 58–60 s; docs/gpu.md, session 40); other studies — smaller ones, whose
+    batches leave the device waiting on launches rather than on arithmetic, and one process
+    (geometry waves not measured there) — every case from zero in batches of ``GPU_BATCH``
+    (B1's 13 × 13 grid in 0.83–1.22 s, 4 to 7 × faster than the lines' wavefront), with
+    ``workers`` processes ``GPU_BATCHES_PER_WORKER`` batches each of the ``n_cases``.
+    Elsewhere from the neighbour, 16."""
     gpu = on_gpu(options)
     if start is None:
-        waves = n_cases >= GPU_BATCH and geometries >= 2 * max(workers, 1)
+        waves = n_cases >= GPU_BATCH and workers >= 2 and geometries >= 2 * workers
         start = "zero" if gpu and not waves else "neighbour"
     if batch is None:  # (a given 0 stays, for run_study's error)
         batch = GPU_BATCH if gpu and start == "zero" else 16
