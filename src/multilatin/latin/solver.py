@@ -158,16 +158,16 @@ def solve_latin_batch(
             state = iterate(ops, local, options, w_hat, f_hat, observer, functionals,
                             (ops_list, geometry))
         except _out_of_memory(options) as exc:  # the failed batch's tensors go with exc
-            short = str(exc).split(". ")[0]
+            out_of_memory: str | None = str(exc).split(". ")[0] or type(exc).__name__
         else:
-            short = ""
+            out_of_memory = None
             t_iter = time.perf_counter() - t1
             t2 = time.perf_counter()
             fields_of = (_recovered(state, range(n_cases), ops_list, geometry)
                          if options.recover_displacements else [{} for _ in range(n_cases)])
-    if short:
+    if out_of_memory is not None:
         return _in_halves(assemblies, options, [ops_list[g] for g in geometry], check,
-                          starts, observer, short)
+                          starts, observer, out_of_memory)
     results = results_of(range(n_cases), assemblies, points, state, fields_of, options,
                          functionals)
     t_post = time.perf_counter() - t2
