@@ -278,6 +278,13 @@ def test_qoi_stopping_waits_for_the_state_when_its_qois_stall(monkeypatch) -> No
     assert float(guarded.qoi["R_stop"]) == pytest.approx(exact, rel=1e-3)  # type: ignore[arg-type]
     monkeypatch.setattr(iteration, "state_settled",
                         lambda state, active, counts, rtol, window=0: np.ones(active.size, dtype=bool))
+    # the forces' own indicator (``guards.forces_unsettled``, η_F ≤ qoi_rtol at a stop on
+    # the QoIs: session 41) holds the case as well
+    forces_only = model.solve(mu, options=options)
+    assert forces_only.converged
+    assert float(forces_only.qoi["R_stop"]) == pytest.approx(exact, rel=1e-3)  # type: ignore[arg-type]
+    monkeypatch.setattr(iteration, "forces_unsettled",
+                        lambda state, cases, *rest: np.zeros(cases.size, dtype=bool))
     unguarded = model.solve(mu, options=options)
     assert unguarded.iterations < guarded.iterations
     assert abs(float(unguarded.qoi["R_stop"]) - exact) > 1e-2 * exact  # type: ignore[arg-type]

@@ -1,7 +1,8 @@
 """Which cases of a batch share what (``solve_latin_batch``): one ``LatinOperators`` per
 distinct geometry, and *families* of geometries that share their interfaces — the same
 interface points, search direction and macro basis, their substructures differing inside
-only (a hole's position) — whose cases can share one batch."""
+only (a hole's position) — whose cases can share one batch; and the backend that iterates
+a batch (``make_engine``)."""
 
 from __future__ import annotations
 
@@ -11,11 +12,14 @@ import numpy as np
 
 from ..decomposition.assembly import Assembly
 from ..errors import ModelError
-from ..fem.elasticity import IntArray
+from ..fem.elasticity import FloatArray, IntArray
+from .engine import FieldEngine, NumpyFields
+from .local_stage import LocalStage
 from .operators import LatinOperators, operator_signature
 from .options import LatinOptions
+from .tracking import QoiFunctionals
 
-__all__ = ["interface_families", "operators_per_case", "same_interfaces"]
+__all__ = ["interface_families", "make_engine", "operators_per_case", "same_interfaces"]
 
 
 def operators_per_case(assemblies: Sequence[Assembly], options: LatinOptions,
@@ -82,3 +86,17 @@ def same_interfaces(first: LatinOperators, other: LatinOperators) -> bool:
         return True
     return bool(first.macro_basis.shape == other.macro_basis.shape
                 and (first.macro_basis != other.macro_basis).nnz == 0)
+
+
+def make_engine(ops: LatinOperators, local: LocalStage, options: LatinOptions,
+                w_hat: FloatArray, f_hat: FloatArray, macro_data: FloatArray | None,
+                functionals: list[QoiFunctionals] | None,
+                geometries: tuple[list[LatinOperators], IntArray]) -> FieldEngine:
+    """The backend that does the iteration's field work (``LatinOptions.backend``)."""
+    if options.backend == "torch":
+        from .torch_engine import TorchFields  # PyTorch loads only when asked for
+
+        return TorchFields(geometries[0], geometries[1], local, options, w_hat, f_hat,
+                           macro_data, functionals)
+    return NumpyFields(ops, local, options, w_hat, f_hat, macro_data, functionals,
+                       geometries)

@@ -23,6 +23,7 @@ import numpy.typing as npt
 from ..fem.elasticity import FloatArray, IntArray
 from . import kernels
 from .acceleration import Anderson
+from .guards import FORCE_MARGIN
 from .local_stage import LocalStage
 from .operators import Geometries, LatinOperators
 from .options import LatinOptions
@@ -134,6 +135,9 @@ class NumpyFields:
         self.first: IntArray = np.zeros(w_hat.shape[0], dtype=np.int64)
         self.calm: IntArray = np.zeros(w_hat.shape[:2], dtype=np.int64)
         self.step_gaps: FloatArray = np.zeros(w_hat.shape[:2])
+        #: per case and step its force part ‖F − F̂‖², and per case ½(‖F‖ + ‖F̂‖)
+        self.step_force_gaps: FloatArray = np.zeros(w_hat.shape[:2])
+        self.force_size: FloatArray = np.zeros(w_hat.shape[0])
         #: the fields before ``moved_forces``, for ``take_back``
         self._before_move: tuple[Any, ...] = ()
 
@@ -213,7 +217,12 @@ class NumpyFields:
         size where η stops at ``tol``."""
         if not self.settling:
             return
-        calm = self.step_gaps < (bound * size)[:, None] ** 2
+        # and its forces' own share below ``FORCE_MARGIN`` × the bound × ½(‖F‖ + ‖F̂‖):
+        # a large displacement of the assembly fills ‖s‖ and would settle steps whose
+        # forces are unbalanced (``guards.FORCE_MARGIN``)
+        calm = ((self.step_gaps < (bound * size)[:, None] ** 2)
+                & (self.step_force_gaps
+                   < (FORCE_MARGIN * bound * self.force_size)[:, None] ** 2))
         self.calm = np.where(calm, self.calm + 1, 0)
         n_steps = int(self.step_gaps.shape[1])
         leading = np.cumprod(self.calm >= SETTLE_ITERATIONS, axis=1).sum(axis=1)
@@ -291,9 +300,11 @@ class NumpyFields:
             self.w, self.f = np.ascontiguousarray(self.w), np.ascontiguousarray(self.f)
             if self.step_gaps.shape != self.w.shape[:2]:
                 self.step_gaps = np.zeros(self.w.shape[:2])
+                self.step_force_gaps = np.zeros(self.w.shape[:2])
             squares = np.sqrt(kernels.indicator_squares(
                 self.w, self.f, self.w_hat, self.f_hat, self.displacement_weight,
-                self.force_weight, self.step_gaps))
+                self.force_weight, self.step_gaps, self.step_force_gaps))
+            self.force_size = 0.5 * (squares[:, 3] + squares[:, 4])
             return squares[:, 0], 0.5 * (squares[:, 1] + squares[:, 2])
         dw, fw = self.displacement_weight, self.force_weight
         gap = norms(dw, fw, self.w - self.w_hat, self.f - self.f_hat)

@@ -5,6 +5,8 @@ up (an unstable iteration), and an η that stagnates (the relaxation lowered).""
 from __future__ import annotations
 
 import logging
+from collections.abc import Sequence
+from typing import Any
 
 import numpy as np
 import numpy.typing as npt
@@ -12,7 +14,8 @@ import numpy.typing as npt
 from ..fem.elasticity import FloatArray, IntArray
 from .options import LatinOptions
 
-__all__ = ["BLOWUP", "DRIFT_WINDOW", "blows_up", "damp_stagnating", "drifts"]
+__all__ = ["BLOWUP", "DRIFT_WINDOW", "FORCE_MARGIN", "blows_up", "damp_stagnating", "drifts",
+           "force_indicator", "forces_unsettled"]
 
 log = logging.getLogger(__name__)
 
@@ -25,6 +28,66 @@ DRIFT_WINDOW = 100
 #: 1.03 × its first value, over every bundled model 2.4 × (lug), and 4.3 × in the tests'
 #: cases with no equilibrium, stopped by ``drifts`` (session 38, ``benchmarks/blowup.py``)
 BLOWUP = 1e3
+
+
+#: a case stops only where its interface forces have converged too: their own indicator
+#: η_F = ‖F − F̂‖ / ½(‖F‖ + ‖F̂‖) (the force part of §4.3's norm) at most ``FORCE_MARGIN`` ×
+#: ``tol`` where η stopped it, at most ``qoi_rtol`` where its QoIs did. η's size counts the
+#: interface displacements as k‖W‖², so a prescribed displacement that moves the assembly by
+#: far more than it deforms leaves η small while the forces are still far from balanced:
+#: the sliding block pushed by a force beyond what friction holds, its foundation moved
+#: 100 mm, "converged" in 46 iterations with η = 5e-9 and η_F = 2.3e-3 (no equilibrium
+#: exists). At the stop η_F / η measured 0.8–2.6 on every bundled model but the cantilever
+#: B0 (51, its size being its deflection); under the QoI rule η_F ≤ 2.6e-4 (session 41,
+#: docs/correctness.md)
+FORCE_MARGIN = 100.0
+
+
+def force_indicator(force_weight: FloatArray, force: FloatArray, force_hat: FloatArray
+                    ) -> FloatArray:
+    """η_F per case (first axis) of fields ``(n_cases, n_steps, n_points, 2)``: ‖F − F̂‖ /
+    ½(‖F‖ + ‖F̂‖), ‖F‖² = Σ_t Σ_points ∫ k⁻¹ F·F dΓ (``force_weight``: ∫ k⁻¹ per flattened
+    point and component); 0 where both are zero."""
+    n_cases = force.shape[0]
+
+    def squares(x: FloatArray) -> FloatArray:
+        return np.asarray(np.square(x).reshape(n_cases, -1, force_weight.size).sum(axis=1)
+                          @ force_weight)
+
+    gap = np.sqrt(squares(force - force_hat))
+    size = 0.5 * (np.sqrt(squares(force)) + np.sqrt(squares(force_hat)))
+    out = np.zeros(n_cases)
+    np.divide(gap, size, out=out, where=size > 0.0)
+    out[(size == 0.0) & (gap > 0.0)] = np.inf
+    return out
+
+
+def forces_unsettled(state: Any, cases: IntArray, fields: Sequence[FloatArray],
+                     eta: FloatArray, ended: npt.NDArray[np.bool_], force_weight: FloatArray,
+                     options: LatinOptions, eta_under: float = 1.0) -> npt.NDArray[np.bool_]:
+    """Per case leaving the batch (``cases``, their ``fields`` (W, F, Ŵ, F̂) and η): its
+    forces' η_F above its bound, so that it goes on — ``FORCE_MARGIN`` × η's bound where η
+    stopped it (``tol``, or ``eta_under`` × tol where η below that stopped it before its
+    QoIs settled), ``qoi_rtol`` where its QoIs did (``state.stopped_on_qoi``, cleared
+    there). One at the cap (``ended``) leaves, its η_F kept in ``state.force_eta`` (its
+    result: not converged). Failures (η not finite, a drift) are not checked."""
+    on_qoi = state.stopped_on_qoi[cases]
+    checked = np.isfinite(eta) & ~state.drifting[cases] & ((eta < options.tol) | on_qoi)
+    unsettled = np.zeros(cases.size, dtype=bool)
+    eta_force = np.zeros(cases.size)
+    if checked.any():
+        eta_force[checked] = force_indicator(force_weight, fields[1][checked],
+                                             fields[3][checked])
+        # η's own bound: ``tol``, or ``eta_under`` × tol where η that far under it stopped
+        # the case before its QoIs' estimates settled (``iteration.ETA_STOP_UNDER``)
+        on_eta = options.tol * np.where(eta < eta_under * options.tol, eta_under, 1.0)
+        bound = np.where(on_qoi, np.inf if options.qoi_rtol is None else options.qoi_rtol,
+                         FORCE_MARGIN * on_eta)
+        unsettled = checked & (eta_force > bound)
+    state.force_eta[cases] = np.where(unsettled & ended, eta_force, 0.0)
+    going_on = unsettled & ~ended
+    state.stopped_on_qoi[cases[going_on]] = False
+    return np.asarray(going_on, dtype=bool)
 
 
 def drifts(sizes: list[float]) -> bool:

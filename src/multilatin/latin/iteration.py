@@ -18,9 +18,10 @@ import numpy as np
 import numpy.typing as npt
 
 from ..fem.elasticity import FloatArray, IntArray
-from .engine import FieldEngine, NumpyFields, indicator_weights
+from .batching import make_engine
+from .engine import NumpyFields, indicator_weights
 from .extrapolation import ReducedRankExtrapolation
-from .guards import DRIFT_WINDOW, blows_up, damp_stagnating, drifts
+from .guards import DRIFT_WINDOW, blows_up, damp_stagnating, drifts, forces_unsettled
 from .local_stage import LocalStage
 from .operators import LatinOperators
 from .options import LatinOptions
@@ -63,7 +64,7 @@ ESTIMATE_AFTER_JUMPS = True
 
 #: the per-case arrays of ``IterationState`` (first axis: the case)
 PER_CASE = ("qoi_recent", "eta_recent", "qoi_scale", "qoi_reported", "stopped_on_qoi",
-            "drifting", "first_size", "qoi_settled_error", "settled_steps")
+            "drifting", "first_size", "qoi_settled_error", "settled_steps", "force_eta")
 
 
 @dataclass
@@ -91,6 +92,9 @@ class IterationState:
     qoi_settled_error: FloatArray = field(default_factory=lambda: np.zeros((0, 0, 0)))
     #: per case: its leading steps settled (``engine.NumpyFields.settle``)
     settled_steps: IntArray = field(default_factory=lambda: np.zeros(0, dtype=np.int64))
+    #: per case that left at the cap with η < tol: its forces' η_F where above its bound
+    #: (``guards.forces_unsettled``: not converged), else 0
+    force_eta: FloatArray = field(default_factory=lambda: np.zeros(0))
     t_linear: float = 0.0  # linear stage, macro problem included
     t_local: float = 0.0
     t_macro: float = 0.0
@@ -103,7 +107,7 @@ class IterationState:
                    np.zeros((n_cases, RECENT)), np.zeros((n_cases, n_qoi)), reported,
                    np.zeros(n_cases, dtype=bool), [[] for _ in range(n_cases)],
                    np.zeros(n_cases, dtype=bool), np.zeros(n_cases), np.zeros(reported.shape),
-                   np.zeros(n_cases, dtype=np.int64))
+                   np.zeros(n_cases, dtype=np.int64), np.zeros(n_cases))
 
     def extend(self, reported: npt.NDArray[np.bool_]) -> None:
         """Room for more cases after these (cases joining a rolling batch): the per-case
@@ -217,20 +221,6 @@ def qoi_settled(state: IterationState, active: IntArray, counts: IntArray, rtol:
     return np.asarray(settled, dtype=bool)
 
 
-def make_engine(ops: LatinOperators, local: LocalStage, options: LatinOptions,
-                w_hat: FloatArray, f_hat: FloatArray, macro_data: FloatArray | None,
-                functionals: list[QoiFunctionals] | None,
-                geometries: tuple[list[LatinOperators], IntArray]) -> FieldEngine:
-    """The backend that does the iteration's field work (``LatinOptions.backend``)."""
-    if options.backend == "torch":
-        from .torch_engine import TorchFields  # PyTorch loads only when asked for
-
-        return TorchFields(geometries[0], geometries[1], local, options, w_hat, f_hat,
-                           macro_data, functionals)
-    return NumpyFields(ops, local, options, w_hat, f_hat, macro_data, functionals,
-                       geometries)
-
-
 class BatchIterations:
     """LATIN iterations of a batch of cases (``step``), each until its η < tol (or its QoIs
     settle, ``qoi_rtol``) or the cap; cases may join a running batch (``join``, NumPy
@@ -261,6 +251,7 @@ class BatchIterations:
         self.relaxation = np.full(n_cases, options.relaxation)  # per active case
         self.anderson = options.acceleration == "anderson"
         weights = indicator_weights(ops.points.weights, ops.indicator_k)
+        self.force_weight = weights[1]  # the forces' own indicator (``guards``)
         self.sliding = (SlidingExtrapolation(local, n_cases, options.qoi_rtol is not None)
                         if options.extrapolate_sliding and not self.anderson else None)
         self.rre = (ReducedRankExtrapolation(options.rre_cycle, *weights, n_cases)
@@ -440,12 +431,13 @@ class BatchIterations:
             on_qoi = settled & ~done & np.isfinite(eta) & after_jumps
             out.stopped_on_qoi[active[on_qoi]] = True
             done |= on_qoi
+        fields = self._forces_checked(done, eta, capped | blown)
         leaving = active[done]
         if self.balance is not None:
             for case in leaving.tolist():
                 self.balance.forget(case)
         if leaving.size:
-            fields = engine.fields(np.flatnonzero(done))
+            assert fields is not None
             for i, case in enumerate(leaving.tolist()):
                 out.exits[case] = (fields[0][i], fields[1][i], fields[2][i], fields[3][i])
             keep = np.flatnonzero(~done)
@@ -468,6 +460,24 @@ class BatchIterations:
             self.balance(engine, self.active)
         out.t_linear, out.t_macro, out.t_local = engine.t_linear, engine.t_macro, engine.t_local
         return leaving
+
+
+    def _forces_checked(self, done: npt.NDArray[np.bool_], eta: FloatArray,
+                        ended: npt.NDArray[np.bool_]) -> tuple[FloatArray, ...] | None:
+        """The fields of the active cases that leave (``done``, updated in place: a case
+        whose forces have not settled goes on, ``guards.forces_unsettled``)."""
+        positions = np.flatnonzero(done)
+        if not positions.size:
+            return None
+        fields: tuple[FloatArray, ...] = self.engine.fields(positions)
+        going_on = forces_unsettled(self.state, self.active[positions], fields,
+                                    eta[positions], ended[positions], self.force_weight,
+                                    self.options, ETA_STOP_UNDER if self.tracked
+                                    and self.options.qoi_rtol is not None else 1.0)
+        if going_on.any():
+            done[positions[going_on]] = False
+            fields = tuple(x[~going_on] for x in fields)
+        return fields
 
 
 def iterate(ops: LatinOperators, local: LocalStage, options: LatinOptions,

@@ -15,7 +15,8 @@ agree to rounding (tests).
 - ``direction_update``: out = base + H (a − b) in one pass (the linear stage's forces,
   ``LatinOperators.direction_update``);
 - ``relax``: s ← ω s_new + (1 − ω) s in place; ``relax_rows`` the same on chosen rows;
-- ``indicator_squares``: ‖s − ŝ‖², ‖s‖², ‖ŝ‖² per case (paper §4.3), ‖s − ŝ‖² per step.
+- ``indicator_squares``: ‖s − ŝ‖², ‖s‖², ‖ŝ‖², ‖F‖², ‖F̂‖² per case (paper §4.3), ‖s − ŝ‖²
+  and ‖F − F̂‖² per step.
 """
 
 from __future__ import annotations
@@ -32,6 +33,7 @@ import numpy.typing as npt
 from ..fem.elasticity import FloatArray, IntArray
 from .cross_points import merge_groups as _merge_groups
 from .cross_points import split_groups as _split_groups
+from .indicator_kernel import indicator_squares as _indicator_squares
 
 log = logging.getLogger(__name__)
 
@@ -422,34 +424,6 @@ def _relax_rows(current: FloatArray, new: FloatArray, rows: IntArray, omega: Flo
         target, w = rows[i], omega[i]
         for j in range(new.shape[1]):
             current[target, j] = w * new[i, j] + (1.0 - w) * current[target, j]
-
-
-def _indicator_squares(w: FloatArray, f: FloatArray, w_hat: FloatArray, f_hat: FloatArray,
-                       displacement_weight: FloatArray, force_weight: FloatArray,
-                       step_gaps: FloatArray) -> FloatArray:  # pragma: no cover - compiled
-    """Per case ‖s − ŝ‖², ‖s‖², ‖ŝ‖²; ``step_gaps`` (n_cases, n_steps) gets ‖s − ŝ‖² per
-    step (the same terms, summed in the same order)."""
-    n_cases, n_steps = w.shape[0], w.shape[1]
-    n = displacement_weight.size
-    w2, f2 = w.reshape(n_cases, -1), f.reshape(n_cases, -1)
-    wh2, fh2 = w_hat.reshape(n_cases, -1), f_hat.reshape(n_cases, -1)
-    out = np.zeros((n_cases, 3))
-    for c in range(n_cases):
-        gap = size = size_hat = 0.0
-        for t in range(n_steps):
-            step_gap = 0.0
-            for j in range(n):
-                i = t * n + j
-                kw, kf = displacement_weight[j], force_weight[j]
-                dw, df = w2[c, i] - wh2[c, i], f2[c, i] - fh2[c, i]
-                term = kw * dw * dw + kf * df * df
-                gap += term
-                step_gap += term
-                size += kw * w2[c, i] * w2[c, i] + kf * f2[c, i] * f2[c, i]
-                size_hat += kw * wh2[c, i] * wh2[c, i] + kf * fh2[c, i] * fh2[c, i]
-            step_gaps[c, t] = step_gap
-        out[c, 0], out[c, 1], out[c, 2] = gap, size, size_hat
-    return out
 
 
 #: the compiled kernels, or None without Numba; compiled (or loaded from Numba's cache) on

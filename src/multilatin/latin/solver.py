@@ -328,6 +328,13 @@ def _result(c: int, assembly: Assembly, pts: InterfacePoints, state: IterationSt
     else:
         qoi = _functional_qois(functional, w, f, f_hat)
     converged, failure = _outcome(history, qoi, options, bool(state.stopped_on_qoi[c]))
+    if state.force_eta[c] > 0.0:
+        converged, failure = False, (
+            f"the interface forces have not converged: their own indicator eta_F = "
+            f"{state.force_eta[c]:.2e} after {history.size} iterations (max_iter), while eta "
+            f"= {history[-1]:.2e} is small because the interface displacements are large "
+            "(a prescribed or rigid displacement far larger than the deformation weighs "
+            "in eta's norm): no equilibrium, or a larger max_iter may converge")
     if state.drifting[c]:
         converged, failure = False, (
             f"no equilibrium: the interface fields grow at a steady rate over the last "

@@ -1,0 +1,101 @@
+"""The forces' own indicator at the stop (session 41, docs/correctness.md "A displacement
+far larger than the deformation"): η_F = ‖F − F̂‖ / ½(‖F‖ + ‖F̂‖), the force part of η's
+norm, against η, where each case stopped; and the moved block of
+``tests/data/block_on_moved_foundation.toml`` against the monolithic reference of the unmoved
+one.
+
+    python benchmarks/force_guard.py                 # both tables, this checkout
+    PYTHONPATH=/tmp/old/src python benchmarks/force_guard.py --moved   # another commit's
+
+Bundled models at their defaults, b1, b1-9 and b3 at ``convergence.py``'s four friction
+pairs, each under η < tol and under the studies' QoI rule (``qoi_rtol`` = 1e-3): the largest
+η_F / η and η_F at the stop. The moved block (base moved by 100 mm, deforming by ~1e-3 mm):
+pushed by 58 N (friction holds 60 N) and 62 N (no equilibrium), each rule: outcome,
+iterations, and R_base's and u_right − 100's relative differences from the unmoved block's
+reference.
+"""
+
+from __future__ import annotations
+
+import argparse
+import warnings
+from pathlib import Path
+
+import numpy as np
+
+import multilatin as ml
+from multilatin.latin import LatinOperators, LatinOptions, solve_latin
+
+PAIRS = [{"mu1": 0.3, "mu2": 0.0}, {"mu1": 0.1, "mu2": 0.3}, {"mu1": 0.35, "mu2": 0.25},
+         {"mu1": 0.3, "mu2": 0.15}]
+MODELS = ["b0", "b2", "slide", "punch", "lug", "roller", "b1", "b1-9", "b3"]
+MOVED = Path(__file__).parents[1] / "tests" / "data" / "block_on_moved_foundation.toml"
+
+
+def eta_force(result: ml.SolveResult, ops: LatinOperators) -> float:
+    """η_F of a result's interface fields, weighted as η's force part (∫ k⁻¹ F·F)."""
+    assert result.interface is not None
+    weight = (ops.points.weights[:, None] / ops.indicator_k)[None]
+    f, f_hat = result.interface.force, result.interface.force_hat
+
+    def norm(x: np.ndarray) -> float:
+        return float(np.sqrt(np.sum(weight * x * x)))
+
+    size = 0.5 * (norm(f) + norm(f_hat))
+    return norm(f - f_hat) / size if size > 0 else 0.0
+
+
+def ratios() -> None:
+    print("| model | rule | cases | largest η_F / η at the stop | largest η_F |")
+    print("|---|---|---|---|---|")
+    for name in MODELS:
+        model = ml.load_model(name)
+        cases = PAIRS if name.startswith("b1") or name == "b3" else [{}]
+        for rule, qoi_rtol in (("η < tol", None), ("QoI rule", 1e-3)):
+            options = LatinOptions(qoi_rtol=qoi_rtol)
+            rows = []
+            for params in cases:
+                assembly = model.assemble(params)
+                ops = LatinOperators(assembly, options)
+                result = solve_latin(assembly, options, operators=ops)
+                value = eta_force(result, ops)
+                rows.append((value / result.indicator, value))
+            worst = np.max(rows, axis=0)
+            print(f"| {name} | {rule} | {len(cases)} | {worst[0]:.1f} | {worst[1]:.1e} |",
+                  flush=True)
+
+
+def moved() -> None:
+    model = ml.Model(ml.ModelSpec.from_toml(MOVED))
+    unmoved = model.reference({"q": 2.9, "shift": 0.0})
+    print("| push | rule | outcome, iterations | R_base, u_right − 100 vs the unmoved "
+          "reference |")
+    print("|---|---|---|---|")
+    for q in (2.9, 3.1):
+        for rule, qoi_rtol in (("η < tol", None), ("QoI rule", 1e-3)):
+            result = model.solve({"q": q, "shift": 100.0}, check=False,
+                                 options=LatinOptions(qoi_rtol=qoi_rtol))
+            outcome = "converged" if result.converged else f"not converged ({result.failure[:60]}…)"
+            cell = "—"
+            if result.converged and q < 3.0:
+                r = result.qoi["R_base"][-1] / unmoved.qoi["R_base"][-1] - 1  # type: ignore[index]
+                u = ((result.qoi["u_right"][-1] - 100.0)  # type: ignore[index]
+                     / unmoved.qoi["u_right"][-1] - 1)  # type: ignore[index]
+                cell = f"{r:.1e}, {u:.1e}"
+            print(f"| {20 * q:g} N | {rule} | {outcome}, {result.iterations} | {cell} |",
+                  flush=True)
+
+
+def main() -> None:
+    parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    parser.add_argument("--moved", action="store_true", help="the moved block alone")
+    args = parser.parse_args()
+    warnings.filterwarnings("ignore")
+    if not args.moved:
+        ratios()
+        print()
+    moved()
+
+
+if __name__ == "__main__":
+    main()

@@ -1,0 +1,74 @@
+"""A prescribed displacement far larger than the deformation (the whole assembly moved by
+100 mm, deforming by ~1e-3 mm) fills η's norm (k‖W‖²), so η alone reads converged while the
+interface forces are still unbalanced. A case stops only once its forces' own indicator
+η_F is small too (``guards.FORCE_MARGIN``), and no load step settles on unbalanced forces:
+the answers are those of the unmoved assembly, moved; a push beyond what friction holds is
+reported as not converged, never answered (session 41)."""
+
+from __future__ import annotations
+
+from pathlib import Path
+
+import numpy as np
+import pytest
+
+import multilatin as ml
+from multilatin.cli import main
+from multilatin.latin import LatinOptions
+from multilatin.latin.guards import force_indicator
+
+MODEL = Path(__file__).parent / "data" / "block_on_moved_foundation.toml"
+SHIFT = 100.0  # mm, against a deformation of ~1e-3 mm
+CAPACITY = 0.3 * 10.0 * 20.0  # μ p × width: 60 N
+
+
+@pytest.fixture(scope="module")
+def model() -> ml.Model:
+    return ml.Model(ml.ModelSpec.from_toml(MODEL))
+
+
+@pytest.fixture(scope="module")
+def unmoved(model: ml.Model) -> ml.SolveResult:
+    """The monolithic reference of the same discrete problem, the foundation not moved."""
+    return model.reference({"q": 2.9, "shift": 0.0})
+
+
+@pytest.mark.parametrize("qoi_rtol", [None, 1e-3])
+def test_a_moved_assembly_gives_the_unmoved_answers_moved(model, unmoved, qoi_rtol) -> None:
+    assert 20.0 * 2.9 < CAPACITY
+    result = model.solve({"q": 2.9, "shift": SHIFT}, options=LatinOptions(qoi_rtol=qoi_rtol))
+    assert result.converged
+    # the deformation, 1e-6 of the displacement, to 0.1 %: the forces converged
+    deformation = np.array(result.qoi["u_right"]) - SHIFT
+    assert deformation[-1] == pytest.approx(unmoved.qoi["u_right"][-1], rel=1e-3)
+    assert result.qoi["R_base"][-1] == pytest.approx(unmoved.qoi["R_base"][-1], rel=1e-3)
+    assert result.interface is not None
+    assert np.abs(result.interface.displacement).max() > 1e4 * np.abs(deformation).max()
+
+
+@pytest.mark.parametrize("qoi_rtol", [None, 1e-3])
+def test_a_moved_assembly_beyond_friction_is_not_answered(model, qoi_rtol, capsys) -> None:
+    assert 20.0 * 3.1 > CAPACITY
+    # η falls below 1e-8: the 2 N the friction cannot hold hide in a 100 mm field
+    result = model.solve({"q": 3.1, "shift": SHIFT},
+                         options=LatinOptions(qoi_rtol=qoi_rtol, max_iter=300), check=False)
+    assert not result.converged
+    assert result.indicator < 1e-6
+    assert result.failure.startswith("the interface forces have not converged")
+    with pytest.raises(ml.NotConvergedError, match="interface forces"):
+        model.solve({"q": 3.1, "shift": SHIFT}, options=LatinOptions(max_iter=300))
+    assert main(["solve", str(MODEL), "--set", "q=3.1", "--max-iter", "300", "--json"]) == 3
+    assert '"converged": false' in capsys.readouterr().out
+
+
+def test_the_force_indicator() -> None:
+    weights = np.array([1.0, 4.0])
+    force = np.array([[[[3.0, 1.0]]], [[[0.0, 0.0]]], [[[1.0, 0.0]]]])
+    hat = np.array([[[[3.0, 1.0]]], [[[0.0, 0.0]]], [[[0.0, 0.0]]]])
+    eta = force_indicator(weights, force, hat)
+    assert eta[0] == 0.0 and eta[1] == 0.0  # equal fields; no force at all
+    assert eta[2] == pytest.approx(1.0 / 0.5)  # ‖F − F̂‖ = 1 over ½(1 + 0)
+    # weighted as η's force part: ∫ k⁻¹ F·F
+    # weighted as η's force part, ∫ k⁻¹ F·F: ‖F − F̂‖ = 4, ‖F‖ = 2, ‖F̂‖ = 6
+    assert force_indicator(weights, np.array([[[[0.0, 1.0]]]]),
+                           np.array([[[[0.0, 3.0]]]]))[0] == pytest.approx(1.0)
