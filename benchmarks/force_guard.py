@@ -6,18 +6,23 @@ one.
 
     python benchmarks/force_guard.py                 # both tables, this checkout
     PYTHONPATH=/tmp/old/src python benchmarks/force_guard.py --moved   # another commit's
+    python benchmarks/force_guard.py --references new.json [--against old.json]
 
 Bundled models at their defaults, b1, b1-9 and b3 at ``convergence.py``'s four friction
 pairs, each under η < tol and under the studies' QoI rule (``qoi_rtol`` = 1e-3): the largest
 η_F / η and η_F at the stop. The moved block (base moved by 100 mm, deforming by ~1e-3 mm):
 pushed by 58 N (friction holds 60 N) and 62 N (no equilibrium), each rule: outcome,
 iterations, and R_base's and u_right − 100's relative differences from the unmoved block's
-reference.
+reference. ``--references``: the bundled models' monolithic references (B1's four pairs,
+b1-9, slide at two stiffness ratios, punch, b2, b0, lug, roller) written to a JSON file, and
+with ``--against`` (the same written by another commit) each one's largest relative QoI
+difference.
 """
 
 from __future__ import annotations
 
 import argparse
+import json
 import warnings
 from pathlib import Path
 
@@ -86,11 +91,37 @@ def moved() -> None:
                   flush=True)
 
 
+REFERENCES = [("b1", PAIRS), ("b1-9", PAIRS[1:2]), ("slide", [{}, {"stiffness_ratio": 1000}]),
+              ("punch", [{}]), ("b2", [{}]), ("b0", [{}]), ("lug", [{}]), ("roller", [{}])]
+
+
+def references(path: str, against: str | None) -> None:
+    found = {}
+    for name, cases in REFERENCES:
+        model = ml.load_model(name)
+        for params in cases:
+            found[f"{name} {json.dumps(params)}"] = model.reference(params).qoi
+    Path(path).write_text(json.dumps(found), encoding="utf-8")
+    if against is None:
+        return
+    other = json.loads(Path(against).read_text(encoding="utf-8"))
+    for key, qois in found.items():
+        worst = max(float(np.max(np.abs(np.subtract(qois[q], other[key][q]))
+                                 / max(float(np.max(np.abs(other[key][q]))), 1e-300)))
+                    for q in qois)
+        print(f"{key}: largest relative QoI difference {worst:.1e}")
+
+
 def main() -> None:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument("--moved", action="store_true", help="the moved block alone")
+    parser.add_argument("--references", help="write the references' QoIs to this JSON file")
+    parser.add_argument("--against", help="with --references: compare with this one")
     args = parser.parse_args()
     warnings.filterwarnings("ignore")
+    if args.references:
+        references(args.references, args.against)
+        return
     if not args.moved:
         ratios()
         print()

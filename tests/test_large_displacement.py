@@ -61,6 +61,17 @@ def test_a_moved_assembly_beyond_friction_is_not_answered(model, qoi_rtol, capsy
     assert '"converged": false' in capsys.readouterr().out
 
 
+def test_the_reference_solves_the_moved_assembly(model, unmoved) -> None:
+    """The monolithic reference's equilibrium tolerance has a floor at the rounding of K u
+    (``contact_newton.ROUNDING``): moved by 100 mm it did not converge at load step 1."""
+    moved = model.reference({"q": 2.9, "shift": SHIFT})
+    assert moved.qoi["R_base"][-1] == pytest.approx(unmoved.qoi["R_base"][-1], rel=1e-7)
+    assert moved.qoi["u_right"][-1] - SHIFT == pytest.approx(unmoved.qoi["u_right"][-1],
+                                                             rel=1e-6)
+    with pytest.raises(ml.NotConvergedError):  # beyond friction: no equilibrium
+        model.reference({"q": 3.1, "shift": SHIFT})
+
+
 def test_the_force_indicator() -> None:
     weights = np.array([1.0, 4.0])
     force = np.array([[[[3.0, 1.0]]], [[[0.0, 0.0]]], [[[1.0, 0.0]]]])

@@ -66,6 +66,13 @@ class ContactSet:
         return int(self.first.size)
 
 
+#: the equilibrium residual is asked no smaller than this many times the rounding of K u
+#: (machine epsilon × max |K| |u|): a prescribed displacement far larger than the
+#: deformation (a foundation moved by 100 mm under a block deforming by 1e-3 mm) puts that
+#: rounding (~4e-9 N) above tol × the largest load (1e-9 N), and Newton could never
+#: converge (docs/correctness.md, session 41)
+ROUNDING = 100.0
+
 def contact_set(assembly: Assembly, maps: list[IntArray],
                 mortar_points: dict[int, tuple[IntArray, IntArray, MortarCoupling]] | None = None
                 ) -> ContactSet:
@@ -221,6 +228,10 @@ def solve_contact_history(
     jump_on_fixed = jump[:, ~free]
     scale_force = max(float(np.abs(load).max()), 1.0)
     gap_tol = 1e3 * tol * scale_force / r  # on gaps and slips (mm); forces: tol * scale_force
+    # the equilibrium residual's tolerance, per step: tol * scale_force, or the rounding of
+    # K u where that is larger (``ROUNDING``)
+    force_tol = [tol * scale_force]
+    abs_ff, abs_fc = abs(k_ff), abs(k_fc)
 
     u = u_fixed.copy()
     multipliers = np.zeros((n_steps, n_pairs, 2))
@@ -268,13 +279,16 @@ def solve_contact_history(
 
     def merit(residual: FloatArray) -> float:
         """Largest residual relative to its tolerance (converged when < 1)."""
-        size_eq = np.abs(residual[:n_free]).max() / (tol * scale_force) if n_free else 0.0
+        size_eq = np.abs(residual[:n_free]).max() / force_tol[0] if n_free else 0.0
         size_c = (np.abs(residual[n_free:]).max() / (r * gap_tol)) if n_pairs else 0.0
         return float(max(size_eq, size_c))
 
     for step in range(n_steps):
         rhs = load[free, step] - k_fc @ u_fixed[~free, step]
         jump_fixed = jump_on_fixed @ u_fixed[~free, step]
+        force_tol[0] = max(tol * scale_force, ROUNDING * np.finfo(np.float64).eps * float(
+            np.max(abs_ff @ np.abs(u_free) + abs_fc @ np.abs(u_fixed[~free, step]),
+                   initial=0.0)))
         converged = False
         residual, sets = residuals(u_free, lam, rhs, jump_fixed, jump_prev, lam_t_prev)
         for newton in range(max_newton):
