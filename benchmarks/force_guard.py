@@ -30,6 +30,8 @@ import numpy as np
 
 import multilatin as ml
 from multilatin.latin import LatinOperators, LatinOptions, solve_latin
+from multilatin.latin.engine import indicator_weights
+from multilatin.latin.guards import force_indicator
 
 PAIRS = [{"mu1": 0.3, "mu2": 0.0}, {"mu1": 0.1, "mu2": 0.3}, {"mu1": 0.35, "mu2": 0.25},
          {"mu1": 0.3, "mu2": 0.15}]
@@ -40,14 +42,9 @@ MOVED = Path(__file__).parents[1] / "tests" / "data" / "block_on_moved_foundatio
 def eta_force(result: ml.SolveResult, ops: LatinOperators) -> float:
     """η_F of a result's interface fields, weighted as η's force part (∫ k⁻¹ F·F)."""
     assert result.interface is not None
-    weight = (ops.points.weights[:, None] / ops.indicator_k)[None]
-    f, f_hat = result.interface.force, result.interface.force_hat
-
-    def norm(x: np.ndarray) -> float:
-        return float(np.sqrt(np.sum(weight * x * x)))
-
-    size = 0.5 * (norm(f) + norm(f_hat))
-    return norm(f - f_hat) / size if size > 0 else 0.0
+    weight = indicator_weights(ops.points.weights, ops.indicator_k)[1]
+    return float(force_indicator(weight, result.interface.force[None],
+                                 result.interface.force_hat[None])[0])
 
 
 def ratios() -> None:

@@ -24,6 +24,7 @@ from ..fem.elasticity import FloatArray, IntArray
 from . import kernels
 from .acceleration import Anderson
 from .guards import FORCE_MARGIN
+from .indicator_kernel import weighted_squares
 from .local_stage import LocalStage
 from .operators import Geometries, LatinOperators
 from .options import LatinOptions
@@ -479,10 +480,7 @@ def norms(displacement_weight: FloatArray, force_weight: FloatArray,
           displacement: FloatArray, force: FloatArray) -> FloatArray:
     """‖s‖ per case: ‖s‖² = Σ_t Σ_points ∫ (k⁻¹ F·F + k W·W) dΓ (paper §4.3); the weights
     are ∫ k and ∫ k⁻¹ per flattened (point, component)."""
-    n_cases = displacement.shape[0]
-    squares = (np.square(displacement).reshape(n_cases, -1, displacement_weight.size)
-               .sum(axis=1) @ displacement_weight)
-    squares += (np.square(force).reshape(n_cases, -1, force_weight.size).sum(axis=1)
-                @ force_weight)
+    squares = weighted_squares(displacement_weight, displacement)
+    squares += weighted_squares(force_weight, force)
     out: FloatArray = np.sqrt(squares)
     return out

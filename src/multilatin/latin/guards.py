@@ -12,6 +12,7 @@ import numpy as np
 import numpy.typing as npt
 
 from ..fem.elasticity import FloatArray, IntArray
+from .indicator_kernel import weighted_squares
 from .options import LatinOptions
 
 __all__ = ["BLOWUP", "DRIFT_WINDOW", "FORCE_MARGIN", "blows_up", "damp_stagnating", "drifts",
@@ -48,15 +49,10 @@ def force_indicator(force_weight: FloatArray, force: FloatArray, force_hat: Floa
     """η_F per case (first axis) of fields ``(n_cases, n_steps, n_points, 2)``: ‖F − F̂‖ /
     ½(‖F‖ + ‖F̂‖), ‖F‖² = Σ_t Σ_points ∫ k⁻¹ F·F dΓ (``force_weight``: ∫ k⁻¹ per flattened
     point and component); 0 where both are zero."""
-    n_cases = force.shape[0]
-
-    def squares(x: FloatArray) -> FloatArray:
-        return np.asarray(np.square(x).reshape(n_cases, -1, force_weight.size).sum(axis=1)
-                          @ force_weight)
-
-    gap = np.sqrt(squares(force - force_hat))
-    size = 0.5 * (np.sqrt(squares(force)) + np.sqrt(squares(force_hat)))
-    out = np.zeros(n_cases)
+    gap = np.sqrt(weighted_squares(force_weight, force - force_hat))
+    size = 0.5 * (np.sqrt(weighted_squares(force_weight, force))
+                  + np.sqrt(weighted_squares(force_weight, force_hat)))
+    out = np.zeros(force.shape[0])
     np.divide(gap, size, out=out, where=size > 0.0)
     out[(size == 0.0) & (gap > 0.0)] = np.inf
     return out

@@ -1,7 +1,8 @@
-"""The LATIN indicator's norms (paper §4.3) point by point, for ``kernels`` to compile with
-Numba: per case ‖s − ŝ‖², ‖s‖², ‖ŝ‖² and the forces' own ‖F‖², ‖F̂‖², and per load step
-‖s − ŝ‖² and its force part (``engine.NumpyFields.indicator``, ``settle``; the forces' own
-indicator: ``guards.FORCE_MARGIN``)."""
+"""The LATIN indicator's norms (paper §4.3): ``weighted_squares`` with NumPy (``engine.norms``,
+``guards.force_indicator``), and ``indicator_squares`` point by point, for ``kernels`` to
+compile with Numba: per case ‖s − ŝ‖², ‖s‖², ‖ŝ‖² and the forces' own ‖F‖², ‖F̂‖², and per
+load step ‖s − ŝ‖² and its force part (``engine.NumpyFields.indicator``, ``settle``; the
+forces' own indicator: ``guards.FORCE_MARGIN``)."""
 
 from __future__ import annotations
 
@@ -9,7 +10,15 @@ import numpy as np
 
 from ..fem.elasticity import FloatArray
 
-__all__ = ["indicator_squares"]
+__all__ = ["indicator_squares", "weighted_squares"]
+
+
+def weighted_squares(weight: FloatArray, field: FloatArray) -> FloatArray:
+    """Σ_t Σ_points ∫ weight x·x per case (first axis) of a field ``(n_cases, n_steps,
+    n_points, 2)``; ``weight`` per flattened (point, component): ∫ k for W, ∫ k⁻¹ for F."""
+    n_cases = field.shape[0]
+    out: FloatArray = np.square(field).reshape(n_cases, -1, weight.size).sum(axis=1) @ weight
+    return out
 
 
 def indicator_squares(w: FloatArray, f: FloatArray, w_hat: FloatArray, f_hat: FloatArray,

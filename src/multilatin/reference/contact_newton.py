@@ -228,10 +228,7 @@ def solve_contact_history(
     jump_on_fixed = jump[:, ~free]
     scale_force = max(float(np.abs(load).max()), 1.0)
     gap_tol = 1e3 * tol * scale_force / r  # on gaps and slips (mm); forces: tol * scale_force
-    # the equilibrium residual's tolerance, per step: tol * scale_force, or the rounding of
-    # K u where that is larger (``ROUNDING``)
-    force_tol = [tol * scale_force]
-    abs_ff, abs_fc = abs(k_ff), abs(k_fc)
+    abs_ff, abs_fc = abs(k_ff), abs(k_fc)  # for the rounding of K u (``ROUNDING``)
 
     u = u_fixed.copy()
     multipliers = np.zeros((n_steps, n_pairs, 2))
@@ -277,23 +274,25 @@ def solve_contact_history(
         res_eq = k_ff @ u_free - rhs - jump_free.T @ lam
         return np.r_[res_eq, c_n, c_t], (active, stick, slip_mask, sign)
 
-    def merit(residual: FloatArray) -> float:
-        """Largest residual relative to its tolerance (converged when < 1)."""
-        size_eq = np.abs(residual[:n_free]).max() / force_tol[0] if n_free else 0.0
+    def merit(residual: FloatArray, force_tol: float) -> float:
+        """Largest residual relative to its tolerance (converged when < 1); ``force_tol``
+        the equilibrium's."""
+        size_eq = np.abs(residual[:n_free]).max() / force_tol if n_free else 0.0
         size_c = (np.abs(residual[n_free:]).max() / (r * gap_tol)) if n_pairs else 0.0
         return float(max(size_eq, size_c))
 
     for step in range(n_steps):
         rhs = load[free, step] - k_fc @ u_fixed[~free, step]
         jump_fixed = jump_on_fixed @ u_fixed[~free, step]
-        force_tol[0] = max(tol * scale_force, ROUNDING * np.finfo(np.float64).eps * float(
+        # tol × the largest load, or the rounding of K u where that is larger
+        force_tol = max(tol * scale_force, ROUNDING * np.finfo(np.float64).eps * float(
             np.max(abs_ff @ np.abs(u_free) + abs_fc @ np.abs(u_fixed[~free, step]),
                    initial=0.0)))
         converged = False
         residual, sets = residuals(u_free, lam, rhs, jump_fixed, jump_prev, lam_t_prev)
         for newton in range(max_newton):
             total_iterations += 1
-            if newton > 0 and merit(residual) < 1.0:
+            if newton > 0 and merit(residual, force_tol) < 1.0:
                 converged = True
                 break
             active, stick, slip_mask, sign = sets
