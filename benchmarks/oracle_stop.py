@@ -50,12 +50,12 @@ def recorded_solves(model: ml.Model, cases: list[dict[str, float]]
     original = iteration.qoi_settled
 
     def recording(state: Any, active: np.ndarray, counts: np.ndarray, rtol: float,
-                  *rest: Any) -> Any:
+                  *rest: Any, **named: Any) -> Any:
         values = state.qoi_recent[active, (counts - 1) % iteration.RECENT]
         for case, count, value in zip(active, counts, values, strict=True):
             seen.setdefault(offset[0] + int(case), {})[int(count)] = value.copy()
             reported[offset[0] + int(case)] = np.array(state.qoi_reported[case])
-        return original(state, active, counts, rtol, *rest)
+        return original(state, active, counts, rtol, *rest, **named)
 
     iteration.qoi_settled = recording
     stops: list[int] = []
@@ -110,15 +110,15 @@ def trace(model: ml.Model, case: dict[str, float]) -> None:
     rows: list[str] = []
 
     def traced(state: Any, active: np.ndarray, counts: np.ndarray, rtol: float,
-               *rest: Any) -> Any:
-        settled = original(state, active, counts, rtol, *rest)
+               *rest: Any, **named: Any) -> Any:
+        settled = original(state, active, counts, rtol, *rest, **named)
         if len(active):
             a, n = int(active[0]), int(counts[0])
             order = (n + np.arange(iteration.RECENT)) % iteration.RECENT
             series, eta = state.qoi_recent[a, order], state.eta_recent[a, order]
             values = series[-1]
             bound = rtol * np.maximum(np.abs(values), iteration.QOI_FLOOR
-                                      * state.qoi_scale[a][:, None])
+                                      * state.qoi_scale[a].max(axis=0)[:, None])
             shown = state.qoi_reported[a]
             estimate = tracking.error_estimates(series, eta[:, None, None])
             exact = np.array([np.broadcast_to(np.asarray(q, dtype=float), values.shape[1:])

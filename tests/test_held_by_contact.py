@@ -31,12 +31,19 @@ def test_friction_holds_the_block_below_its_capacity(model, q) -> None:
     assert 10.0 * q < CAPACITY
 
 
-def test_no_equilibrium_beyond_the_capacity_is_reported_not_answered(model, capsys) -> None:
+@pytest.mark.parametrize("qoi_rtol", [None, 1e-3])
+def test_no_equilibrium_beyond_the_capacity_is_found_early(model, qoi_rtol) -> None:
+    """Under the QoI rule (the studies' default) too: its filter on η stops ("η < tol is no
+    QoI accuracy") also held the drift check's verdict back until the cap (session 42)."""
     assert 10.0 * 6.5 > CAPACITY
-    result = model.solve({"q": 6.5}, check=False)
+    result = model.solve({"q": 6.5}, options=ml.LatinOptions(qoi_rtol=qoi_rtol), check=False)
     assert not result.converged
     assert result.failure.startswith("no equilibrium")
     assert result.iterations <= 300  # found by the drift check, not at the cap of 1000
+
+
+def test_no_equilibrium_beyond_the_capacity_is_reported_not_answered(model, capsys) -> None:
+    assert 10.0 * 6.5 > CAPACITY
     with pytest.raises(ml.NotConvergedError, match="no equilibrium"):
         model.solve({"q": 6.5})
     with pytest.raises(ml.NotConvergedError):

@@ -109,7 +109,8 @@ class LatinOptions:
     qoi_rtol: also stop a case, before η < tol, once the estimated error of every quantity
         of interest at every step it reports (a QoI with ``step``: that step alone;
         ``multilatin.latin.tracking``) is below ``qoi_rtol``
-        times its value, or times 1 % of the largest magnitude it took during the iteration
+        times its value, or times 1 % of the largest magnitude it took at its steps over
+        the last ``iteration.RECENT`` iterations
         for a QoI near zero, and the state's own remaining change η / (1 − ρ) (ρ: η's rate)
         is below ``qoi_rtol`` too (``iteration.state_settled``: a QoI that stalls while the
         state still moves stops nothing); looked at after ``tracking.WINDOW`` + 5

@@ -1,0 +1,110 @@
+"""The QoI rule where a start's transient is far larger than the answer, and its failure
+verdicts (session 42, docs/correctness.md "A start's transient under the QoI rule").
+
+    python benchmarks/qoi_floor.py
+    PYTHONPATH=/tmp/old/src python benchmarks/qoi_floor.py      # another commit's
+    python benchmarks/qoi_floor.py --bundled     # and the bundled models' iterations
+
+1. The moved block of ``tests/data/block_on_moved_foundation.toml`` as a study (the
+   studies' defaults: multiresolution, ``qoi_rtol`` = 1e-3) over q = 0.5 … 2.95 (8) ×
+   shift = 0, 1, 100 mm: per case its start, iterations and R_base's relative difference
+   from the monolithic reference at the last step; the worst, and the iterations in all.
+   A case's first reactions to a base moved by 1 mm are ~2e6 N (through k × 10, the
+   prescribed displacements' search direction) against an answer of 10–59 N.
+2. Drift under both rules: the block held by friction on a flat
+   (``tests/data/block_on_flat.toml``) pushed beyond what friction holds (65 N against
+   60 N): the iteration where the drift check reports "no equilibrium".
+3. A force mode η does not see: the moved block (q = 2.9) at shift = 0, 1, 10, 100 mm,
+   solved to η < 1e-6 and 1e-10: iterations, η, and R_base at step 1 (zero: no push yet).
+4. ``--bundled``: every bundled model's iterations and first QoI (at the last step) under
+   η < tol and the QoI rule; b1, b1-4, b1-9 and b3 at ``convergence.py``'s four pairs.
+"""
+
+from __future__ import annotations
+
+import sys
+import tempfile
+import warnings
+from pathlib import Path
+
+import numpy as np
+
+import multilatin as ml
+from multilatin.latin import LatinOptions
+
+DATA = Path(__file__).parents[1] / "tests" / "data"
+
+
+def moved_study() -> None:
+    model = ml.Model(ml.ModelSpec.from_toml(DATA / "block_on_moved_foundation.toml"))
+    grid = ml.Grid({"q": [float(q) for q in np.linspace(0.5, 2.95, 8)],
+                    "shift": [0.0, 1.0, 100.0]})
+    with tempfile.TemporaryDirectory() as folder, warnings.catch_warnings():
+        warnings.simplefilter("ignore")
+        study = ml.run_study(model, grid, out=folder, progress=False)
+    print("| case | start | iterations | stopped on QoIs | R_base | reference | difference |")
+    print("|---|---|---|---|---|---|---|")
+    worst = 0.0
+    for record in study.mode_records("multiresolution"):
+        params = record["params"]
+        reference = model.reference(params).qoi["R_base"][-1]  # type: ignore[index]
+        found = record["qoi"]["R_base"][-1]
+        difference = abs(found - reference) / abs(reference)
+        worst = max(worst, difference)
+        print(f"| q = {params['q']:.3g}, shift = {params['shift']:g} | {record['start']} | "
+              f"{record['iterations']} | {record['stopped_on_qoi']} | {found:.5f} | "
+              f"{reference:.5f} | {difference:.1e} |")
+    iterations = sum(r["iterations"] for r in study.mode_records("multiresolution"))
+    print(f"\nworst R_base difference over {grid.size} cases: {worst:.2e} "
+          f"({'within' if worst <= 1e-3 else 'OUTSIDE'} the rule's 0.1 %); {iterations} "
+          "iterations in all\n")
+
+
+def drift() -> None:
+    model = ml.Model(ml.ModelSpec.from_toml(DATA / "block_on_flat.toml"))
+    print("| rule | converged | iterations | failure |")
+    print("|---|---|---|---|")
+    for rtol in (None, 1e-3):
+        result = model.solve({"q": 6.5}, options=LatinOptions(qoi_rtol=rtol), check=False)
+        print(f"| {'η < tol' if rtol is None else f'qoi_rtol {rtol:g}'} | {result.converged} | "
+              f"{result.iterations} | {(result.failure or '')[:40]}… |")
+
+
+def offset() -> None:
+    model = ml.Model(ml.ModelSpec.from_toml(DATA / "block_on_moved_foundation.toml"))
+    print("\n| shift (mm) | tol | iterations | η | R_base at step 1 (N) |")
+    print("|---|---|---|---|---|")
+    for shift in (0.0, 1.0, 10.0, 100.0):
+        for tol in (1e-6, 1e-10):
+            result = model.solve({"shift": shift}, options=LatinOptions(tol=tol))
+            print(f"| {shift:g} | {tol:g} | {result.iterations} | {result.indicator:.1e} | "
+                  f"{result.qoi['R_base'][0]:.2e} |")  # type: ignore[index]
+
+
+def bundled() -> None:
+    pairs = [{"mu1": 0.3, "mu2": 0.0}, {"mu1": 0.1, "mu2": 0.3},
+             {"mu1": 0.35, "mu2": 0.25}, {"mu1": 0.3, "mu2": 0.15}]
+    print("\n| model | rule | iterations, first QoI |")
+    print("|---|---|---|")
+    for name in ["b0", "b2", "slide", "punch", "lug", "roller", "b1", "b1-4", "b1-9", "b3"]:
+        model = ml.load_model(name)
+        for rtol in (None, 1e-3):
+            cells = []
+            for mu in (pairs if name.startswith("b1") or name == "b3" else [{}]):
+                result = model.solve(mu, options=LatinOptions(qoi_rtol=rtol), check=False)
+                first = np.atleast_1d(next(iter(result.qoi.values())))[-1]
+                cells.append(f"{result.iterations}, {first:.9g}")
+            print(f"| {name} | {'η < tol' if rtol is None else f'qoi_rtol {rtol:g}'} | "
+                  f"{' / '.join(cells)} |")
+
+
+def main() -> None:
+    moved_study()
+    drift()
+    offset()
+    if "--bundled" in sys.argv[1:]:
+        bundled()
+
+
+if __name__ == "__main__":
+    main()
