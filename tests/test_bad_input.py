@@ -75,6 +75,13 @@ def test_good_model_is_accepted():
                                    "component": "x"}]),
          "qoi[0] ('u').point: [50.0, 0.0] lies in no substructure"),
         (lambda d: d.update(colour="red"), "model: unknown field 'colour'"),
+        # a field the substructure takes from [analysis]: named where the user wrote it
+        (lambda d: d.update(analysis={"thickness": -1.0}),
+         "analysis.thickness: must be > 0, got -1"),
+        (lambda d: d["substructures"][1].update(thickness=0.0),
+         "substructures[1] ('b').thickness: must be > 0, got 0"),
+        (lambda d: d.update(analysis={"hypothesis": "plane"}),
+         "analysis.hypothesis: expected 'plane_stress' or 'plane_strain', got 'plane'"),
     ],
 )
 def test_model_errors_name_field_and_value(change, expected):

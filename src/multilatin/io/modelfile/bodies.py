@@ -59,16 +59,19 @@ class BodySections(SectionReader):
             )
         analysis = dict(self.data.get("analysis", {}))
         check_keys(analysis, {"hypothesis", "thickness"}, "analysis")
+        # a field the body does not give is the [analysis] one: errors name where it is
+        owner = {key: where if key in table else "analysis" for key in ("hypothesis",
+                                                                         "thickness")}
         hypothesis = table.get("hypothesis", analysis.get("hypothesis", PLANE_STRESS))
         if hypothesis not in (PLANE_STRESS, PLANE_STRAIN):
             raise ModelError(
-                f"{where}.hypothesis: expected {PLANE_STRESS!r} or {PLANE_STRAIN!r}, "
-                f"got {hypothesis!r}"
+                f"{owner['hypothesis']}.hypothesis: expected {PLANE_STRESS!r} or "
+                f"{PLANE_STRAIN!r}, got {hypothesis!r}"
             )
         thickness = self.num(table.get("thickness", analysis.get("thickness", 1.0)),
-                             f"{where}.thickness")
+                             f"{owner['thickness']}.thickness")
         if not thickness > 0.0:
-            raise ModelError(f"{where}.thickness: must be > 0, got {thickness:g}")
+            raise ModelError(f"{owner['thickness']}.thickness: must be > 0, got {thickness:g}")
         young, poisson = materials[mname]
         return Material(young, poisson, hypothesis, thickness)
 
