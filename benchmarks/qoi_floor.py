@@ -4,6 +4,7 @@ verdicts (session 42, docs/correctness.md "A start's transient under the QoI rul
     python benchmarks/qoi_floor.py
     PYTHONPATH=/tmp/old/src python benchmarks/qoi_floor.py      # another commit's
     python benchmarks/qoi_floor.py --bundled     # and the bundled models' iterations
+    python benchmarks/qoi_floor.py --kappas      # and B1's, B3's cold studies at κ 0.5, 2, 10
 
 1. The moved block of ``tests/data/block_on_moved_foundation.toml`` as a study (the
    studies' defaults: multiresolution, ``qoi_rtol`` = 1e-3) over q = 0.5 … 2.95 (8) ×
@@ -14,10 +15,19 @@ verdicts (session 42, docs/correctness.md "A start's transient under the QoI rul
 2. Drift under both rules: the block held by friction on a flat
    (``tests/data/block_on_flat.toml``) pushed beyond what friction holds (65 N against
    60 N): the iteration where the drift check reports "no equilibrium".
+   And a study of ``tests/data/holed_block_on_foundation.toml`` over xc = 6 … 14 (5) × rc
+   = 0, 2, 3, 4 × μ = 0.2, 0.4, 0.6 (the studies' defaults): 40 of its 60 cases have no
+   equilibrium (the push passes μ × 200 N); its wall time, the iterations in all, those of
+   the failed cases, and the converged cases' worst QoI difference from the monolithic
+   reference on the same meshes (X-FEM too), per step relative to max(|q|, 1 % of its
+   largest).
 3. A force mode η does not see: the moved block (q = 2.9) at shift = 0, 1, 10, 100 mm,
    solved to η < 1e-6 and 1e-10: iterations, η, and R_base at step 1 (zero: no push yet).
 4. ``--bundled``: every bundled model's iterations and first QoI (at the last step) under
    η < tol and the QoI rule; b1, b1-4, b1-9 and b3 at ``convergence.py``'s four pairs.
+5. ``--kappas``: B1's 13 × 13 and B3's 5 × 5 hole positions, every case cold, at κ = 0.5, 2
+   and 10 under both rules: the iterations in all and the cases reported as failed (a
+   drift check that looks more often must find no slide where there is none; ~15 min).
 """
 
 from __future__ import annotations
@@ -70,6 +80,33 @@ def drift() -> None:
               f"{result.iterations} | {(result.failure or '')[:40]}… |")
 
 
+def holed_study() -> None:
+    model = ml.Model(ml.ModelSpec.from_toml(DATA / "holed_block_on_foundation.toml"))
+    grid = ml.Grid({"xc": [6.0, 8.0, 10.0, 12.0, 14.0], "rc": [0.0, 2.0, 3.0, 4.0],
+                    "mu": [0.2, 0.4, 0.6]})
+    with tempfile.TemporaryDirectory() as folder, warnings.catch_warnings():
+        warnings.simplefilter("ignore")
+        study = ml.run_study(model, grid, out=folder, progress=False)
+    records = study.mode_records("multiresolution")
+    failed = [r for r in records if not r["converged"]]
+    worst = 0.0
+    for record in records:
+        if not record["converged"]:
+            continue
+        reference = model.reference(record["params"], mesh="same")
+        for name, values in reference.qoi.items():
+            exact = np.atleast_1d(np.asarray(values, dtype=float))
+            found = np.atleast_1d(np.asarray(record["qoi"][name], dtype=float))
+            floor = 1e-2 * np.abs(exact).max()
+            worst = max(worst, float(np.max(np.abs(found - exact)
+                                            / np.maximum(np.abs(exact), floor))))
+    print(f"holed block study: {study.elapsed_s['multiresolution']:.1f} s, "
+          f"{sum(r['iterations'] for r in records)} iterations in all, "
+          f"{len(failed)} cases with no equilibrium found after "
+          f"{sorted({r['iterations'] for r in failed})} iterations, the converged cases' "
+          f"worst QoI difference from the same-mesh reference {worst:.1e}")
+
+
 def offset() -> None:
     model = ml.Model(ml.ModelSpec.from_toml(DATA / "block_on_moved_foundation.toml"))
     print("\n| shift (mm) | tol | iterations | η | R_base at step 1 (N) |")
@@ -98,12 +135,34 @@ def bundled() -> None:
                   f"{' / '.join(cells)} |")
 
 
+def kappas() -> None:
+    print("\n| model | κ | rule | iterations | failed |")
+    print("|---|---|---|---|---|")
+    for name, items in [("b1", ["mu1=0:0.6:13", "mu2=0:0.6:13"]),
+                        ("b3", ["xc=23:27:5", "yc=73:77:5", "rc=3"])]:
+        model, grid = ml.load_model(name), ml.Grid.parse(items)
+        for kappa in (0.5, 2.0, 10.0):
+            for rtol in (None, 1e-3):
+                options = LatinOptions(kappa=kappa, qoi_rtol=rtol)
+                with tempfile.TemporaryDirectory() as folder, warnings.catch_warnings():
+                    warnings.simplefilter("ignore")
+                    study = ml.run_study(model, grid, options=options, modes=("cold",),
+                                         out=folder, progress=False)
+                records = study.mode_records("cold")
+                print(f"| {name} | {kappa:g} | {'η < tol' if rtol is None else 'QoI rule'} | "
+                      f"{sum(r['iterations'] for r in records)} | "
+                      f"{sum(not r['converged'] for r in records)} |")
+
+
 def main() -> None:
     moved_study()
     drift()
+    holed_study()
     offset()
     if "--bundled" in sys.argv[1:]:
         bundled()
+    if "--kappas" in sys.argv[1:]:
+        kappas()
 
 
 if __name__ == "__main__":
