@@ -321,6 +321,24 @@ def test_a_local_clusters_workers_size_their_batches_to_their_share() -> None:
         os.environ.update(environment)
 
 
+def test_a_script_without_a_main_guard_is_told_why_its_workers_did_not_start(
+        tmp_path: Path) -> None:
+    """A script that starts a study with workers at import time: each worker process
+    imports it again and fails; Dask says only "Nanny failed to start", the study says
+    what to do (session 42)."""
+    pytest.importorskip("dask.distributed")
+    script = tmp_path / "study.py"
+    script.write_text("import multilatin as ml\n"
+                      "ml.run_study(ml.load_model('b0'), ml.Grid({'P': [1.0]}), workers=1,\n"
+                      "             progress=False)\n")
+    done = subprocess.run([sys.executable, str(script)], capture_output=True, text=True,
+                          timeout=240, cwd=tmp_path)
+    assert done.returncode != 0
+    last = done.stderr.strip().splitlines()[-1]
+    assert last.startswith("RuntimeError: workers: a local Dask cluster of 1 process")
+    assert "if __name__ == '__main__':" in last
+
+
 def test_each_geometry_is_built_once_in_a_serial_study(tmp_path: Path) -> None:
     """A study whose batches hold lines of hole positions (b3: xc innermost of the geometric
     parameters, frictions outside) meets every geometry again at each line: each one's

@@ -86,5 +86,15 @@ def local_cluster(workers: int) -> Any:
         environ["DASK_LOGGING__DISTRIBUTED"] = "warning"
         logging.getLogger("distributed").setLevel(logging.WARNING)
     with dask.config.set({"distributed.nanny.pre-spawn-environ": environ}):
-        return LocalCluster(n_workers=workers, threads_per_worker=1, processes=True,
-                            dashboard_address=None)
+        try:
+            return LocalCluster(n_workers=workers, threads_per_worker=1, processes=True,
+                                dashboard_address=None)
+        except Exception as error:
+            # the usual cause: a script that starts a study at import time; each worker
+            # process imports the script's module again and starts one more (Dask's "Nanny
+            # failed to start", nothing about why)
+            raise RuntimeError(
+                f"workers: a local Dask cluster of {workers} process(es) did not start "
+                f"({type(error).__name__}: {error}). Python starts each worker by importing "
+                "the main module again: in a script, call run_study under `if __name__ == "
+                "'__main__':`; or run the study in this process (workers=0)") from error
