@@ -26,8 +26,9 @@ verdicts (session 42, docs/correctness.md "A start's transient under the QoI rul
 4. ``--bundled``: every bundled model's iterations and first QoI (at the last step) under
    η < tol and the QoI rule; b1, b1-4, b1-9 and b3 at ``convergence.py``'s four pairs.
 5. ``--kappas``: B1's 13 × 13 and B3's 5 × 5 hole positions, every case cold, at κ = 0.5, 2
-   and 10 under both rules: the iterations in all and the cases reported as failed (a
-   drift check that looks more often must find no slide where there is none; ~15 min).
+   and 10 under both rules: the iterations in all and the cases reported as failed, by the
+   drift check ("no equilibrium", and after how many iterations) or at the cap (a drift
+   check that looks more often must find no slide where there is none; ~20 min).
 """
 
 from __future__ import annotations
@@ -136,8 +137,9 @@ def bundled() -> None:
 
 
 def kappas() -> None:
-    print("\n| model | κ | rule | iterations | failed |")
-    print("|---|---|---|---|---|")
+    print("\n| model | κ | rule | iterations | failed: no equilibrium (at iterations) | "
+          "failed: not converged at the cap |")
+    print("|---|---|---|---|---|---|")
     for name, items in [("b1", ["mu1=0:0.6:13", "mu2=0:0.6:13"]),
                         ("b3", ["xc=23:27:5", "yc=73:77:5", "rc=3"])]:
         model, grid = ml.load_model(name), ml.Grid.parse(items)
@@ -149,9 +151,15 @@ def kappas() -> None:
                     study = ml.run_study(model, grid, options=options, modes=("cold",),
                                          out=folder, progress=False)
                 records = study.mode_records("cold")
+                drifted = sorted({r["iterations"] for r in records
+                                  if not r["converged"] and "no equilibrium" in r["log"]})
+                count = sum(not r["converged"] and "no equilibrium" in r["log"]
+                            for r in records)
+                capped = sum(not r["converged"] and "no equilibrium" not in r["log"]
+                             for r in records)
                 print(f"| {name} | {kappa:g} | {'η < tol' if rtol is None else 'QoI rule'} | "
-                      f"{sum(r['iterations'] for r in records)} | "
-                      f"{sum(not r['converged'] for r in records)} |")
+                      f"{sum(r['iterations'] for r in records)} | {count} {drifted or ''} | "
+                      f"{capped} |")
 
 
 def main() -> None:
