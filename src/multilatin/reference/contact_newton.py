@@ -75,6 +75,7 @@ ROUNDING = 100.0
 #: halvings of a Newton step before it is taken whole (``solve_contact_history``)
 BACKTRACKS = 12
 
+
 def contact_set(assembly: Assembly, maps: list[IntArray],
                 mortar_points: dict[int, tuple[IntArray, IntArray, MortarCoupling]] | None = None
                 ) -> ContactSet:
