@@ -54,3 +54,17 @@ def test_kappa_auto_is_refused_for_one_solve(capsys: pytest.CaptureFixture[str])
     assert main(["solve", "b0", "--kappa", "auto"]) == 2
     err = capsys.readouterr().err
     assert err.startswith("error: --kappa auto: chooses the search direction of a study")
+
+
+def test_a_central_case_with_no_equilibrium_keeps_the_default_and_says_why() -> None:
+    """Every κ fails where the central case has no equilibrium (the holed block pushed
+    past μ × 200 N): the default is kept, and the line says that none converged rather
+    than "no fewer" (session 42)."""
+    model = ml.Model(ml.ModelSpec.from_toml(Path(__file__).parent / "data"
+                                            / "holed_block_on_foundation.toml"))
+    choice = choose_kappa(model, {"xc": 10.0, "rc": 2.0, "mu": 0.4}, STUDY)
+    assert choice.kappa == STUDY.kappa
+    assert set(choice.iterations.values()) == {None}
+    line = choice.describe()
+    assert "0.5: not converged" in line and "none converged: the default kept" in line
+    assert "no fewer" not in line

@@ -39,11 +39,17 @@ class KappaChoice:
     seconds: float
 
     def describe(self) -> str:
-        tried = ", ".join(f"{k:g}: {'no fewer' if n is None else n}"
-                          for k, n in self.iterations.items())
+        """One line: the κ kept and each κ tried — its iterations, "no fewer" where it did
+        not beat the best before it, "not converged" where none converged before it."""
+        labels, converged = [], False
+        for kappa, n in self.iterations.items():
+            converged |= n is not None
+            label = n if n is not None else "no fewer" if converged else "not converged"
+            labels.append(f"{kappa:g}: {label}")
         case = ", ".join(f"{name}={value:g}" for name, value in self.params.items())
+        kept = "" if converged else ", none converged: the default kept"
         return (f"kappa auto: {self.kappa:g} (iterations from zero at "
-                f"({case or 'the defaults'}): {tried}; "
+                f"({case or 'the defaults'}): {', '.join(labels)}{kept}; "
                 f"{self.seconds:.2f} s)")
 
 
