@@ -120,15 +120,15 @@ def offset() -> None:
 
 
 def bundled() -> None:
-    pairs = [{"mu1": 0.3, "mu2": 0.0}, {"mu1": 0.1, "mu2": 0.3},
-             {"mu1": 0.35, "mu2": 0.25}, {"mu1": 0.3, "mu2": 0.15}]
+    from force_guard import PAIRS  # convergence.py's four friction pairs
+
     print("\n| model | rule | iterations, first QoI |")
     print("|---|---|---|")
     for name in ["b0", "b2", "slide", "punch", "lug", "roller", "b1", "b1-4", "b1-9", "b3"]:
         model = ml.load_model(name)
         for rtol in (None, 1e-3):
             cells = []
-            for mu in (pairs if name.startswith("b1") or name == "b3" else [{}]):
+            for mu in (PAIRS if name.startswith("b1") or name == "b3" else [{}]):
                 result = model.solve(mu, options=LatinOptions(qoi_rtol=rtol), check=False)
                 first = np.atleast_1d(next(iter(result.qoi.values())))[-1]
                 cells.append(f"{result.iterations}, {first:.9g}")
@@ -140,9 +140,10 @@ def kappas() -> None:
     print("\n| model | κ | rule | iterations | failed: no equilibrium (at iterations) | "
           "failed: not converged at the cap |")
     print("|---|---|---|---|---|---|")
-    for name, items in [("b1", ["mu1=0:0.6:13", "mu2=0:0.6:13"]),
-                        ("b3", ["xc=23:27:5", "yc=73:77:5", "rc=3"])]:
-        model, grid = ml.load_model(name), ml.Grid.parse(items)
+    from study_anatomy import GRIDS  # B1's 13 × 13, B3's 5 × 5 hole positions
+
+    for name in ("b1", "b3"):
+        model, grid = ml.load_model(name), ml.Grid.parse(GRIDS[name])
         for kappa in (0.5, 2.0, 10.0):
             for rtol in (None, 1e-3):
                 options = LatinOptions(kappa=kappa, qoi_rtol=rtol)
@@ -163,6 +164,7 @@ def kappas() -> None:
 
 
 def main() -> None:
+    sys.path.insert(0, str(Path(__file__).parent))  # the other benchmarks' PAIRS, GRIDS
     moved_study()
     drift()
     holed_study()

@@ -41,9 +41,11 @@ def indicator_squares(w: FloatArray, f: FloatArray, w_hat: FloatArray, f_hat: Fl
                 i = t * n + j
                 kw, kf = displacement_weight[j], force_weight[j]
                 dw, df = w2[c, i] - wh2[c, i], f2[c, i] - fh2[c, i]
-                gap += kw * dw * dw + kf * df * df
-                step_gap += kw * dw * dw + kf * df * df
-                step_force_gap += kf * df * df
+                on_df = kf * df * df
+                term = kw * dw * dw + on_df
+                gap += term
+                step_gap += term
+                step_force_gap += on_df
                 on_f, on_f_hat = kf * f2[c, i] * f2[c, i], kf * fh2[c, i] * fh2[c, i]
                 size += kw * w2[c, i] * w2[c, i] + on_f
                 size_hat += kw * wh2[c, i] * wh2[c, i] + on_f_hat

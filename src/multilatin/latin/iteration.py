@@ -465,7 +465,6 @@ class BatchIterations:
         out.t_linear, out.t_macro, out.t_local = engine.t_linear, engine.t_macro, engine.t_local
         return leaving
 
-
     def _forces_checked(self, done: npt.NDArray[np.bool_], eta: FloatArray,
                         ended: npt.NDArray[np.bool_]) -> tuple[FloatArray, ...] | None:
         """The fields of the active cases that leave (``done``, updated in place: a case

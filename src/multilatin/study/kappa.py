@@ -31,7 +31,8 @@ KAPPA_LADDER = (0.5, 1.0, 2.0, 5.0, 10.0)
 @dataclass(frozen=True)
 class KappaChoice:
     """The κ kept, and per κ tried its iterations (None: it did not converge in fewer
-    than the best before it), the case they were read on and the seconds it took."""
+    than the best before it, or at all where none converged before it), the case they
+    were read on and the seconds it took."""
 
     kappa: float
     iterations: dict[float, int | None]
