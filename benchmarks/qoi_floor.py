@@ -33,6 +33,7 @@ verdicts (session 42, docs/correctness.md "A start's transient under the QoI rul
 
 from __future__ import annotations
 
+import argparse
 import sys
 import tempfile
 import warnings
@@ -164,14 +165,21 @@ def kappas() -> None:
 
 
 def main() -> None:
+    parser = argparse.ArgumentParser(description=__doc__,
+                                     formatter_class=argparse.RawDescriptionHelpFormatter)
+    parser.add_argument("--bundled", action="store_true",
+                        help="also the bundled models' iterations and first QoI")
+    parser.add_argument("--kappas", action="store_true",
+                        help="also B1's and B3's cold studies at κ 0.5, 2, 10 (~20 min)")
+    args = parser.parse_args()
     sys.path.insert(0, str(Path(__file__).parent))  # the other benchmarks' PAIRS, GRIDS
     moved_study()
     drift()
     holed_study()
     offset()
-    if "--bundled" in sys.argv[1:]:
+    if args.bundled:
         bundled()
-    if "--kappas" in sys.argv[1:]:
+    if args.kappas:
         kappas()
 
 
