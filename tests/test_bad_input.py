@@ -191,3 +191,20 @@ def test_a_study_batch_of_zero_is_refused(tmp_path):
     with pytest.raises(ml.ModelError, match="--batch: must be >= 1, got 0"):
         ml.run_study(ml.load_model("b1"), ml.Grid({"mu1": [0.1]}), batch=0, out=tmp_path,
                      progress=False)
+
+
+def test_two_conditions_prescribing_one_node_differently_are_refused():
+    """A corner shared by a held face and a pushed one: the monolithic reference kept one
+    of the two values silently and LATIN found no equilibrium; refused when built. Equal
+    values (a clamp beside a face held in x only) are accepted."""
+    def pushed(value):
+        def change(d):
+            d["boundary"].append({"name": "hold", "substructure": "a", "side": "bottom",
+                                  "type": "mixed", "components": ["displacement", "force"],
+                                  "value": [value, 0.0]})
+        return change
+    with pytest.raises(ml.ModelError, match=r"boundary: 'clamp' and 'hold' both prescribe "
+                       r"the x displacement of the node at \(0, 0\) of body 'a', differently "
+                       r"\(0 and 0.5 at step 1\)"):
+        spec_with(pushed(0.5))().build()
+    assert spec_with(pushed(0.0))().build().interfaces

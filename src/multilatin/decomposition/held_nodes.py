@@ -101,3 +101,30 @@ def held_perfect_pairs(key: NodeKey, fixed: dict[tuple[tuple[int, float, float],
             if len(holders) == 1:
                 held_side[j, c], held_boundary[j, c] = holders[0]
     return {"pair_held_side": held_side, "pair_held_boundary": held_boundary}
+
+
+def held_stops(key: NodeKey, fixed: dict[tuple[tuple[int, float, float], int], int],
+               stops: IntArray, normals: FloatArray) -> dict[str, IntArray]:
+    """Stop points whose tangential displacement is held at the same node of the same
+    substructure, by a prescribed displacement component (a frictional flat under a face
+    pushed sideways) or by another stop (a block in a rigid corner): the node's tangential
+    force is then shared between the stop's friction and its holder, and only their sum is
+    determined. Both solvers give the friction there the held-corner rule (``held_corners``):
+    while the holder holds (a prescribed displacement that did not move since the last
+    step, a stop that is closed), it keeps its previous step's value, limited to the cone;
+    a prescribed displacement that moves makes the stop slide, at the cone. Per stop
+    (−1: not held; axis-aligned stops only): the index in ``boundary`` of its holder, or in
+    ``stops``."""
+    axis = np.argmax(np.abs(normals[stops]), axis=1) if stops.size else np.zeros(0, np.int64)
+    stop_of = {(key(int(p)), int(axis[q])): q for q, p in enumerate(stops)}
+    by_boundary = np.full(stops.size, -1, dtype=np.int64)
+    by_stop = np.full(stops.size, -1, dtype=np.int64)
+    for q, p in enumerate(stops):
+        tangential = 1 - int(axis[q])
+        if abs(normals[p, tangential]) > 1e-12:  # an oblique stop: no axis holds its tangent
+            continue
+        if (key(int(p)), tangential) in fixed:
+            by_boundary[q] = fixed[(key(int(p)), tangential)]
+        elif (key(int(p)), tangential) in stop_of:
+            by_stop[q] = stop_of[(key(int(p)), tangential)]
+    return {"stop_held_boundary": by_boundary, "stop_held_stop": by_stop}

@@ -10,7 +10,7 @@ from __future__ import annotations
 
 import dataclasses
 import re
-from collections.abc import Callable, Mapping, Sequence
+from collections.abc import Callable, Collection, Mapping, Sequence
 from typing import Any
 
 import numpy as np
@@ -61,18 +61,23 @@ def _shape(table: Mapping[str, Any], where: str, num: Callable[[Any, str], float
 
 
 def _owner(table: Mapping[str, Any], where: str, subs: Sequence[Substructure],
-           place: tuple[float, float], params: str) -> int:
-    """Index of the substructure that holds the hole."""
+           place: tuple[float, float], params: str, replaced: Collection[str] = ()) -> int:
+    """Index of the substructure that holds the hole. replaced: bodies whose split the
+    caller chose (``--split``, the conforming reference's one substructure per body): a
+    substructure of the file's split of such a body is gone, and the hole is placed in the
+    body by its position instead."""
+    body = table.get("body")
     if "substructure" in table:
         name = str(table["substructure"])
         index = next((i for i, s in enumerate(subs) if s.name == name), None)
-        if index is None:
+        if index is None and name.partition("[")[0] not in replaced:
             raise ModelError(f"{where}.substructure: no substructure named {name!r}")
-        if not subs[index].mesh.contains(place, tol=0.0):
-            raise ModelError(f"{where}: the hole at {list(place)} lies outside substructure "
-                             f"{name!r} {_box(subs[index])}{params}")
-        return index
-    body = table.get("body")
+        if index is not None:
+            if not subs[index].mesh.contains(place, tol=0.0):
+                raise ModelError(f"{where}: the hole at {list(place)} lies outside "
+                                 f"substructure {name!r} {_box(subs[index])}{params}")
+            return index
+        body = name.partition("[")[0]
     if body is not None and not any(s.body == body for s in subs):
         raise ModelError(f"{where}.body: no body named {body!r}")
     for i, sub in enumerate(subs):
@@ -90,9 +95,10 @@ def _box(sub: Substructure) -> str:
 def place_holes(tables: Sequence[Mapping[str, Any]], subs: list[Substructure],
                 mu: Mapping[str, float],
                 num: Callable[[Any, str], float],
-                check_keys: Callable[[Mapping[str, Any], set[str], str], None]
-                ) -> list[Substructure]:
-    """The substructures with their holes (several holes in one substructure: their union)."""
+                check_keys: Callable[[Mapping[str, Any], set[str], str], None],
+                replaced: Collection[str] = ()) -> list[Substructure]:
+    """The substructures with their holes (several holes in one substructure: their union);
+    replaced: the bodies whose split the caller chose (``_owner``)."""
     holes: dict[int, list[LevelSet]] = {}
     single: dict[int, Substructure] = {}  # a substructure with its one hole, cut cells cached
     for h, table in enumerate(tables):
@@ -103,7 +109,7 @@ def place_holes(tables: Sequence[Mapping[str, Any]], subs: list[Substructure],
         where = f"holes[{h}] ({str(table.get('name', f'hole{h}'))!r})"
         params = _parameters_named(table, mu)
         level_set, place = _shape(table, where, num, params)
-        index = _owner(table, where, subs, place, params)
+        index = _owner(table, where, subs, place, params, replaced)
         if level_set is None:
             continue
         sub = subs[index]

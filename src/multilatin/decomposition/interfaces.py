@@ -36,7 +36,7 @@ from ..errors import ModelError
 from ..fem.elasticity import FloatArray, IntArray
 from ..fem.mesh import SIDES, RectMesh, UnstructuredMesh, normal_axis
 from .assembly import DISPLACEMENT, FORCE, Assembly, Interface
-from .held_nodes import held_corners, held_perfect_pairs, node_key, prescribed_components
+from .held_nodes import held_corners, held_perfect_pairs, held_stops, node_key, prescribed_components
 from .mortar import mortar_coupling, touching_by_declaration
 
 INTERFACE_ELEMENTS = ("nodal", "edges", "edge-pairs")
@@ -182,6 +182,10 @@ class InterfacePoints:
     # the held side (0: a, 1: b, −1: neither or both) and its index in ``boundary``
     pair_held_side: IntArray  # (n_pairs, 2)
     pair_held_boundary: IntArray  # (n_pairs, 2)
+    # stops held tangentially at their node (``held_nodes.held_stops``), per stop: the
+    # holder's index in ``boundary`` (a prescribed displacement) or in ``stops``, else −1
+    stop_held_boundary: IntArray
+    stop_held_stop: IntArray
 
     @property
     def n_points(self) -> int:
@@ -291,9 +295,10 @@ def build_points(assembly: Assembly, kind: str = "nodal", *,
     fixed = prescribed_components(key, boundary, is_displacement)
     held = held_corners(key, fixed, contact_pairs, stops, all_normals)
     held.update(held_perfect_pairs(key, fixed, (cat(pairs_a), cat(pairs_b))))
+    held.update(held_stops(key, fixed, stops, all_normals))
     if not held_nodes:
         for name in ("held_side", "held_boundary", "held_stop", "pair_held_side",
-                     "pair_held_boundary"):
+                     "pair_held_boundary", "stop_held_boundary", "stop_held_stop"):
             held[name] = np.full_like(held[name], -1)
     return InterfacePoints(
         substructure=cat(substructure),
@@ -320,6 +325,8 @@ def build_points(assembly: Assembly, kind: str = "nodal", *,
         held_stop=held["held_stop"],
         pair_held_side=held["pair_held_side"],
         pair_held_boundary=held["pair_held_boundary"],
+        stop_held_boundary=held["stop_held_boundary"],
+        stop_held_stop=held["stop_held_stop"],
     )
 
 

@@ -67,7 +67,8 @@ def _contact_and_stops(displacement: FloatArray, force: FloatArray, w_hat: Float
                        stops: IntArray, k_stop: FloatArray, n_stop: FloatArray,
                        mu_stop: FloatArray, gap_stop: FloatArray, corner_of_pair: IntArray,
                        corner_stops: IntArray, held_side: IntArray, held_boundary: IntArray,
-                       held_stop: IntArray, prescribed: FloatArray, group_pairs: IntArray,
+                       held_stop: IntArray, stop_held_boundary: IntArray,
+                       stop_held_stop: IntArray, prescribed: FloatArray, group_pairs: IntArray,
                        group_share: FloatArray, first: IntArray
                        ) -> None:  # pragma: no cover - compiled
     """Steps ``first[c]`` on of case c (the earlier ones settled, ``engine``): the
@@ -119,6 +120,27 @@ def _contact_and_stops(displacement: FloatArray, force: FloatArray, w_hat: Float
                 prev_stop[i, 1] += dwy + (fy - force[c, t, p, 1]) / ky
                 f_hat[c, t, p, 0], f_hat[c, t, p, 1] = fx, fy
                 w_hat[c, t, p, 0], w_hat[c, t, p, 1] = prev_stop[i, 0], prev_stop[i, 1]
+            for i in range(n_stops):  # held stops (``held_nodes.held_stops``)
+                if stop_held_boundary[i] < 0 and (stop_held_stop[i] < 0
+                                                  or not stop_closed[stop_held_stop[i]]):
+                    continue
+                p = stops[i]
+                d = 1 - (0 if abs(n_stop[i, 0]) >= abs(n_stop[i, 1]) else 1)
+                if stop_held_boundary[i] >= 0:
+                    target = prescribed[c, t, stop_held_boundary[i], d]
+                    before = prescribed[c, t - 1, stop_held_boundary[i], d] if t > 0 else 0.0
+                    if target != before:  # the holder moves: the stop slides, at the cone
+                        continue
+                else:
+                    target = prev_stop[stop_held_stop[i], d]
+                bound = 0.0
+                if stop_closed[i]:
+                    bound = -mu_stop[c, i] * (n_stop[i, 0] * f_hat[c, t, p, 0]
+                                              + n_stop[i, 1] * f_hat[c, t, p, 1])
+                previous = f_hat[c, t - 1, p, d] if t > 0 else 0.0
+                f_hat[c, t, p, d] = min(max(previous, -bound), bound)
+                prev_stop[i, d] = target
+                w_hat[c, t, p, d] = target
             for j in range(n_pairs):
                 pa, pb = a[j], b[j]
                 nx, ny = n_contact[j, 0], n_contact[j, 1]
@@ -250,8 +272,9 @@ def _coupled_contact(displacement: FloatArray, force: FloatArray, w_hat: FloatAr
                      gap_contact: FloatArray, stops: IntArray, k_stop: FloatArray,
                      n_stop: FloatArray, mu_stop: FloatArray, gap_stop: FloatArray,
                      corner_of_pair: IntArray, corner_stops: IntArray, held_side: IntArray,
-                     held_boundary: IntArray, held_stop: IntArray, prescribed: FloatArray,
-                     group_pairs: IntArray, group_share: FloatArray,
+                     held_boundary: IntArray, held_stop: IntArray,
+                     stop_held_boundary: IntArray, stop_held_stop: IntArray,
+                     prescribed: FloatArray, group_pairs: IntArray, group_share: FloatArray,
                      first: IntArray) -> None:  # pragma: no cover - compiled
     """Steps ``first[c]`` on of case c; ``macro`` keeps the earlier steps' rows."""
     n_cases, n_steps, n_points = displacement.shape[0], displacement.shape[1], \
@@ -309,8 +332,8 @@ def _coupled_contact(displacement: FloatArray, force: FloatArray, w_hat: FloatAr
                                a, b, k_contact, k_contact_b, n_contact, mu_contact[c:c + 1],
                                gap_contact[c:c + 1], stops, k_stop, n_stop, mu_stop[c:c + 1],
                                gap_stop[c:c + 1], corner_of_pair, corner_stops, held_side,
-                               held_boundary, held_stop, prescribed[c:c + 1], group_pairs,
-                               group_share, first[c:c + 1])
+                               held_boundary, held_stop, stop_held_boundary, stop_held_stop,
+                               prescribed[c:c + 1], group_pairs, group_share, first[c:c + 1])
             residual = -projected - x
             _project_columns(w_hat[c].reshape(n_steps, 2 * n_points)[t0:], support, slot,
                              starts, weighted, columns, sums, residual)

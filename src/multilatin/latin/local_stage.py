@@ -21,6 +21,7 @@ from ..fem.elasticity import FloatArray, IntArray
 from . import kernels
 from .branch_tape import BranchTape
 from .cross_points import corrected, cross_point_groups, merged
+from .held_stops import hold_stops
 
 __all__ = ["BranchTape", "LocalStage", "MacroOnlyMap", "macro_only_map"]
 
@@ -75,6 +76,10 @@ class LocalStage:
         self.held_side = first.held_side
         self.held_boundary = first.held_boundary
         self.held_stop = first.held_stop
+        self.stop_held_boundary = first.stop_held_boundary
+        self.stop_held_stop = first.stop_held_stop
+        self.held_stops = np.flatnonzero((first.stop_held_boundary >= 0)
+                                         | (first.stop_held_stop >= 0))
         if compiled and kernels.contact_and_stops is None:
             raise ModelError("compiled local stage: Numba is not installed "
                              "(pip install 'multilatin[fast]')")
@@ -181,7 +186,8 @@ class LocalStage:
                 self.n_contact, self.mu_contact, self.gap_contact, self.stops, self.k_stop,
                 self.n_stop, self.mu_stop, self.gap_stop, self.corner_of_pair,
                 self.corner_stops, self.held_side, self.held_boundary, self.held_stop,
-                self.prescribed, self.group_pairs, self.group_share)
+                self.stop_held_boundary, self.stop_held_stop, self.prescribed,
+                self.group_pairs, self.group_share)
 
     def contact_stage(self, displacement: FloatArray, force: FloatArray, w_hat: FloatArray,
                       f_hat: FloatArray, first: IntArray | None = None) -> None:
@@ -347,6 +353,8 @@ class LocalStage:
                 prev_stop = prev_stop + dw + (fp - force[:, t, p]) / k_stop
                 f_hat[:, t, p] = fp
                 w_hat[:, t, p] = prev_stop
+                if self.held_stops.size:
+                    hold_stops(self, t, prev_stop, stop_closed, f_hat, w_hat)
             if not a.size:
                 continue
             dwa = displacement[:, t, a] - prev_a  # increments from the local-stage history

@@ -97,6 +97,14 @@ class TorchLocalStage:
         self.mu_corner = self.mu_contact[:, self.corner]
         #: per case, step and held pair: its holder's prescribed tangential value
         self.held_prescribed = self.prescribed[:, :, self.held_boundary, self.held[1]]
+        # stops held tangentially at their node (``held_stops``)
+        q = local.held_stops
+        self.n_held_stops = q.size
+        held_axis = 1 - np.argmax(np.abs(local.n_stop[q]), axis=1)
+        self.held_stops = (index(q), index(held_axis),
+                           self.torch.as_tensor(local.stop_held_boundary[q] >= 0, device=device),
+                           index(np.maximum(local.stop_held_boundary[q], 0)),
+                           index(np.maximum(local.stop_held_stop[q], 0)))
         self.contact_kernels: Any = None
         self.kernels_checked = False
         # the contact pairs of a cross point, run as one (``cross_points``)
@@ -111,6 +119,8 @@ class TorchLocalStage:
         (a warning and the operations from then on where they differ)."""
         from .cuda_local import ContactKernels
 
+        if self.n_held_stops:  # a stop held by another reads it at the same step: the
+            return             # kernel's thread per stop does not (these operations do)
         self.contact_kernels = ContactKernels(self, local)
 
     def subset(self, cases: IntArray) -> None:
@@ -246,7 +256,8 @@ class TorchLocalStage:
         stop_closed = torch.zeros((n_cases, self.n_stops), dtype=torch.bool,
                                   device=displacement.device)
         corner_force = torch.zeros((n_cases, self.n_corners, 2), **options)
-        stop_forces, stop_shifts, pair_forces, shifts_a, shifts_b = [], [], [], [], []
+        stop_forces: list[Tensor] = []
+        stop_shifts, pair_forces, shifts_a, shifts_b = [], [], [], []
         for t in range(n_steps):
             if self.n_stops:
                 dw = shift_p[:, t] - prev_stop
@@ -257,6 +268,9 @@ class TorchLocalStage:
                 fp = self._coulomb(trial, normal_force, self.n_stop, self.mu_stop)
                 stop_closed = normal_force < 0.0
                 prev_stop = prev_stop + dw + (fp - force_p[:, t]) / self.k_stop
+                if self.n_held_stops:
+                    fp, prev_stop = self._hold_stops(t, fp, prev_stop, stop_closed,
+                                                     stop_forces[-1] if t else None)
                 stop_forces.append(fp)
                 stop_shifts.append(prev_stop)
             if not self.n_pairs:
@@ -313,6 +327,25 @@ class TorchLocalStage:
             f_hat[:, :, b] = -pair_force
             w_hat[:, :, a] = torch.stack(shifts_a, dim=1)
             w_hat[:, :, b] = torch.stack(shifts_b, dim=1)
+
+    def _hold_stops(self, t: int, fp: Tensor, prev_stop: Tensor, stop_closed: Tensor,
+                    previous: Tensor | None) -> tuple[Tensor, Tensor]:
+        """The held stops' F̂ and Ŵ in step ``t`` (``held_stops.hold_stops``), as new
+        tensors; ``previous``: every stop's F̂ of the step before."""
+        torch = self.torch
+        q, d, by_boundary, boundary, holder = self.held_stops
+        data = self.prescribed[:, :, boundary, d]
+        before = data[:, t - 1] if t > 0 else torch.zeros_like(data[:, 0])
+        holding = torch.where(by_boundary, data[:, t] == before, stop_closed[:, holder])
+        target = torch.where(by_boundary, data[:, t], prev_stop[:, holder, d])
+        bound = torch.where(stop_closed[:, q], -self.mu_stop[:, q] * torch.sum(
+            self.n_stop[q] * fp[:, q], dim=-1), 0.0)
+        kept = previous[:, q, d] if previous is not None else torch.zeros_like(bound)
+        fp, prev_stop = fp.clone(), prev_stop.clone()
+        fp[:, q, d] = torch.where(holding, torch.minimum(torch.maximum(kept, -bound), bound),
+                                  fp[:, q, d])
+        prev_stop[:, q, d] = torch.where(holding, target, prev_stop[:, q, d])
+        return fp, prev_stop
 
     def _held_targets(self, data: Tensor, stop_displacement: Tensor, stop_closed: Tensor
                       ) -> tuple[Tensor, Tensor]:

@@ -15,33 +15,51 @@ import dataclasses
 import logging
 import math
 from collections.abc import Sequence
+from typing import Any
 
 import numpy as np
 
 from ..decomposition.assembly import Assembly
 from ..errors import ModelError
-from ..fem.levelset import Circle, LevelSet, Union
+from ..fem.levelset import Circle, LevelSet, Slot, Union
 from ..fem.mesh import RectMesh, UnstructuredMesh
 from ..io.modelfile import ModelSpec
 
 log = logging.getLogger(__name__)
 
 
-def _circles(hole: LevelSet) -> list[Circle]:
+def _shapes(hole: LevelSet) -> list[Circle | Slot]:
     parts = hole.parts if isinstance(hole, Union) else (hole,)
-    circles = [p for p in parts if isinstance(p, Circle)]
-    if len(circles) != len(parts):
-        raise ModelError("conforming reference: only circular holes can be meshed "
+    shapes = [p for p in parts if isinstance(p, (Circle, Slot))]
+    if len(shapes) != len(parts):
+        raise ModelError("conforming reference: only circles and slots can be meshed "
                          f"explicitly, got {hole!r}")
-    return circles
+    return shapes
 
 
-def mesh_holed_rectangle(box: tuple[float, float, float, float], holes: Sequence[Circle],
-                         divisions: tuple[int, int], hole_size: float | None = None
-                         ) -> UnstructuredMesh:
-    """An all-quadrangle mesh of ``box`` minus the circles ``holes``, with ``divisions``
-    uniform elements along x and y on the outer sides and elements of about ``hole_size``
-    along each hole (default: the outer size, at most 1/48 of the circumference)."""
+def _add_hole(occ: Any, hole: Circle | Slot) -> list[tuple[int, int]]:
+    """The hole as OpenCASCADE surfaces: a disk, or a slot's two disks and the rectangle
+    between them (fused by the cut that takes them out)."""
+    if isinstance(hole, Circle):
+        return [(2, occ.addDisk(hole.centre[0], hole.centre[1], 0.0, hole.radius,
+                                hole.radius))]
+    (ax, ay), (bx, by), r = hole.start, hole.end, hole.radius
+    parts = [(2, occ.addDisk(x, y, 0.0, r, r)) for x, y in ((ax, ay), (bx, by))]
+    length = math.hypot(bx - ax, by - ay)
+    if length > 1e-12 * r:
+        band = (2, occ.addRectangle(ax, ay - r, 0.0, length, 2.0 * r))
+        occ.rotate([band], ax, ay, 0.0, 0.0, 0.0, 1.0, math.atan2(by - ay, bx - ax))
+        parts.append(band)
+    return parts
+
+
+def mesh_holed_rectangle(box: tuple[float, float, float, float],
+                         holes: Sequence[Circle | Slot], divisions: tuple[int, int],
+                         hole_size: float | None = None) -> UnstructuredMesh:
+    """An all-quadrangle mesh of ``box`` minus the circles and slots ``holes``, with
+    ``divisions`` uniform elements along x and y on the outer sides and elements of about
+    ``hole_size`` along each hole (default: the outer size, at most 1/48 of the
+    circumference of a circle of the hole's radius)."""
     try:
         import gmsh
     except ImportError:  # pragma: no cover - depends on the installation
@@ -61,23 +79,31 @@ def mesh_holed_rectangle(box: tuple[float, float, float, float], holes: Sequence
         gmsh.model.add("multilatin-conforming")
         occ = gmsh.model.occ
         surface = [(2, occ.addRectangle(x0, y0, 0.0, x1 - x0, y1 - y0))]
-        disks = [(2, occ.addDisk(c.centre[0], c.centre[1], 0.0, c.radius, c.radius))
-                 for c in holes]
-        if disks:
-            surface, _ = occ.cut(surface, disks)
+        tools = [part for hole in holes for part in _add_hole(occ, hole)]
+        if tools:
+            surface, _ = occ.cut(surface, tools)
         occ.synchronize()
         size = max(x1 - x0, y1 - y0)
+        boxes = [hole.bounding_box() for hole in holes]
         # subdivision (each quad into four) halves every size: mesh at twice the target
         for _, tag in gmsh.model.getBoundary(surface, oriented=False):
             bx0, by0, _, bx1, by1, _ = gmsh.model.getBoundingBox(1, tag)
-            if by1 - by0 < 1e-6 * size:
+            flat_y, flat_x = by1 - by0 < 1e-6 * size, bx1 - bx0 < 1e-6 * size
+            if flat_y and min(abs(by0 - y0), abs(by0 - y1)) < 1e-6 * size:
                 gmsh.model.mesh.setTransfiniteCurve(tag, nx // 2 + 1)
-            elif bx1 - bx0 < 1e-6 * size:
+            elif flat_x and min(abs(bx0 - x0), abs(bx0 - x1)) < 1e-6 * size:
                 gmsh.model.mesh.setTransfiniteCurve(tag, ny // 2 + 1)
-            else:
-                radius = 0.25 * ((bx1 - bx0) + (by1 - by0))
+            else:  # along a hole: the smallest hole whose box holds the curve sets its size
+                slack = 1e-6 * size
+                radius = min((hole.radius for hole, (hx0, hx1, hy0, hy1)
+                              in zip(holes, boxes, strict=True)
+                              if hx0 - slack <= bx0 and bx1 <= hx1 + slack
+                              and hy0 - slack <= by0 and by1 <= hy1 + slack),
+                             default=0.25 * ((bx1 - bx0) + (by1 - by0)))
+                length = occ.getMass(1, tag)
                 target = hole_size or min(outer, 2.0 * math.pi * radius / 48)
-                count = max(8, math.ceil(2.0 * math.pi * radius / (2.0 * target)))
+                least = math.ceil(8 * length / (2.0 * math.pi * radius) - 1e-9)
+                count = max(least, 1, math.ceil(length / (2.0 * target)))
                 gmsh.model.mesh.setTransfiniteCurve(tag, count + 1)
         gmsh.option.setNumber("Mesh.MeshSizeMax", 2.0 * outer)
         gmsh.option.setNumber("Mesh.RecombineAll", 1)
@@ -126,7 +152,7 @@ def conforming_assembly(spec: ModelSpec, assembly: Assembly, refine: int = 1,
             continue
         assert isinstance(sub.mesh, RectMesh)
         m = sub.mesh
-        mesh = mesh_holed_rectangle((m.x0, m.x1, m.y0, m.y1), _circles(sub.hole), (m.nx, m.ny),
+        mesh = mesh_holed_rectangle((m.x0, m.x1, m.y0, m.y1), _shapes(sub.hole), (m.nx, m.ny),
                                     hole_size)
         subs[i] = dataclasses.replace(sub, mesh=mesh, hole=None)
     return dataclasses.replace(whole, substructures=tuple(subs))

@@ -79,11 +79,12 @@ BACKTRACKS = 12
 def contact_set(assembly: Assembly, maps: list[IntArray],
                 mortar_points: dict[int, tuple[IntArray, IntArray, MortarCoupling]] | None = None
                 ) -> ContactSet:
-    """Contact pairs; a node pair met on two substructure sides (a cross point) is one pair
-    with the weights added. ``mortar_points``: for a contact interface between
+    """Contact pairs; a node pair met on two substructure sides of one normal (a cross
+    point) is one pair with the weights added (a node on two stops of other normals, a block
+    in a rigid corner, is two). ``mortar_points``: for a contact interface between
     non-matching meshes, the global nodes of its pairs (``monolithic.merge_nodes``: the
     slave's nodes and virtual nodes where the master's projected trace is)."""
-    records: dict[tuple[int, int], list[Any]] = {}
+    records: dict[tuple[int, int], list[list[Any]]] = {}
     for index, itf in enumerate(assembly.interfaces):
         if itf.contact is None:
             continue
@@ -124,17 +125,19 @@ def contact_set(assembly: Assembly, maps: list[IntArray],
             assert itf.condition is not None
             boundary = itf.condition.name
         for p in range(nodes.size):
-            key = (int(first[p]), int(second[p]))
-            if key in records:
-                rec = records[key]
+            # pieces of one face meet at a cross point with (about) one normal: one pair;
+            # two stops (or contacts) of other normals at one node, a block in a rigid
+            # corner, are two
+            same = records.setdefault((int(first[p]), int(second[p])), [])
+            rec = next((r for r in same if float(np.dot(r[0], normal[p])) > 0.5), None)
+            if rec is not None:
                 rec[4] += weight[p]
                 rec[5] = (min(rec[5][0], lo[p]), max(rec[5][1], hi[p]))
             else:
-                records[key] = [normal[p], itf.contact.friction, itf.contact.gap + offset[p],
-                                bodies,
-                                weight[p], (lo[p], hi[p]), boundary, position[p]]
-    keys = list(records)
-    vals = list(records.values())
+                same.append([normal[p], itf.contact.friction, itf.contact.gap + offset[p],
+                             bodies, weight[p], (lo[p], hi[p]), boundary, position[p]])
+    keys = [key for key, same in records.items() for _ in same]
+    vals = [rec for same in records.values() for rec in same]
     return ContactSet(
         first=np.array([k[0] for k in keys], dtype=np.int64),
         second=np.array([k[1] for k in keys], dtype=np.int64),
@@ -170,6 +173,29 @@ def _held_corners(contacts: ContactSet, free: npt.NDArray[np.bool_]) -> tuple[In
             corner_stops.append(holders)
     return (np.array(corner, dtype=np.int64),
             np.array(corner_stops, dtype=np.int64).reshape(-1, 2))
+
+
+def _held_stops(contacts: ContactSet, free: npt.NDArray[np.bool_]
+                ) -> tuple[IntArray, IntArray]:
+    """Stop pairs whose node has its tangential displacement held, by a fixed dof (−1) or
+    by another stop pair on that node (its index): ``held_nodes.held_stops``, the same
+    rule (axis-aligned stops only)."""
+    tangential = np.argmax(np.abs(tangents(contacts.normal)), axis=1)
+    stops = np.flatnonzero(contacts.second < 0)
+    stop_of = {(int(contacts.first[q]), int(np.argmax(np.abs(contacts.normal[q])))): int(q)
+               for q in stops}
+    pairs, holders = [], []
+    for q in stops:
+        node, component = int(contacts.first[q]), int(tangential[q])
+        if abs(contacts.normal[q, component]) > 1e-12:
+            continue
+        if not free[2 * node + component]:
+            pairs.append(int(q))
+            holders.append(-1)
+        elif (node, component) in stop_of:
+            pairs.append(int(q))
+            holders.append(stop_of[(node, component)])
+    return np.array(pairs, dtype=np.int64), np.array(holders, dtype=np.int64)
 
 
 def tangents(normal: FloatArray) -> FloatArray:
@@ -240,6 +266,7 @@ def solve_contact_history(
     u_free = np.zeros(n_free)
     jump_prev = np.zeros(n_pairs)  # tangential jump t·[u] at the previous step
     corner, corner_stops = _held_corners(contacts, movable)
+    held_stop, stop_holder = _held_stops(contacts, movable)
     lam_t_prev = np.zeros(n_pairs)  # tangential multipliers at the previous step
     total_iterations = 0
 
@@ -257,12 +284,16 @@ def solve_contact_history(
         stick = active & (bound > 0.0) & (np.abs(tangent_trial) <= bound)
         slip_mask = active & ~stick
         sign = np.sign(tangent_trial)
-        if corner.size:
-            # held corner with its stops closed: the previous friction force, limited to
-            # the cone (same rule as the LATIN local stage; it is indeterminate there)
+        if corner.size or held_stop.size:
+            # held corner with its stops closed, stop held at its node (its holder a
+            # prescribed displacement that did not move, or a closed stop): the previous
+            # friction force, limited to the cone (the rule of the LATIN local stage; it
+            # is indeterminate there)
             held = np.zeros(n_pairs, dtype=bool)
             held[corner] = np.all((corner_stops < 0)
                                   | active[np.maximum(corner_stops, 0)], axis=1)
+            held[held_stop] = np.where(stop_holder < 0, slip[held_stop] == 0.0,
+                                       active[np.maximum(stop_holder, 0)])
             held &= active
             clipped = held & (np.abs(lam_t_prev) > bound)
             stick = stick & ~held

@@ -190,7 +190,8 @@ class BodySections(SectionReader):
             if names.count(name) > 1:
                 raise ModelError(f"substructures: the name {name!r} is used twice")
         self._check_overlaps(subs)
-        subs = place_holes(self.data.get("holes", []), subs, self.lookup, self.num, check_keys)
+        subs = place_holes(self.data.get("holes", []), subs, self.lookup, self.num, check_keys,
+                           replaced=set(self.split))
         return subs, bodies
 
     def file_mesh(self, table: Mapping[str, Any], where: str) -> UnstructuredMesh:

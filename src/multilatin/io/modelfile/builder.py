@@ -2,7 +2,16 @@
 
 from __future__ import annotations
 
-from ...decomposition.assembly import DISPLACEMENT, STOP, Assembly, Interface, Substructure
+import numpy as np
+
+from ...decomposition.assembly import (
+    DISPLACEMENT,
+    STOP,
+    Assembly,
+    History,
+    Interface,
+    Substructure,
+)
 from ...errors import ModelError
 from .bodies import BodySections
 from .joints import InterfaceSections
@@ -20,6 +29,7 @@ class Builder(BodySections, InterfaceSections, LoadingSections, QoiSections):
         history = self.history()
         boundaries = self.boundaries(subs, bodies, history, used)
         _check_held(subs, interfaces, boundaries)
+        _check_one_displacement_per_node(subs, boundaries, history)
         qois = self.qois(subs, {itf.condition.name for itf in boundaries if itf.condition},
                          history)
         return Assembly(name, tuple(subs), tuple(interfaces + boundaries), history, tuple(qois),
@@ -52,3 +62,49 @@ def _check_held(subs: list[Substructure], interfaces: list[Interface],
             f"boundary: nothing holds {', '.join(repr(b) for b in free)}: no prescribed "
             "displacement and no rigid stop on it or on a body it touches; it can move as a "
             "rigid body")
+
+
+def _check_one_displacement_per_node(subs: list[Substructure], boundaries: list[Interface],
+                                     history: History) -> None:
+    """Two boundary conditions that prescribe the same displacement component of one node
+    (a corner shared by two faces) must prescribe the same value at every step: a node
+    cannot take two, the monolithic reference would keep one of them silently, and LATIN
+    would find no equilibrium between them."""
+    keys: list[np.ndarray] = []
+    values: list[np.ndarray] = []
+    owners: list[np.ndarray] = []
+    names: list[str] = []
+    bodies = {name: i for i, name in enumerate(dict.fromkeys(s.body for s in subs))}
+    for itf in boundaries:
+        condition = itf.condition
+        if condition is None or condition.pressure:
+            continue
+        sub = subs[itf.sides[0].substructure]
+        at = np.round(sub.mesh.nodes[itf.sides[0].nodes(sub.mesh)], 9)
+        for c in range(2):
+            if condition.kinds[c] == DISPLACEMENT:
+                keys.append(np.column_stack([np.full(len(at), bodies[sub.body]), at,
+                                             np.full(len(at), c)]))
+                values.append(np.broadcast_to(condition.value[c] * history.factor(
+                    condition.factor), (len(at), history.n_steps)))
+                owners.append(np.full(len(at), len(names)))
+                names.append(condition.name)
+    if len(names) < 2:
+        return
+    key, value, owner = np.concatenate(keys), np.concatenate(values), np.concatenate(owners)
+    _, first, inverse = np.unique(key, axis=0, return_index=True, return_inverse=True)
+    first = first[inverse.ravel()]
+    gap = np.abs(value - value[first]).max(axis=1)
+    scale = np.maximum(np.abs(value).max(axis=1), np.abs(value[first]).max(axis=1))
+    wrong = np.flatnonzero(gap > 1e-12 * np.maximum(scale, 1e-300))
+    if wrong.size:
+        row, other = int(wrong[0]), int(first[wrong[0]])
+        step = int(np.argmax(np.abs(value[row] - value[other])))
+        x, y, c = key[row, 1], key[row, 2], int(key[row, 3])
+        body = next(name for name, i in bodies.items() if i == key[row, 0])
+        raise ModelError(
+            f"boundary: {names[owner[other]]!r} and {names[owner[row]]!r} both prescribe the "
+            f"{'xy'[c]} displacement of the node at ({x:g}, {y:g}) of body {body!r}, "
+            f"differently ({value[other, step]:g} and {value[row, step]:g} at step "
+            f"{step + 1}); a node cannot take both: make one of them a force or mixed "
+            "condition on that component, or give them equal values")

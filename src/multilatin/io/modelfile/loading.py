@@ -3,7 +3,7 @@ boundary conditions (prescribed displacements, forces, rigid stops)."""
 
 from __future__ import annotations
 
-from collections.abc import Callable, Mapping
+from collections.abc import Callable, Collection, Mapping
 from typing import Any
 
 import numpy as np
@@ -66,7 +66,7 @@ class LoadingSections(SectionReader):
                 raise ModelError(f"{where}.name: boundary {name!r} is defined twice")
             names.add(name)
             kind = require(table, "type", where)
-            refs = self._select_sides(table, where, subs, bodies)
+            refs = self._select_sides(table, where, subs, bodies, set(self.split))
             if kind in (STOP, "wall") and any(ref.side not in SIDES for ref in refs):
                 raise ModelError(f"{where}.type: a named group of edges takes displacement, "
                                  f"force or mixed conditions, not {kind!r}")
@@ -131,7 +131,7 @@ class LoadingSections(SectionReader):
     @staticmethod
     def _select_sides(
         table: Mapping[str, Any], where: str, subs: list[Substructure],
-        bodies: dict[str, tuple[float, ...]],
+        bodies: dict[str, tuple[float, ...]], replaced: Collection[str] = (),
     ) -> list[SideRef]:
         if "face" in table:
             body, _, side = str(table["face"]).partition(".")
@@ -155,6 +155,13 @@ class LoadingSections(SectionReader):
         for i, s in enumerate(subs):
             if s.name == sub_name:
                 return [SideRef(i, side)]
+        body = str(sub_name).partition("[")[0]
+        if body in replaced:
+            raise ModelError(
+                f"{where}.substructure: {sub_name!r} is not a substructure once body "
+                f"{body!r} is split otherwise than in the file (--split, or the conforming "
+                "reference's one substructure per body); name a face of the body, or use "
+                "the reference on the same meshes (mesh = 'same')")
         raise ModelError(f"{where}.substructure: no substructure named {sub_name!r}")
 
 
