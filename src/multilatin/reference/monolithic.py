@@ -152,7 +152,11 @@ def solve_monolithic(assembly: Assembly) -> SolveResult:
     load = np.zeros((n_dofs, n_steps))
     fixed_value = np.full((n_dofs, n_steps), np.nan)
     own_load: dict[str, FloatArray] = {}
-    fixed_of: dict[str, set[int]] = {}
+    # per condition, the dofs it fixes and its dual-cell length there: a dof fixed by two
+    # conditions (a corner of two faces) gives each the share of its reaction that its
+    # length takes (LATIN's boundary points of a node carry one traction density)
+    fixed_of: dict[str, dict[int, float]] = {}
+    fixed_length = np.zeros(n_dofs)
     for itf in assembly.interfaces:
         cond = itf.condition
         if cond is None or itf.is_stop:
@@ -173,7 +177,10 @@ def solve_monolithic(assembly: Assembly) -> SolveResult:
             dofs = 2 * gnodes + comp
             if kind == DISPLACEMENT:
                 fixed_value[dofs] = cond.value[comp] * factor[None, :]
-                fixed_of.setdefault(cond.name, set()).update(dofs.tolist())
+                own = fixed_of.setdefault(cond.name, {})
+                for dof, length in zip(dofs.tolist(), nodal_len.tolist(), strict=True):
+                    own[dof] = own.get(dof, 0.0) + length
+                np.add.at(fixed_length, dofs, nodal_len)
             else:
                 contribution = (nodal_len * value[:, comp])[:, None] * factor[None, :]
                 np.add.at(load, dofs, contribution)
@@ -209,10 +216,13 @@ def solve_monolithic(assembly: Assembly) -> SolveResult:
     reactions: dict[str, FloatArray] = {}
     for name, mine in own_load.items():
         total = mine.T.reshape(n_steps, -1, 2).sum(axis=1)
-        idx = np.array(sorted(fixed_of.get(name, set())), dtype=np.int64)
+        own = fixed_of.get(name, {})
+        idx = np.array(sorted(own), dtype=np.int64)
+        share = np.array([own[dof] for dof in idx.tolist()]) / np.maximum(fixed_length[idx],
+                                                                          1e-300)
         for comp in range(2):
-            sel = idx[idx % 2 == comp]
-            total[:, comp] += reaction_field[sel].sum(axis=0)
+            sel = idx % 2 == comp
+            total[:, comp] += share[sel] @ reaction_field[idx[sel]]
         reactions[name] = total
     for name in {b for b in contacts.boundary if b is not None}:
         chosen = np.array([b == name for b in contacts.boundary])
