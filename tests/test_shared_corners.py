@@ -39,3 +39,22 @@ def test_latin_shares_a_corner_reaction_as_the_reference(model, kappa) -> None:
         expected = np.asarray(reference.qoi[name])
         np.testing.assert_allclose(result.qoi[name], expected, rtol=0,
                                    atol=1e-7 * np.abs(expected).max())
+
+
+def test_a_corner_between_moving_holders_slides_at_the_cone(model) -> None:
+    """The contact pair at (0, 10) is held on both sides: by the foundation's held face and
+    by the block's pushed one. Where the push moves (steps 2, 3, 5) the pair slides and
+    its friction is at the cone (it kept its previous value before: the push force 7 %
+    low, 185.8 N against 198.9 N at step 2); where it stays (step 4), the corner keeps
+    step 3's force (its normal force unchanged: still at the cone)."""
+    result = model.solve(options=LatinOptions(tol=1e-10, max_iter=3000))
+    assert result.interface is not None
+    fields = result.interface
+    contact = [i for i, itf in enumerate(result.assembly.interfaces) if itf.kind == "contact"]
+    corner = np.flatnonzero(np.isin(fields.interface, contact)
+                            & np.all(fields.coords == [0.0, 10.0], axis=1))
+    assert corner.size == 2  # the foundation's point and the block's
+    force = fields.force_hat[:, corner[0]]
+    tangential, normal = np.abs(force[:, 0]), np.abs(force[:, 1])
+    np.testing.assert_allclose(tangential[[1, 2, 4]], 0.3 * normal[[1, 2, 4]], rtol=1e-6)
+    assert tangential[3] == pytest.approx(tangential[2], rel=1e-6)

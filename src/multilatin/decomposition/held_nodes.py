@@ -28,6 +28,10 @@ def held_corners(key: NodeKey, fixed: dict[tuple[tuple[int, float, float], int],
     (``corner``, ``corner_stops``). While the stop of such a corner is open, its prescribed
     displacement holds alone: the one-sided rule below applies.
 
+    Held on both sides by prescribed displacements that move against each other along the
+    contact (``corner_boundaries``: the holders' indices in ``boundary``, −1 for a stop),
+    the pair slides, and Coulomb's law gives its friction: at the cone.
+
     Held on one side only: the held node's tangential force is shared between the contact
     point and the holding condition, and only their sum is determined: with nodal
     interface fields that split is an (almost) neutral mode of the iteration, so slow
@@ -38,7 +42,7 @@ def held_corners(key: NodeKey, fixed: dict[tuple[tuple[int, float, float], int],
     """
     stop_of = {(key(int(p)), int(np.argmax(np.abs(normals[p])))): q for q, p in enumerate(stops)}
     n_pairs = contact_pairs[0].size
-    corner, corner_stops = [], []
+    corner, corner_stops, corner_boundaries = [], [], []
     held_side = np.full(n_pairs, -1, dtype=np.int64)
     held_boundary = np.full(n_pairs, -1, dtype=np.int64)
     held_stop = np.full(n_pairs, -1, dtype=np.int64)
@@ -53,6 +57,7 @@ def held_corners(key: NodeKey, fixed: dict[tuple[tuple[int, float, float], int],
         if len(holders) == 2:
             corner.append(j)
             corner_stops.append([-1 if stop < 0 else stop for _, _, stop in holders])
+            corner_boundaries.append([boundary for _, boundary, _ in holders])
             # while a stop holder is open, the other side's prescribed displacement holds
             # alone: the one-sided rule (B1's (50, 100) before the stop closes)
             by_displacement = [h for h in holders if h[1] >= 0]
@@ -62,6 +67,7 @@ def held_corners(key: NodeKey, fixed: dict[tuple[tuple[int, float, float], int],
             held_side[j], held_boundary[j], held_stop[j] = holders[0]
     return {"corner": np.array(corner, dtype=np.int64),
             "corner_stops": np.array(corner_stops, dtype=np.int64).reshape(-1, 2),
+            "corner_boundaries": np.array(corner_boundaries, dtype=np.int64).reshape(-1, 2),
             "held_side": held_side, "held_boundary": held_boundary, "held_stop": held_stop}
 
 

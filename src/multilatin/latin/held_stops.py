@@ -20,12 +20,12 @@ from typing import TYPE_CHECKING
 import numpy as np
 import numpy.typing as npt
 
-from ..fem.elasticity import FloatArray
+from ..fem.elasticity import FloatArray, IntArray
 
 if TYPE_CHECKING:
     from .local_stage import LocalStage
 
-__all__ = ["hold_stops"]
+__all__ = ["hold_stops", "moving_corners"]
 
 
 def hold_stops(local: LocalStage, t: int, prev_stop: FloatArray,
@@ -48,3 +48,22 @@ def hold_stops(local: LocalStage, t: int, prev_stop: FloatArray,
     f_hat[:, t, p, d] = np.where(holding, np.clip(kept, -bound, bound), f_hat[:, t, p, d])
     prev_stop[:, q, d] = np.where(holding, target, prev_stop[:, q, d])
     w_hat[:, t, p, d] = prev_stop[:, q, d]
+
+
+def moving_corners(prescribed: FloatArray, corner_boundaries: IntArray, normals: FloatArray
+                   ) -> npt.NDArray[np.bool_]:
+    """Per case, step and held corner (``held_nodes.held_corners``): whether its two
+    holders are prescribed displacements that moved against each other along the contact
+    since the step before — the pair then slides, and its friction is Coulomb's (at the
+    cone), not the held corner's previous value. ``prescribed``: (cases, steps, boundary,
+    2); ``normals``: the corners' contact normals."""
+    n_cases, n_steps = prescribed.shape[:2]
+    if not corner_boundaries.size:
+        return np.zeros((n_cases, n_steps, 0), dtype=bool)
+    both = np.all(corner_boundaries >= 0, axis=1)
+    d = 1 - np.argmax(np.abs(normals), axis=1)
+    held = np.maximum(corner_boundaries, 0)
+    step = np.diff(prescribed, axis=1, prepend=np.zeros_like(prescribed[:, :1]))
+    relative = step[:, :, held[:, 1], d] - step[:, :, held[:, 0], d]
+    moving: npt.NDArray[np.bool_] = both & (relative != 0.0)
+    return moving

@@ -68,7 +68,8 @@ def _contact_and_stops(displacement: FloatArray, force: FloatArray, w_hat: Float
                        mu_stop: FloatArray, gap_stop: FloatArray, corner_of_pair: IntArray,
                        corner_stops: IntArray, held_side: IntArray, held_boundary: IntArray,
                        held_stop: IntArray, stop_held_boundary: IntArray,
-                       stop_held_stop: IntArray, prescribed: FloatArray, group_pairs: IntArray,
+                       stop_held_stop: IntArray, prescribed: FloatArray,
+                       corner_moving: npt.NDArray[np.bool_], group_pairs: IntArray,
                        group_share: FloatArray, first: IntArray
                        ) -> None:  # pragma: no cover - compiled
     """Steps ``first[c]`` on of case c (the earlier ones settled, ``engine``): the
@@ -192,7 +193,7 @@ def _contact_and_stops(displacement: FloatArray, force: FloatArray, w_hat: Float
                                       mu_contact[c, j])
                 q = corner_of_pair[j]
                 if q >= 0:
-                    held = True
+                    held = not corner_moving[c, t, q]
                     for h in range(2):
                         holder = corner_stops[q, h]
                         if holder >= 0 and not stop_closed[holder]:
@@ -274,7 +275,8 @@ def _coupled_contact(displacement: FloatArray, force: FloatArray, w_hat: FloatAr
                      corner_of_pair: IntArray, corner_stops: IntArray, held_side: IntArray,
                      held_boundary: IntArray, held_stop: IntArray,
                      stop_held_boundary: IntArray, stop_held_stop: IntArray,
-                     prescribed: FloatArray, group_pairs: IntArray, group_share: FloatArray,
+                     prescribed: FloatArray, corner_moving: npt.NDArray[np.bool_],
+                     group_pairs: IntArray, group_share: FloatArray,
                      first: IntArray) -> None:  # pragma: no cover - compiled
     """Steps ``first[c]`` on of case c; ``macro`` keeps the earlier steps' rows."""
     n_cases, n_steps, n_points = displacement.shape[0], displacement.shape[1], \
@@ -333,7 +335,8 @@ def _coupled_contact(displacement: FloatArray, force: FloatArray, w_hat: FloatAr
                                gap_contact[c:c + 1], stops, k_stop, n_stop, mu_stop[c:c + 1],
                                gap_stop[c:c + 1], corner_of_pair, corner_stops, held_side,
                                held_boundary, held_stop, stop_held_boundary, stop_held_stop,
-                               prescribed[c:c + 1], group_pairs, group_share, first[c:c + 1])
+                               prescribed[c:c + 1], corner_moving[c:c + 1], group_pairs,
+                               group_share, first[c:c + 1])
             residual = -projected - x
             _project_columns(w_hat[c].reshape(n_steps, 2 * n_points)[t0:], support, slot,
                              starts, weighted, columns, sums, residual)

@@ -21,13 +21,13 @@ from ..fem.elasticity import FloatArray, IntArray
 from . import kernels
 from .branch_tape import BranchTape
 from .cross_points import corrected, cross_point_groups, merged
-from .held_stops import hold_stops
+from .held_stops import hold_stops, moving_corners
 
 __all__ = ["BranchTape", "LocalStage", "MacroOnlyMap", "macro_only_map"]
 
 
 #: the local stage's arrays that hold one entry per case
-_PER_CASE = ("mu_contact", "gap_contact", "mu_stop", "gap_stop", "prescribed")
+_PER_CASE = ("mu_contact", "gap_contact", "mu_stop", "gap_stop", "prescribed", "corner_moving")
 
 
 class LocalStage:
@@ -93,6 +93,8 @@ class LocalStage:
         self.gap_stop = np.stack([p.stop_gap for p in points])
         self.prescribed = np.stack([_prescribed(assembly, p)
                                     for assembly, p in zip(assemblies, points, strict=True)])
+        self.corner_moving = moving_corners(self.prescribed, first.corner_boundaries,
+                                            self.n_contact[first.corner])
         # the contact pairs of a cross point, run as one (``cross_points``)
         self.group_pairs, self.group_share = cross_point_groups(
             first, k, (self.mu_contact, self.gap_contact))
@@ -187,7 +189,7 @@ class LocalStage:
                 self.n_stop, self.mu_stop, self.gap_stop, self.corner_of_pair,
                 self.corner_stops, self.held_side, self.held_boundary, self.held_stop,
                 self.stop_held_boundary, self.stop_held_stop, self.prescribed,
-                self.group_pairs, self.group_share)
+                self.corner_moving, self.group_pairs, self.group_share)
 
     def contact_stage(self, displacement: FloatArray, force: FloatArray, w_hat: FloatArray,
                       f_hat: FloatArray, first: IntArray | None = None) -> None:
@@ -323,7 +325,9 @@ class LocalStage:
         At a *held corner* (a contact pair whose tangential motion is fixed on both sides,
         by a prescribed displacement or a closed stop) the friction force is statically
         indeterminate; it keeps its previous value, limited to the cone — the limit of any
-        tangential compliance, and what incremental penalty codes compute.
+        tangential compliance, and what incremental penalty codes compute —, except where
+        two prescribed displacements hold it and moved against each other since the last
+        step (``corner_moving``): the pair slides, by Coulomb's law.
         """
         n_cases = displacement.shape[0]
         a, b = self.contact_pairs
@@ -379,6 +383,7 @@ class LocalStage:
             if corner.size:
                 held = np.all((corner_stops < 0)
                               | stop_closed[:, np.maximum(corner_stops, 0)], axis=-1)
+                held &= ~self.corner_moving[:, t]
                 current = fa[:, corner]
                 frozen = self._in_cone(previous_corner_force,
                                        np.sum(current * n[corner], axis=-1), n[corner],

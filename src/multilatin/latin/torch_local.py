@@ -95,6 +95,8 @@ class TorchLocalStage:
         self.mu_stop, self.gap_stop = tensor(local.mu_stop), tensor(local.gap_stop)
         self.prescribed = tensor(local.prescribed)
         self.mu_corner = self.mu_contact[:, self.corner]
+        self.corner_moving = self.torch.as_tensor(local.corner_moving, device=device)
+        self.any_corner_moving = bool(local.corner_moving.any())
         #: per case, step and held pair: its holder's prescribed tangential value
         self.held_prescribed = self.prescribed[:, :, self.held_boundary, self.held[1]]
         # stops held tangentially at their node (``held_stops``)
@@ -119,15 +121,17 @@ class TorchLocalStage:
         (a warning and the operations from then on where they differ)."""
         from .cuda_local import ContactKernels
 
-        if self.n_held_stops:  # a stop held by another reads it at the same step: the
-            return             # kernel's thread per stop does not (these operations do)
+        # a stop held by another reads it at the same step, which the kernel's thread per
+        # stop does not; a corner between moving holders slides: these operations do both
+        if self.n_held_stops or self.any_corner_moving:
+            return
         self.contact_kernels = ContactKernels(self, local)
 
     def subset(self, cases: IntArray) -> None:
         """Keep the cases at positions ``cases`` (in place)."""
         chosen = self._index(cases)
         for name in ("mu_contact", "gap_contact", "mu_stop", "gap_stop", "prescribed",
-                     "mu_corner", "held_prescribed"):
+                     "mu_corner", "held_prescribed", "corner_moving"):
             setattr(self, name, getattr(self, name)[chosen])
 
     def __call__(self, displacement: Tensor, force: Tensor) -> tuple[Tensor, Tensor]:
@@ -304,6 +308,7 @@ class TorchLocalStage:
                                      dim=-1)
                 else:
                     held = torch.all(self.corner_free, dim=-1).expand(n_cases, -1)
+                held = held & ~self.corner_moving[:, t]
                 current = fa[:, corner]
                 frozen = self._in_cone(corner_force,
                                        torch.sum(current * self.n_corner, dim=-1),

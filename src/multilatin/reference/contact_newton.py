@@ -17,8 +17,12 @@ against a stop and sticking on a face held by a wall: unique displacements, inde
 multipliers). A pair whose two nodes have their tangential displacement held (a fixed dof,
 or a closed stop on that node) keeps its previous tangential force, limited to the cone: the
 friction there is statically indeterminate, and this is the rule of the LATIN local stage
-(``latin.LocalStage``) and the limit of any tangential compliance. Steps are damped by
-backtracking on the residual norm (full semi-smooth steps can cycle between active sets).
+(``latin.LocalStage``) and the limit of any tangential compliance — unless both holders are
+prescribed displacements that moved against each other since the last step: the pair
+slides, by Coulomb's law. A stop pair whose node is held tangentially (a fixed dof that did
+not move, or another closed stop on that node) keeps its previous force the same way.
+Steps are damped by backtracking on the residual norm (full semi-smooth steps can cycle
+between active sets).
 """
 
 from __future__ import annotations
@@ -292,6 +296,7 @@ def solve_contact_history(
             held = np.zeros(n_pairs, dtype=bool)
             held[corner] = np.all((corner_stops < 0)
                                   | active[np.maximum(corner_stops, 0)], axis=1)
+            held[corner] &= ~np.all(corner_stops < 0, axis=1) | (slip[corner] == 0.0)
             held[held_stop] = np.where(stop_holder < 0, slip[held_stop] == 0.0,
                                        active[np.maximum(stop_holder, 0)])
             held &= active

@@ -14,6 +14,7 @@ from __future__ import annotations
 
 import time
 from dataclasses import dataclass
+from typing import Any
 
 import numpy as np
 import numpy.typing as npt
@@ -58,6 +59,7 @@ def merge_nodes(assembly: Assembly) -> GlobalNodes:
     rows, cols = [], []
     projected: list[tuple[IntArray, IntArray, sp.csr_matrix]] = []  # (nodes, masters, P)
     virtual: dict[int, tuple[IntArray, IntArray, MortarCoupling]] = {}  # contact interfaces
+    pieces: list[tuple[int, int, IntArray, IntArray]] = []  # their entries in ``projected``
     n_virtual = 0
     for index, itf in enumerate(assembly.interfaces):
         if itf.kind not in ("perfect", "contact") or len(itf.sides) != 2:
@@ -78,6 +80,7 @@ def merge_nodes(assembly: Assembly) -> GlobalNodes:
             points = n + n_virtual + np.arange(slave.size)
             n_virtual += slave.size
             projected.append((points, master, projection))
+            pieces.append((index, len(projected) - 1, slave, points))
             virtual[index] = ((slave, points, coupling) if coupling.slave == 0
                               else (points, slave, coupling))
             continue
@@ -97,6 +100,7 @@ def merge_nodes(assembly: Assembly) -> GlobalNodes:
     n_real = int(labels.max()) + 1 if n else 0
     labels = np.concatenate([labels, n_real + np.arange(n_virtual)])
     count = n_real + n_virtual
+    _merge_cross_points(assembly, pieces, labels, projected, virtual)
     # C on nodes: identity, but for the constrained ones, whose rows are P on their masters
     keep = np.ones(count, dtype=bool)
     c_rows, c_cols, c_vals = [], [], []
@@ -119,9 +123,59 @@ def merge_nodes(assembly: Assembly) -> GlobalNodes:
         raise ModelError("mortar interfaces: the constraints between non-matching meshes form "
                          "a cycle")
     constraint = sp.kron(node_map, sp.identity(2), format="csr")
+    # the contact points in the global numbering (their nodes were numbered before the
+    # nodes of matching perfect interfaces merged)
+    contact_points = {index: (labels[first], labels[second], coupling)
+                      for index, (first, second, coupling) in virtual.items()}
     return GlobalNodes(count, [labels[offsets[s]:offsets[s + 1]]
                                for s in range(len(assembly.substructures))],
-                       constraint, np.repeat(~keep, 2), virtual)
+                       constraint, np.repeat(~keep, 2), contact_points)
+
+
+def _merge_cross_points(assembly: Assembly, pieces: list[tuple[int, int, IntArray, IntArray]],
+                        labels: IntArray,
+                        projected: list[tuple[IntArray, IntArray, sp.csr_matrix]],
+                        virtual: dict[int, tuple[IntArray, IntArray, MortarCoupling]]) -> None:
+    """The pieces of a non-matching contact interface that meet at a cross point (one slave
+    node of the merged mesh, the same master body, normal and contact law) are one pair, as
+    LATIN runs them (``latin.cross_points``): one virtual node, its trace the pieces'
+    projections averaged with the slave's lengths in each. In place: the later pieces'
+    points are redirected to the first's (their own virtual nodes stay unused)."""
+    groups: dict[tuple[Any, ...], list[tuple[int, int, int, float]]] = {}
+    for index, entry, slave, _ in pieces:
+        itf = assembly.interfaces[index]
+        coupling = virtual[index][2]
+        ref = itf.sides[coupling.slave]
+        sub = assembly.substructures[ref.substructure]
+        weights = discretise_side(sub.mesh.nodes, coupling.slave_nodes, "nodal",
+                                  sub.material.thickness, along=coupling.slave_along).weights
+        normals = np.round(point_normals(sub.mesh, ref.side, coupling.slave_nodes), 6)
+        body = assembly.substructures[itf.sides[coupling.master].substructure].body
+        assert itf.contact is not None
+        for i, node in enumerate(labels[slave].tolist()):
+            key = (node, body, *normals[i].tolist(), itf.contact.friction, itf.contact.gap)
+            groups.setdefault(key, []).append((index, entry, i, float(weights[i])))
+    for members in groups.values():
+        if len(members) < 2:
+            continue
+        total = sum(weight for *_, weight in members)
+        first_index, first_entry, first_i, _ = members[0]
+        target = int(projected[first_entry][0][first_i])
+        masters, rows = [], []
+        for index, entry, i, weight in members:
+            points, master, projection = projected[entry]
+            masters.append(master)
+            rows.append(projection[[i]] * (weight / total))
+            projection = projection.tolil()
+            projection[i] = 0.0  # this virtual node is no longer read (or replaced below)
+            projected[entry] = (points, master, projection.tocsr())
+            side_0, side_1, coupling = virtual[index]
+            own = side_1 if coupling.slave == 0 else side_0
+            own = own.copy()
+            own[i] = target
+            virtual[index] = ((side_0, own, coupling) if coupling.slave == 0
+                              else (own, side_1, coupling))
+        projected.append((np.array([target]), np.concatenate(masters), sp.hstack(rows).tocsr()))
 
 
 def solve_monolithic(assembly: Assembly) -> SolveResult:
