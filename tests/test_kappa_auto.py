@@ -68,3 +68,25 @@ def test_a_central_case_with_no_equilibrium_keeps_the_default_and_says_why() -> 
     line = choice.describe()
     assert "0.5: not converged" in line and "none converged: the default kept" in line
     assert "no fewer" not in line
+
+
+def test_a_central_case_with_no_equilibrium_hands_over_to_another_case(tmp_path, capsys) -> None:
+    """Where no κ converges on the central case, the next case is read (the CLI: the
+    grid's corner of last values, then of first values), and the line names the case
+    skipped; the study runs at the κ measured there (session 43)."""
+    path = Path(__file__).parent / "data" / "holed_block_on_foundation.toml"
+    model = ml.Model(ml.ModelSpec.from_toml(path))
+    choice = choose_kappa(model, {"xc": 10.0, "rc": 2.0, "mu": 0.4}, STUDY,
+                          others=[{"xc": 10.0, "rc": 2.0, "mu": 0.8}])
+    assert choice.skipped == [{"xc": 10.0, "rc": 2.0, "mu": 0.4}]
+    assert choice.params == {"xc": 10.0, "rc": 2.0, "mu": 0.8}
+    assert choice.iterations[0.5] is not None
+    line = choice.describe()
+    assert ("no kappa converged at (xc=10, rc=2, mu=0.4); iterations from zero at (xc=10, "
+            "rc=2, mu=0.8)") in line
+    assert main(["study", str(path), "--grid", "mu=0.2,0.4,0.8", "--set", "xc=10",
+                 "--set", "rc=2", "--kappa", "auto", "--json", "--no-progress",
+                 "--out", str(tmp_path / "s")]) in (0, 3)
+    data = json.loads(capsys.readouterr().out)
+    assert data["kappa_auto"]["skipped"] == [{"mu": 0.4}]
+    assert data["kappa_auto"]["params"] == {"mu": 0.8}

@@ -347,7 +347,10 @@ def _study(model: Model, args: argparse.Namespace, argv: list[str] | None) -> in
         from .study.kappa import choose_kappa
 
         centre = {name: values[len(values) // 2] for name, values in grid.items()}
-        choice = choose_kappa(model, centre, _latin_options(args, LatinOptions.kappa))
+        # where the centre has no equilibrium: the corners of all last, of all first values
+        corners = [{name: values[i] for name, values in grid.items()} for i in (-1, 0)]
+        choice = choose_kappa(model, centre, _latin_options(args, LatinOptions.kappa),
+                              others=[c for c in corners if c != centre])
         if not args.json:
             print(choice.describe())
     options = _latin_options(args, None if choice is None else choice.kappa)
@@ -363,7 +366,7 @@ def _study(model: Model, args: argparse.Namespace, argv: list[str] | None) -> in
             data["kappa_auto"] = {"kappa": choice.kappa, "params": choice.params,
                                   "iterations": {f"{k:g}": n
                                                  for k, n in choice.iterations.items()},
-                                  "seconds": choice.seconds}
+                                  "seconds": choice.seconds, "skipped": choice.skipped}
         print(json.dumps(data))
     else:
         header, rows = case_table(result)

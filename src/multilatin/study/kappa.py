@@ -7,7 +7,8 @@ iterations at 0.5, 64 at 5; the Hertz cylinder at h = 0.05 mm 988 → 79 at 10;
 found yet picks κ from the model, so ``choose_kappa`` measures: the case solved from zero
 at κ = 0.5, 1, 2, … in turn under the study's own stopping rule, each capped at one
 iteration fewer than the best so far, the climb stopped at the first κ that does not beat
-it. A study of many cases pays two to five solves of one for it.
+it. A study of many cases pays two to five solves of one for it. Where no κ converges on
+that case (no equilibrium there), the grid's corners are read in turn (session 43).
 """
 
 from __future__ import annotations
@@ -15,7 +16,7 @@ from __future__ import annotations
 import logging
 import time
 from collections.abc import Mapping, Sequence
-from dataclasses import dataclass, replace
+from dataclasses import dataclass, field, replace
 
 from ..latin import LatinOptions, solve_latin
 from ..model import Model
@@ -32,12 +33,15 @@ KAPPA_LADDER = (0.5, 1.0, 2.0, 5.0, 10.0)
 class KappaChoice:
     """The κ kept, and per κ tried its iterations (None: it did not converge in fewer
     than the best before it, or at all where none converged before it), the case they
-    were read on and the seconds it took."""
+    were read on, the seconds it took, and the cases read before on which no κ
+    converged."""
 
     kappa: float
     iterations: dict[float, int | None]
     params: dict[str, float]
     seconds: float
+    #: the cases tried before, on which no κ converged
+    skipped: list[dict[str, float]] = field(default_factory=list)
 
     def describe(self) -> str:
         """One line: the κ kept and each κ tried — its iterations, "no fewer" where it did
@@ -47,21 +51,42 @@ class KappaChoice:
             converged |= n is not None
             label = n if n is not None else "no fewer" if converged else "not converged"
             labels.append(f"{kappa:g}: {label}")
-        case = ", ".join(f"{name}={value:g}" for name, value in self.params.items())
+        def named(params: dict[str, float]) -> str:
+            return ", ".join(f"{name}={value:g}" for name, value in params.items())
+        case = named(self.params)
         kept = "" if converged else ", none converged: the default kept"
-        return (f"kappa auto: {self.kappa:g} (iterations from zero at "
+        before = "".join(f"no kappa converged at ({named(p) or 'the defaults'}); "
+                         for p in self.skipped)
+        return (f"kappa auto: {self.kappa:g} ({before}iterations from zero at "
                 f"({case or 'the defaults'}): {', '.join(labels)}{kept}; "
                 f"{self.seconds:.2f} s)")
 
 
 def choose_kappa(model: Model, mu: Mapping[str, float] | None = None,
                  options: LatinOptions | None = None,
-                 ladder: Sequence[float] = KAPPA_LADDER) -> KappaChoice:
+                 ladder: Sequence[float] = KAPPA_LADDER,
+                 others: Sequence[Mapping[str, float]] = ()) -> KappaChoice:
     """The κ of ``ladder`` (increasing) under which the case ``mu`` converges from zero in
     the fewest iterations, with ``options``' other settings and stopping rule (module
-    docstring). Where no κ converges, ``options.kappa``: the study then reports its cases
-    as it would have."""
-    options = options or LatinOptions()
+    docstring). Where no κ converges on it (a case with no equilibrium), the cases
+    ``others`` in turn, until one converges; where none does, ``options.kappa``: the study
+    then reports its cases as it would have. ``skipped``: the cases read before the one
+    that decided."""
+    start = time.perf_counter()
+    cases = [mu, *others]
+    skipped: list[dict[str, float]] = []
+    for case in cases:
+        choice = _on_one_case(model, case, options or LatinOptions(), ladder)
+        if any(n is not None for n in choice.iterations.values()) or case is cases[-1]:
+            break
+        skipped.append(choice.params)
+    choice = replace(choice, seconds=time.perf_counter() - start, skipped=skipped)
+    log.info("%s", choice.describe())
+    return choice
+
+
+def _on_one_case(model: Model, mu: Mapping[str, float] | None, options: LatinOptions,
+                 ladder: Sequence[float]) -> KappaChoice:
     start = time.perf_counter()
     assembly = model.assemble(mu)
     params = {name: float(value) for name, value in (mu or {}).items()}
@@ -80,7 +105,5 @@ def choose_kappa(model: Model, mu: Mapping[str, float] | None = None,
             continue
         tried[kappa] = result.iterations
         best = (result.iterations, kappa)
-    choice = KappaChoice(options.kappa if best is None else best[1], tried, params,
-                         time.perf_counter() - start)
-    log.info("%s", choice.describe())
-    return choice
+    return KappaChoice(options.kappa if best is None else best[1], tried, params,
+                       time.perf_counter() - start)
