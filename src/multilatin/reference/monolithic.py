@@ -159,7 +159,7 @@ def _merge_cross_points(assembly: Assembly, pieces: list[tuple[int, int, IntArra
         if len(members) < 2:
             continue
         total = sum(weight for *_, weight in members)
-        first_index, first_entry, first_i, _ = members[0]
+        _, first_entry, first_i, _ = members[0]
         target = int(projected[first_entry][0][first_i])
         masters, rows = [], []
         for index, entry, i, weight in members:
