@@ -209,6 +209,15 @@ def test_two_conditions_prescribing_one_node_differently_are_refused():
         spec_with(pushed(0.5))().build()
     assert spec_with(pushed(0.0))().build().interfaces
 
+    def by_parameter(d):  # a study's case: the parameter named
+        pushed("P / 2")(d)
+        d["parameters"] = {"P": {"default": 0.0}}
+    spec = spec_with(by_parameter)()
+    assert spec.build().interfaces
+    with pytest.raises(ml.ModelError, match=r"\(0 and 0.5 at step 1\) \(parameters P = 1\); a "
+                       r"node cannot take both"):
+        spec.build({"P": 1.0})
+
 
 def test_an_interface_between_other_thicknesses_is_refused_by_latin():
     """LATIN's interface forces are densities of one thickness on both sides: two plates of

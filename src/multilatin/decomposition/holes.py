@@ -24,8 +24,9 @@ HOLE_FIELDS = {"name", "substructure", "body", "shape", "centre", "radius", "sta
 SHAPES = ("circle", "slot")
 
 
-def _parameters_named(table: Mapping[str, Any], mu: Mapping[str, float]) -> str:
-    """``"(xc = 25, rc = 3)"``: the parameters that the hole's fields use, for messages."""
+def parameters_named(table: Mapping[str, Any], mu: Mapping[str, float]) -> str:
+    """``" (parameters xc = 25, rc = 3)"``: the parameters that the fields of ``table`` (a
+    hole's, a boundary condition's) read, for messages."""
     used = sorted({name for value in table.values()
                    for name in re.findall(r"[A-Za-z_]\w*", str(value)) if name in mu})
     if not used:
@@ -107,7 +108,7 @@ def place_holes(tables: Sequence[Mapping[str, Any]], subs: list[Substructure],
             raise ModelError(f"{where}: expected a table")
         check_keys(table, HOLE_FIELDS, where)
         where = f"holes[{h}] ({str(table.get('name', f'hole{h}'))!r})"
-        params = _parameters_named(table, mu)
+        params = parameters_named(table, mu)
         level_set, place = _shape(table, where, num, params)
         index = _owner(table, where, subs, place, params, replaced)
         if level_set is None:

@@ -2,6 +2,9 @@
 
 from __future__ import annotations
 
+from collections.abc import Mapping, Sequence
+from typing import Any
+
 import numpy as np
 
 from ...decomposition.assembly import (
@@ -12,6 +15,7 @@ from ...decomposition.assembly import (
     Interface,
     Substructure,
 )
+from ...decomposition.holes import parameters_named
 from ...errors import ModelError
 from .bodies import BodySections
 from .joints import InterfaceSections
@@ -29,7 +33,8 @@ class Builder(BodySections, InterfaceSections, LoadingSections, QoiSections):
         history = self.history()
         boundaries = self.boundaries(subs, bodies, history, used)
         _check_held(subs, interfaces, boundaries)
-        _check_one_displacement_per_node(subs, boundaries, history)
+        _check_one_displacement_per_node(subs, boundaries, history,
+                                         self.data.get("boundary", []), self.mu)
         qois = self.qois(subs, {itf.condition.name for itf in boundaries if itf.condition},
                          history)
         return Assembly(name, tuple(subs), tuple(interfaces + boundaries), history, tuple(qois),
@@ -65,11 +70,13 @@ def _check_held(subs: list[Substructure], interfaces: list[Interface],
 
 
 def _check_one_displacement_per_node(subs: list[Substructure], boundaries: list[Interface],
-                                     history: History) -> None:
+                                     history: History, tables: Sequence[Any],
+                                     mu: Mapping[str, float]) -> None:
     """Two boundary conditions that prescribe the same displacement component of one node
     (a corner shared by two faces) must prescribe the same value at every step: a node
     cannot take two, the monolithic reference would keep one of them silently, and LATIN
-    would find no equilibrium between them."""
+    would find no equilibrium between them. ``tables``: the file's ``[[boundary]]``, for
+    the parameters their values read (named in the error: a study's case)."""
     keys: list[np.ndarray] = []
     values: list[np.ndarray] = []
     owners: list[np.ndarray] = []
@@ -102,9 +109,13 @@ def _check_one_displacement_per_node(subs: list[Substructure], boundaries: list[
         step = int(np.argmax(np.abs(value[row] - value[other])))
         x, y, c = key[row, 1], key[row, 2], int(key[row, 3])
         body = next(name for name, i in bodies.items() if i == key[row, 0])
+        pair = (names[owner[other]], names[owner[row]])
+        read = {f"{table.get('name')}.value": table.get("value") for table in tables
+                if isinstance(table, Mapping) and table.get("name") in pair}
+        params = parameters_named(read, mu)
         raise ModelError(
-            f"boundary: {names[owner[other]]!r} and {names[owner[row]]!r} both prescribe the "
+            f"boundary: {pair[0]!r} and {pair[1]!r} both prescribe the "
             f"{'xy'[c]} displacement of the node at ({x:g}, {y:g}) of body {body!r}, "
             f"differently ({value[other, step]:g} and {value[row, step]:g} at step "
-            f"{step + 1}); a node cannot take both: make one of them a force or mixed "
-            "condition on that component, or give them equal values")
+            f"{step + 1}){params}; a node cannot take both: make one of them a force or "
+            "mixed condition on that component, or give them equal values")
