@@ -58,3 +58,27 @@ def test_a_corner_between_moving_holders_slides_at_the_cone(model) -> None:
     tangential, normal = np.abs(force[:, 0]), np.abs(force[:, 1])
     np.testing.assert_allclose(tangential[[1, 2, 4]], 0.3 * normal[[1, 2, 4]], rtol=1e-6)
     assert tangential[3] == pytest.approx(tangential[2], rel=1e-6)
+
+
+def test_a_corner_held_by_a_stop_slides_where_the_other_holder_moves() -> None:
+    """The foundation's corner node is driven sideways while the block's, above it, is held
+    by a rigid stop: the pair slides (at the cone) where the drive moves, keeps its force
+    where it stays, and LATIN equals the reference (before, both kept the pair frozen: the
+    drive's reaction 167.2 N instead of 180.6 N at step 2)."""
+    model = ml.Model(ml.ModelSpec.from_toml(
+        Path(__file__).parent / "data" / "block_against_a_stop_on_a_driven_foundation.toml"))
+    reference = model.reference()
+    result = model.solve(options=LatinOptions(tol=1e-10, max_iter=3000))
+    for name in reference.qoi:
+        expected = np.asarray(reference.qoi[name])
+        np.testing.assert_allclose(result.qoi[name], expected, rtol=0,
+                                   atol=1e-7 * np.abs(expected).max())
+    assert result.interface is not None
+    fields = result.interface
+    contact = [i for i, itf in enumerate(result.assembly.interfaces) if itf.kind == "contact"]
+    corner = np.flatnonzero(np.isin(fields.interface, contact)
+                            & np.all(fields.coords == [0.0, 10.0], axis=1))
+    force = fields.force_hat[:, corner[0]]
+    np.testing.assert_allclose(np.abs(force[[1, 2, 4], 0]), 0.3 * np.abs(force[[1, 2, 4], 1]),
+                               rtol=1e-6)
+    assert force[3, 0] == pytest.approx(force[2, 0], rel=1e-6)

@@ -29,8 +29,9 @@ def held_corners(key: NodeKey, fixed: dict[tuple[tuple[int, float, float], int],
     displacement holds alone: the one-sided rule below applies.
 
     Held on both sides by prescribed displacements that move against each other along the
-    contact (``corner_boundaries``: the holders' indices in ``boundary``, −1 for a stop),
-    the pair slides, and Coulomb's law gives its friction: at the cone.
+    contact, or by one that moves and a closed stop (``corner_boundaries``: the holders'
+    indices in ``boundary``, −1 for a stop), the pair slides, and Coulomb's law gives its
+    friction: at the cone (``latin.held_stops.moving_corners``).
 
     Held on one side only: the held node's tangential force is shared between the contact
     point and the holding condition, and only their sum is determined: with nodal

@@ -14,8 +14,9 @@ its own Coulomb law. The monolithic reference applies the same rule
 (``reference.contact_newton``). The compiled kernel (``kernels._contact_and_stops``) and
 the PyTorch stage (``torch_local``) do the same.
 
-``moving_corners``: the held corners between two bodies whose two holders are prescribed
-displacements that moved against each other — those slide, by Coulomb's law.
+``moving_corners``: the held corners between two bodies whose prescribed holders moved —
+against each other, or one against a closed stop that holds the other side — those slide,
+by Coulomb's law.
 """
 
 from __future__ import annotations
@@ -57,18 +58,23 @@ def hold_stops(local: LocalStage, t: int, prev_stop: FloatArray,
 
 def moving_corners(prescribed: FloatArray, corner_boundaries: IntArray, normals: FloatArray
                    ) -> npt.NDArray[np.bool_]:
-    """Per case, step and held corner (``held_nodes.held_corners``): whether its two
-    holders are prescribed displacements that moved against each other along the contact
-    since the step before — the pair then slides, and its friction is Coulomb's (at the
+    """Per case, step and held corner (``held_nodes.held_corners``): whether its holders
+    moved against each other along the contact since the step before — two prescribed
+    displacements that moved differently, or one that moved against a stop (which holds
+    the other side still) — the pair then slides, and its friction is Coulomb's (at the
     cone), not the held corner's previous value. ``prescribed``: (cases, steps, boundary,
     2); ``normals``: the corners' contact normals."""
     n_cases, n_steps = prescribed.shape[:2]
     if not corner_boundaries.size:
         return np.zeros((n_cases, n_steps, 0), dtype=bool)
-    both = np.all(corner_boundaries >= 0, axis=1)
+    by = corner_boundaries >= 0
     d = 1 - np.argmax(np.abs(normals), axis=1)
     held = np.maximum(corner_boundaries, 0)
     step = np.diff(prescribed, axis=1, prepend=np.zeros_like(prescribed[:, :1]))
-    relative = step[:, :, held[:, 1], d] - step[:, :, held[:, 0], d]
-    moving: npt.NDArray[np.bool_] = both & (relative != 0.0)
+    side_a, side_b = step[:, :, held[:, 0], d], step[:, :, held[:, 1], d]
+    # two prescribed holders: their relative motion; one (a closed stop holds the other
+    # side still): its own
+    moving: npt.NDArray[np.bool_] = np.where(
+        by[:, 0] & by[:, 1], side_b - side_a != 0.0,
+        (by[:, 0] & (side_a != 0.0)) | (by[:, 1] & (side_b != 0.0)))
     return moving

@@ -17,9 +17,9 @@ against a stop and sticking on a face held by a wall: unique displacements, inde
 multipliers). A pair whose two nodes have their tangential displacement held (a fixed dof,
 or a closed stop on that node) keeps its previous tangential force, limited to the cone: the
 friction there is statically indeterminate, and this is the rule of the LATIN local stage
-(``latin.LocalStage``) and the limit of any tangential compliance — unless both holders are
-prescribed displacements that moved against each other since the last step: the pair
-slides, by Coulomb's law. A stop pair whose node is held tangentially (a fixed dof that did
+(``latin.LocalStage``) and the limit of any tangential compliance — unless its prescribed
+holders moved since the last step (against each other, or one against a closed stop): the
+pair slides, by Coulomb's law. A stop pair whose node is held tangentially (a fixed dof that did
 not move, or another closed stop on that node) keeps its previous force the same way.
 Steps are damped by backtracking on the residual norm (full semi-smooth steps can cycle
 between active sets).
@@ -179,6 +179,25 @@ def _held_corners(contacts: ContactSet, free: npt.NDArray[np.bool_]) -> tuple[In
             np.array(corner_stops, dtype=np.int64).reshape(-1, 2))
 
 
+def _moving_corners(contacts: ContactSet, corner: IntArray, corner_stops: IntArray,
+                    u_fixed: FloatArray, step: int) -> npt.NDArray[np.bool_]:
+    """Per held corner: whether its fixed holders moved against each other along the
+    contact at ``step`` (or one of them, the other side held by a stop):
+    ``latin.held_stops.moving_corners``, the same rule."""
+    moving = np.zeros(corner.size, dtype=bool)
+    tangential = np.argmax(np.abs(tangents(contacts.normal[corner])), axis=1)
+    for q, j in enumerate(corner.tolist()):
+        moves = []
+        for h, node in enumerate((contacts.first[j], contacts.second[j])):
+            dof = 2 * int(node) + int(tangential[q])
+            if corner_stops[q, h] < 0:  # a fixed dof (else a stop, which holds still)
+                before = u_fixed[dof, step - 1] if step else 0.0
+                moves.append(u_fixed[dof, step] - before)
+        moving[q] = (moves[1] - moves[0] != 0.0) if len(moves) == 2 else (
+            len(moves) == 1 and moves[0] != 0.0)
+    return moving
+
+
 def _held_stops(contacts: ContactSet, free: npt.NDArray[np.bool_]
                 ) -> tuple[IntArray, IntArray]:
     """Stop pairs whose node has its tangential displacement held, by a fixed dof (−1) or
@@ -296,7 +315,7 @@ def solve_contact_history(
             held = np.zeros(n_pairs, dtype=bool)
             held[corner] = np.all((corner_stops < 0)
                                   | active[np.maximum(corner_stops, 0)], axis=1)
-            held[corner] &= ~np.all(corner_stops < 0, axis=1) | (slip[corner] == 0.0)
+            held[corner] &= ~corner_moving
             held[held_stop] = np.where(stop_holder < 0, slip[held_stop] == 0.0,
                                        active[np.maximum(stop_holder, 0)])
             held &= active
@@ -321,6 +340,7 @@ def solve_contact_history(
         return float(max(size_eq, size_c))
 
     for step in range(n_steps):
+        corner_moving = _moving_corners(contacts, corner, corner_stops, u_fixed, step)
         rhs = load[free, step] - k_fc @ u_fixed[~free, step]
         jump_fixed = jump_on_fixed @ u_fixed[~free, step]
         # tol × the largest load, or the rounding of K u where that is larger
