@@ -41,7 +41,7 @@ def held_corners(key: NodeKey, fixed: dict[tuple[tuple[int, float, float], int],
     stage therefore gives that pair's friction from the *free* side alone, as against an
     obstacle moving with the held node (``held_side``, ``held_boundary``, ``held_stop``).
     """
-    stop_of = {(key(int(p)), int(np.argmax(np.abs(normals[p])))): q for q, p in enumerate(stops)}
+    stop_of = _stops_by_axis(key, stops, normals)
     n_pairs = contact_pairs[0].size
     corner, corner_stops, corner_boundaries = [], [], []
     held_side = np.full(n_pairs, -1, dtype=np.int64)
@@ -70,6 +70,13 @@ def held_corners(key: NodeKey, fixed: dict[tuple[tuple[int, float, float], int],
             "corner_stops": np.array(corner_stops, dtype=np.int64).reshape(-1, 2),
             "corner_boundaries": np.array(corner_boundaries, dtype=np.int64).reshape(-1, 2),
             "held_side": held_side, "held_boundary": held_boundary, "held_stop": held_stop}
+
+
+def _stops_by_axis(key: NodeKey, stops: IntArray, normals: FloatArray
+                   ) -> dict[tuple[tuple[int, float, float], int], int]:
+    """(node, the axis of its stop's normal) -> the stop's index in ``stops``: what a stop
+    holds at its node."""
+    return {(key(int(p)), int(np.argmax(np.abs(normals[p])))): q for q, p in enumerate(stops)}
 
 
 def node_key(substructure: IntArray, coords: FloatArray) -> NodeKey:
@@ -122,12 +129,11 @@ def held_stops(key: NodeKey, fixed: dict[tuple[tuple[int, float, float], int], i
     a prescribed displacement that moves makes the stop slide, at the cone. Per stop
     (−1: not held; axis-aligned stops only): the index in ``boundary`` of its holder, or in
     ``stops``."""
-    axis = np.argmax(np.abs(normals[stops]), axis=1) if stops.size else np.zeros(0, np.int64)
-    stop_of = {(key(int(p)), int(axis[q])): q for q, p in enumerate(stops)}
+    stop_of = _stops_by_axis(key, stops, normals)
     by_boundary = np.full(stops.size, -1, dtype=np.int64)
     by_stop = np.full(stops.size, -1, dtype=np.int64)
     for q, p in enumerate(stops):
-        tangential = 1 - int(axis[q])
+        tangential = 1 - int(np.argmax(np.abs(normals[p])))
         if abs(normals[p, tangential]) > 1e-12:  # an oblique stop: no axis holds its tangent
             continue
         if (key(int(p)), tangential) in fixed:

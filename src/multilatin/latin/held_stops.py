@@ -43,11 +43,12 @@ def hold_stops(local: LocalStage, t: int, prev_stop: FloatArray,
     n = local.n_stop[q]
     d = 1 - np.argmax(np.abs(n), axis=1)
     by_boundary, by_stop = local.stop_held_boundary[q], local.stop_held_stop[q]
-    data = local.prescribed[:, :, np.maximum(by_boundary, 0), d]  # (cases, steps, held)
-    before = data[:, t - 1] if t > 0 else np.zeros_like(data[:, 0])
+    boundary = np.maximum(by_boundary, 0)
+    now = local.prescribed[:, t, boundary, d]  # (cases, held)
+    before = local.prescribed[:, t - 1, boundary, d] if t > 0 else np.zeros_like(now)
     holder = np.maximum(by_stop, 0)
-    holding = np.where(by_boundary >= 0, data[:, t] == before, stop_closed[:, holder])
-    target = np.where(by_boundary >= 0, data[:, t], prev_stop[:, holder, d])
+    holding = np.where(by_boundary >= 0, now == before, stop_closed[:, holder])
+    target = np.where(by_boundary >= 0, now, prev_stop[:, holder, d])
     bound = np.where(stop_closed[:, q],
                      -local.mu_stop[:, q] * np.sum(n * f_hat[:, t, p], axis=-1), 0.0)
     kept = f_hat[:, t - 1, p, d] if t > 0 else np.zeros_like(bound)

@@ -326,8 +326,8 @@ class LocalStage:
         by a prescribed displacement or a closed stop) the friction force is statically
         indeterminate; it keeps its previous value, limited to the cone — the limit of any
         tangential compliance, and what incremental penalty codes compute —, except where
-        two prescribed displacements hold it and moved against each other since the last
-        step (``corner_moving``): the pair slides, by Coulomb's law.
+        its prescribed holders moved since the last step, against each other or one against
+        a closed stop (``corner_moving``): the pair slides, by Coulomb's law.
         """
         n_cases = displacement.shape[0]
         a, b = self.contact_pairs

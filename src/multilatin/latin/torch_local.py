@@ -308,7 +308,8 @@ class TorchLocalStage:
                                      dim=-1)
                 else:
                     held = torch.all(self.corner_free, dim=-1).expand(n_cases, -1)
-                held = held & ~self.corner_moving[:, t]
+                if self.any_corner_moving:  # an operation (a launch) only where needed
+                    held = held & ~self.corner_moving[:, t]
                 current = fa[:, corner]
                 frozen = self._in_cone(corner_force,
                                        torch.sum(current * self.n_corner, dim=-1),
@@ -339,10 +340,10 @@ class TorchLocalStage:
         tensors; ``previous``: every stop's F̂ of the step before."""
         torch = self.torch
         q, d, by_boundary, boundary, holder = self.held_stops
-        data = self.prescribed[:, :, boundary, d]
-        before = data[:, t - 1] if t > 0 else torch.zeros_like(data[:, 0])
-        holding = torch.where(by_boundary, data[:, t] == before, stop_closed[:, holder])
-        target = torch.where(by_boundary, data[:, t], prev_stop[:, holder, d])
+        now = self.prescribed[:, t, boundary, d]
+        before = self.prescribed[:, t - 1, boundary, d] if t > 0 else torch.zeros_like(now)
+        holding = torch.where(by_boundary, now == before, stop_closed[:, holder])
+        target = torch.where(by_boundary, now, prev_stop[:, holder, d])
         bound = torch.where(stop_closed[:, q], -self.mu_stop[:, q] * torch.sum(
             self.n_stop[q] * fp[:, q], dim=-1), 0.0)
         kept = previous[:, q, d] if previous is not None else torch.zeros_like(bound)

@@ -156,13 +156,17 @@ def contact_set(assembly: Assembly, maps: list[IntArray],
     )
 
 
+def _stops_by_axis(contacts: ContactSet) -> dict[tuple[int, int], int]:
+    """(node, the axis of its stop pair's normal) -> the stop pair: what it holds."""
+    return {(int(contacts.first[q]), int(np.argmax(np.abs(contacts.normal[q])))): int(q)
+            for q in np.flatnonzero(contacts.second < 0)}
+
+
 def _held_corners(contacts: ContactSet, free: npt.NDArray[np.bool_]) -> tuple[IntArray, IntArray]:
     """Pairs between two bodies whose nodes both have the tangential displacement held, by a
     fixed dof or by a stop pair on that node (index in the pairs, −1 for a fixed dof)."""
     tangential = np.argmax(np.abs(tangents(contacts.normal)), axis=1)
-    stop_of = {(int(node), int(np.argmax(np.abs(normal)))): q for q, (node, second, normal)
-               in enumerate(zip(contacts.first, contacts.second, contacts.normal, strict=True))
-               if second < 0}
+    stop_of = _stops_by_axis(contacts)
     corner, corner_stops = [], []
     for j in np.flatnonzero(contacts.second >= 0):
         component = int(tangential[j])
@@ -205,8 +209,7 @@ def _held_stops(contacts: ContactSet, free: npt.NDArray[np.bool_]
     rule (axis-aligned stops only)."""
     tangential = np.argmax(np.abs(tangents(contacts.normal)), axis=1)
     stops = np.flatnonzero(contacts.second < 0)
-    stop_of = {(int(contacts.first[q]), int(np.argmax(np.abs(contacts.normal[q])))): int(q)
-               for q in stops}
+    stop_of = _stops_by_axis(contacts)
     pairs, holders = [], []
     for q in stops:
         node, component = int(contacts.first[q]), int(tangential[q])
