@@ -170,7 +170,9 @@ class QuantityOfInterest:
     """``displacement`` at ``point`` (component), ``reaction``: the resultant force that a
     boundary exerts on the structure (component), or ``contact_pressure``: the mean contact
     pressure on the contact interfaces between two bodies over ``segment`` (a range of the
-    coordinate along the interface). ``step`` (1-based) keeps one load step only."""
+    coordinate along the interface). ``step`` (1-based) keeps one load step only.
+    ``body`` / ``substructure``: the part whose displacement a point on the boundary between
+    parts reads (``point_substructure``)."""
 
     name: str
     kind: str
@@ -182,6 +184,8 @@ class QuantityOfInterest:
     bodies: tuple[str, str] | None = None
     segment: tuple[float, float] | None = None
     unit: str = ""
+    body: str | None = None
+    substructure: str | None = None
 
 
 @dataclass(frozen=True)

@@ -5,14 +5,14 @@ from __future__ import annotations
 
 import threading
 from collections import OrderedDict
-from collections.abc import Mapping
+from collections.abc import Mapping, Sequence
 from dataclasses import dataclass, field
 from typing import Any
 
 import numpy as np
 
 from ..fem.elasticity import FloatArray, interpolate
-from .assembly import Assembly
+from .assembly import Assembly, QuantityOfInterest, Substructure
 from .interfaces import InterfacePoints
 
 #: how a mean contact pressure is recovered from the nodal contact forces
@@ -163,6 +163,21 @@ def latin_contact_pressures(assembly: Assembly, points: InterfacePoints,
                             np.zeros_like(pressure) if shear is None else shear)
 
 
+def point_substructure(substructures: Sequence[Substructure], q: QuantityOfInterest) -> int:
+    """The substructure whose displacement the ``displacement`` QoI ``q`` reads: the first
+    whose cells hold its point, among those of ``q.substructure`` (else of ``q.body``) where
+    given. (The model reader refuses a point shared by parts that are not joined by a
+    perfect interface unless one is named, ``io.modelfile.qois``.)"""
+    assert q.point is not None
+    holding = [s for s, sub in enumerate(substructures) if sub.mesh.holds(q.point)]
+    if not holding:
+        raise ValueError(f"qoi {q.name!r}: the point {list(q.point)} lies in no cell")
+    named = [s for s in holding if substructures[s].name == q.substructure]
+    if not named and q.body is not None:
+        named = [s for s in holding if substructures[s].body == q.body]
+    return (named or holding)[0]
+
+
 def evaluate_qois(
     assembly: Assembly,
     displacements: Mapping[str, FloatArray],
@@ -174,7 +189,7 @@ def evaluate_qois(
     for q in assembly.qois:
         if q.kind == "displacement":
             assert q.point is not None
-            sub = next(s for s in assembly.substructures if s.mesh.contains(q.point))
+            sub = assembly.substructures[point_substructure(assembly.substructures, q)]
             cell, ref = sub.mesh.locate(q.point)
             values = interpolate(sub.mesh.nodes, sub.mesh.cells, displacements[sub.name],
                                  cell, ref)[:, q.component]

@@ -69,11 +69,27 @@ class RectangleSides:
         }[side]
 
     def contains(self, point: npt.ArrayLike, tol: float = 1e-9) -> bool:
+        """Whether ``point`` lies in the rectangle (for a mesh file, its extent)."""
         x, y = np.asarray(point, dtype=float)
         scale = tol * max(self.x1 - self.x0, self.y1 - self.y0)
         return bool(
             self.x0 - scale <= x <= self.x1 + scale and self.y0 - scale <= y <= self.y1 + scale
         )
+
+    def locate(self, point: npt.ArrayLike) -> tuple[int, FloatArray]:
+        """The cell containing ``point`` and the point's reference coordinates in it."""
+        raise NotImplementedError
+
+    def holds(self, point: npt.ArrayLike) -> bool:
+        """Whether ``point`` lies in a cell: in the rectangle for a structured mesh; in a
+        cell of a mesh file, whose extent may hold a hole or another part."""
+        if not self.contains(point):
+            return False
+        try:
+            self.locate(point)
+        except ValueError:
+            return False
+        return True
 
 
 #: nodes and cells of structured meshes, by box and divisions (read-only, shared): a

@@ -34,7 +34,7 @@ import numpy.typing as npt
 
 from ..decomposition.assembly import Assembly
 from ..decomposition.interfaces import InterfacePoints
-from ..decomposition.qoi import latin_contact_pressures
+from ..decomposition.qoi import latin_contact_pressures, point_substructure
 from ..fem.elasticity import FloatArray, IntArray, shape_functions
 from .operators import LatinOperators
 
@@ -168,8 +168,7 @@ def qoi_functionals(ops: LatinOperators, assembly: Assembly,
             on_f_hat[i, first] -= q.scale * weights[:, None] * points.normals[first]
         elif q.kind == "displacement":
             assert q.point is not None
-            s = next(s for s, sub in enumerate(assembly.substructures)
-                     if sub.mesh.contains(q.point))
+            s = point_substructure(assembly.substructures, q)
             mesh = assembly.substructures[s].mesh
             cell, ref = mesh.locate(q.point)
             shape, _ = shape_functions(np.asarray(ref, dtype=float)[None], mesh.cells.shape[1])

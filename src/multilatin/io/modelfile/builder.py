@@ -36,7 +36,7 @@ class Builder(BodySections, InterfaceSections, LoadingSections, QoiSections):
         _check_one_displacement_per_node(subs, boundaries, history,
                                          self.data.get("boundary", []), self.mu)
         qois = self.qois(subs, {itf.condition.name for itf in boundaries if itf.condition},
-                         history)
+                         history, interfaces)
         return Assembly(name, tuple(subs), tuple(interfaces + boundaries), history, tuple(qois),
                         self.mu)
 

@@ -1,0 +1,154 @@
+"""Which part a displacement QoI reads (session 44). A point on the boundary between two
+parts that are not joined by a perfect interface — a contact that slides or opens — has two
+displacements; the QoI used to read the first part listed, silently: the bundled ``slide``
+reported the foundation's corner as "the block's lower right corner". Such a point now needs
+``body`` (or ``substructure``), and a point of a mesh file is read in the cells that hold it,
+not the first part whose extent does (a pin inside a lug's bore)."""
+
+from __future__ import annotations
+
+from importlib import resources
+
+import numpy as np
+import pytest
+
+import multilatin as ml
+from multilatin.latin import LatinOptions
+
+TWO_BODIES = '''
+[materials.steel]
+E = 2e5
+nu = 0.3
+[[bodies]]
+name = "foundation"
+x = [0.0, 40.0]
+y = [0.0, 10.0]
+elements = [8, 2]
+split = [2, 1]
+material = "steel"
+[[bodies]]
+name = "block"
+x = [10.0, 30.0]
+y = [10.0, 20.0]
+elements = [4, 2]
+material = "steel"
+[[interfaces]]
+between = ["foundation", "block"]
+type = "{kind}"
+friction = 0.3
+[[boundary]]
+name = "clamp"
+face = "foundation.bottom"
+type = "displacement"
+value = [0.0, 0.0]
+[[boundary]]
+name = "press"
+face = "block.top"
+type = "force"
+value = [1.0, -50.0]
+[[qoi]]
+name = "u"
+type = "displacement"
+point = {point}
+component = "x"
+{extra}
+'''
+
+
+def _spec(kind: str = "contact", point: str = "[20.0, 10.0]", extra: str = "") -> ml.ModelSpec:
+    text = TWO_BODIES.format(kind=kind, point=point, extra=extra)
+    if kind != "contact":
+        text = text.replace("friction = 0.3\n", "")
+    return ml.ModelSpec.from_string(text, name="two")
+
+
+def _node_x(result: ml.SolveResult, body: str, point: tuple[float, float]) -> float:
+    """x displacement (last step) of ``body``'s node at ``point``."""
+    for sub in result.assembly.substructures:
+        if sub.body != body:
+            continue
+        at = np.flatnonzero(np.all(np.isclose(sub.mesh.nodes, point), axis=1))
+        if at.size:
+            return float(result.displacements[sub.name][-1, at[0], 0])
+    raise AssertionError(f"no node of {body} at {point}")
+
+
+def test_the_slide_model_reads_the_block_not_the_foundation() -> None:
+    """Once the block slides its corner moves with the push, 1e-3 mm a step, while the
+    foundation's point stays: the QoI is the block's (before: the foundation's, 1.17e-4 mm
+    against the block's 3.7e-3 mm at the last step), in LATIN and in the reference."""
+    model = ml.load_model("slide")
+    result = model.solve(options=LatinOptions(tol=1e-8))
+    reference = model.reference()
+    block = _node_x(reference, "block", (20.0, 10.0))
+    foundation = _node_x(reference, "foundation", (20.0, 10.0))
+    assert block > 10.0 * foundation > 0.0  # the two sides of the point differ
+    assert reference.qoi["u_right"][-1] == pytest.approx(block, rel=1e-12)
+    assert result.qoi["u_right"][-1] == pytest.approx(block, rel=1e-6)
+
+
+def test_a_point_on_a_contact_needs_a_body() -> None:
+    with pytest.raises(ml.ModelError, match=r"qoi\[0\] \('u'\)\.point: \[20\.0, 10\.0\] lies on "
+                       r"'block', 'foundation\[0,0\]', 'foundation\[1,0\]'.*add body = 'block'"):
+        _spec()
+    # named, each side is read: the block's friction is pulled sideways on the foundation
+    results = {body: ml.Model(_spec(extra=f'body = "{body}"')).reference()
+               for body in ("block", "foundation")}
+    for body, result in results.items():
+        assert result.qoi["u"] == pytest.approx(_node_x(result, body, (20.0, 10.0)), rel=1e-12)
+    # inside a part, or on a perfect interface (here between the foundation's two halves,
+    # and between the two bodies when joined perfectly), no name is needed
+    ml.Model(_spec(point="[20.0, 5.0]")).assemble()
+    ml.Model(_spec(kind="perfect")).assemble()
+
+
+@pytest.mark.parametrize(("extra", "message"), [
+    ('body = "beam"', r"qoi\[0\] \('u'\)\.body: no body named 'beam'"),
+    ('substructure = "foundation[1,0]"\nbody = "block"', r"give body or substructure, not both"),
+    ('substructure = "foundation[1,0]"', None),
+])
+def test_the_named_part_must_hold_the_point(extra: str, message: str | None) -> None:
+    if message is not None:
+        with pytest.raises(ml.ModelError, match=message):
+            _spec(extra=extra)
+    else:
+        _spec(extra=extra)
+    with pytest.raises(ml.ModelError, match=r"\.substructure: the point \[12\.0, 15\.0\] does not "
+                       r"lie in 'foundation\[1,0\]' \(it lies in 'block'\)"):
+        _spec(point="[12.0, 15.0]", extra='substructure = "foundation[1,0]"')
+
+
+def _lug_with_point(tmp_path, point: str) -> ml.ModelSpec:
+    models = resources.files("multilatin") / "models"
+    for name in ("lug.toml", "lug_plate.msh", "lug_pin.msh"):
+        (tmp_path / name).write_bytes((models / name).read_bytes())
+    path = tmp_path / "lug.toml"
+    path.write_text(path.read_text() + f'''
+[[qoi]]
+name = "u_pin"
+type = "displacement"
+point = {point}
+component = "x"
+''')
+    return ml.ModelSpec.from_toml(path)
+
+
+def test_a_point_of_a_mesh_file_is_read_in_the_cells_that_hold_it(tmp_path) -> None:
+    """A point of the pin lies in the lug's extent too, in its bore: it is the pin's (before:
+    a ValueError from the lug's mesh); a point in the pin's hub hole is in no part."""
+    model = ml.Model(_lug_with_point(tmp_path, "[44.0, 0.0]"))
+    assembly = model.assemble()
+    pin = next(sub for sub in assembly.substructures if sub.name == "pin")
+    lug = next(sub for sub in assembly.substructures if sub.name == "lug")
+    assert lug.mesh.contains((44.0, 0.0)) and not lug.mesh.holds((44.0, 0.0))
+    assert pin.mesh.holds((44.0, 0.0))
+    reference = model.reference()
+    result = model.solve(options=LatinOptions(tol=1e-8))
+    assert result.qoi["u_pin"] == pytest.approx(reference.qoi["u_pin"], rel=1e-5)
+    # the pin's nodes near the point bracket the value
+    near = np.linalg.norm(pin.mesh.nodes - [44.0, 0.0], axis=1) < 1.0
+    u = reference.displacements["pin"][-1, near, 0]
+    assert u.min() - 1e-12 <= reference.qoi["u_pin"] <= u.max() + 1e-12
+    with pytest.raises(ml.ModelError, match=r"point: \[40\.0, 0\.0\] lies in no substructure "
+                       r"\(it lies in the extent of 'lug', 'pin' but in none of its cells"):
+        _lug_with_point(tmp_path, "[40.0, 0.0]")
