@@ -9,12 +9,14 @@ states are detected (``multilatin.decomposition.uniqueness``), flagged, and solv
 
 from __future__ import annotations
 
+import json
 import logging
 from pathlib import Path
 
 import pytest
 
 import multilatin as ml
+from multilatin.cli import main
 from multilatin.decomposition.uniqueness import clusters
 from multilatin.latin import LatinOptions, solve_latin
 from multilatin.parameters import Grid
@@ -94,10 +96,13 @@ def test_the_grid_in_both_orders_and_cold_gives_the_reference_answers(
         for record in result.records:
             key = (record["params"]["mu1"], record["params"]["mu2"])
             answers.setdefault(key, []).append((record["qoi"]["R_stop"], record["unique"]))
-    flagged = set()
+    flagged, flagged_by_the_reference = set(), set()
     for (mu1, mu2), found in answers.items():
         assert len(found) == 3
-        reference = b1.reference({"mu1": mu1, "mu2": mu2}).qoi["R_stop"]
+        monolithic = b1.reference({"mu1": mu1, "mu2": mu2})
+        if not monolithic.unique:
+            flagged_by_the_reference.add((mu1, mu2))
+        reference = monolithic.qoi["R_stop"]
         for value, unique in found:
             if not unique:
                 flagged.add((mu1, mu2))
@@ -106,6 +111,8 @@ def test_the_grid_in_both_orders_and_cold_gives_the_reference_answers(
         assert max(v for v, _ in found) - min(v for v, _ in found) <= 1e-3 * max(
             abs(reference), 1.0)
     assert flagged == {(0.0, 0.3), (0.05, 0.25), (0.1, 0.2)}
+    # the reference says so too (its state read by the same rule, session 44)
+    assert flagged_by_the_reference == flagged
 
 
 def test_solve_reports_a_state_that_is_not_unique(b1: ml.Model) -> None:
@@ -188,3 +195,71 @@ def test_a_study_starts_a_case_at_the_friction_limit_from_zero(
         assert record["qoi"]["R_stop"] == pytest.approx(
             runs["without"][mu2]["qoi"]["R_stop"], rel=1e-4)
     assert runs["predicted"][0.3]["start"] == "mu1=0.05, mu2=0.35"
+
+
+LIFTED = '''
+[analysis]
+hypothesis = "plane_strain"
+[materials.steel]
+E = 2e5
+nu = 0.3
+[[bodies]]
+name = "foundation"
+x = [0.0, 40.0]
+y = [0.0, 10.0]
+elements = [8, 2]
+material = "steel"
+[[bodies]]
+name = "block"
+x = [10.0, 30.0]
+y = [10.0, 20.0]
+elements = [4, 2]
+material = "steel"
+[[interfaces]]
+between = ["foundation", "block"]
+type = "contact"
+friction = 0.3
+[history.factors]
+press = [1.0, 1.0, -0.1, 1.0, 1.0]
+push = [0.0, 0.5, 0.0, 0.0, 0.5]
+[[boundary]]
+name = "clamp"
+face = "foundation.bottom"
+type = "displacement"
+value = [0.0, 0.0]
+[[boundary]]
+name = "press"
+face = "block.top"
+type = "mixed"
+components = ["force", "displacement"]
+value = [0.0, -0.01]
+factor = "press"
+[[boundary]]
+name = "push"
+face = "block.left"
+type = "force"
+value = [40.0, 0.0]
+factor = "push"
+[[qoi]]
+name = "u_top"
+type = "displacement"
+point = [20.0, 20.0]
+component = "x"
+'''
+
+
+def test_the_reference_says_when_its_answer_is_not_unique(b1: ml.Model, capsys) -> None:
+    """The monolithic reference reads its converged state by the same rule as LATIN (session
+    44; it returned one of the solutions silently). B1 at (0.05, 0.25), and a block lifted
+    off its foundation at step 3 (nothing holds it along x), pressed down and pushed again:
+    where it lands is not determined (the two solvers land it 2 % apart)."""
+    assert main(["reference", "b1", "--set", "mu1=0.05", "--set", "mu2=0.25"]) == 0
+    assert "NOT UNIQUE: step 10: centre is free to move" in capsys.readouterr().out
+    assert main(["reference", "b1", "--set", "mu1=0.3", "--set", "mu2=0", "--json"]) == 0
+    assert json.loads(capsys.readouterr().out)["unique"] is True
+    lifted = ml.Model(ml.ModelSpec.from_string(LIFTED, name="lifted"))
+    reference = lifted.reference()
+    result = lifted.solve(options=LatinOptions(tol=1e-9))
+    for found in (reference, result):
+        assert not found.unique
+        assert [(m.step, m.bodies) for m in found.free_motions] == [(3, ("block",))]

@@ -30,6 +30,7 @@ from ..decomposition.result import SolveResult
 from ..errors import ModelError, NotConvergedError
 from ..fem.elasticity import FloatArray, IntArray
 from .contact_newton import contact_set, solve_contact_history, tangents
+from .undetermined import reference_free_motions
 
 
 @dataclass(frozen=True)
@@ -299,6 +300,8 @@ def solve_monolithic(assembly: Assembly) -> SolveResult:
         for sub, gmap in zip(assembly.substructures, maps, strict=True)
     }
     qoi = evaluate_qois(assembly, displacements, reactions, pressures)
+    motions = (reference_free_motions(assembly, displacements, contacts, multipliers)
+               if contacts.size else ())
     wall = time.perf_counter() - t0
     return SolveResult(
         method="monolithic",
@@ -312,4 +315,5 @@ def solve_monolithic(assembly: Assembly) -> SolveResult:
         reactions=reactions,
         qoi=qoi,
         contact=pressures if pair.any() else None,
+        free_motions=motions,
     )
