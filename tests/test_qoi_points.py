@@ -152,3 +152,36 @@ def test_a_point_of_a_mesh_file_is_read_in_the_cells_that_hold_it(tmp_path) -> N
     with pytest.raises(ml.ModelError, match=r"point: \[40\.0, 0\.0\] lies in no substructure "
                        r"\(it lies in the extent of 'lug', 'pin' but in none of its cells"):
         _lug_with_point(tmp_path, "[40.0, 0.0]")
+
+
+def _b1_with_segment(segment: str, between: str = '["bottom", "centre"]') -> ml.Model:
+    """B1 with its p_B over ``segment`` of the contact ``between`` two bodies."""
+    text = (resources.files("multilatin") / "models" / "b1.toml").read_text()
+    head, qoi = text.split('type = "contact_pressure"')
+    assert qoi.count('segment = ["50 - 50 / 6", 50.0]') == 1
+    qoi = qoi.replace('segment = ["50 - 50 / 6", 50.0]', f"segment = {segment}").replace(
+        'between = ["bottom", "centre"]', f"between = {between}")
+    return ml.Model(ml.ModelSpec.from_string(head + 'type = "contact_pressure"' + qoi,
+                                             name="b1"))
+
+
+@pytest.mark.parametrize(("segment", "between", "message"), [
+    ("[150.0, 160.0]", '["bottom", "centre"]',
+     r"qoi 'p_B': segment \[150\.0, 160\.0\] is not covered by the contact between 'bottom' "
+     r"and 'centre': it covers \[0, 50\]"),
+    ("[40.0, 60.0]", '["bottom", "centre"]', r"segment \[40\.0, 60\.0\] is not covered"),
+    ("[10.0, 20.0]", '["bottom", "top"]', r"there is no contact interface between them"),
+])
+def test_a_contact_pressure_over_no_contact_is_refused(segment: str, between: str,
+                                                       message: str) -> None:
+    """A mean contact pressure over a segment the contact does not cover (in part or at
+    all) is refused before the solve, its QoI named; it was a ValueError traceback, or,
+    in part, a mean over the covered part only (session 44)."""
+    model = _b1_with_segment(segment, between)
+    with pytest.raises(ml.ModelError, match=message):
+        model.solve(options=LatinOptions(max_iter=5))
+    if segment == "[40.0, 60.0]":  # the reference, once: after its solve
+        with pytest.raises(ml.ModelError, match=message):
+            model.reference()
+    assert _b1_with_segment("[0.0, 50.0]").solve(
+        options=LatinOptions(max_iter=5), check=False).iterations == 5

@@ -11,6 +11,7 @@ from typing import Any
 
 import numpy as np
 
+from ..errors import ModelError
 from ..fem.elasticity import FloatArray, interpolate
 from .assembly import Assembly, QuantityOfInterest, Substructure
 from .interfaces import InterfacePoints
@@ -76,17 +77,38 @@ _WEIGHTS_LOCK = threading.Lock()
 def _mean(extents: FloatArray, pressure: FloatArray, bodies: frozenset[str],
           segment: tuple[float, float], recovery: str) -> FloatArray:
     """``ContactPressures.mean`` of the nodes of ``extents`` (their ``pressure``, (n, n_nodes))."""
+    spans = _spans(extents)
+    covered = sum(max(0.0, min(b, segment[1]) - max(a, segment[0])) for a, b in spans)
+    if covered < (1.0 - 1e-9) * (segment[1] - segment[0]):
+        between = " and ".join(map(repr, sorted(bodies)))
+        raise ModelError(
+            f"segment {list(segment)} is not covered by the contact between {between}: "
+            + (f"it covers {', '.join(f'[{a:g}, {b:g}]' for a, b in spans)} (the coordinate "
+               "along the interface; arc length on a curved face)" if spans else
+               "there is no contact interface between them"))
     lo = np.maximum(extents[:, 0], segment[0])
     hi = np.minimum(extents[:, 1], segment[1])
     overlap = np.clip(hi - lo, 0.0, None)
-    if overlap.sum() <= 0.0:
-        raise ValueError(f"no contact interface between {sorted(bodies)} over {segment}")
     if recovery == "lumped":
         return np.asarray(pressure @ overlap / overlap.sum(), dtype=np.float64)
     total = np.zeros(pressure.shape[0])
     for nodes, forces in _lines(extents, pressure * (extents[:, 1] - extents[:, 0])):
         total += _integral(nodes, _consistent(nodes, forces), segment)
     return np.asarray(total / overlap.sum(), dtype=np.float64)
+
+
+def _spans(extents: FloatArray) -> list[tuple[float, float]]:
+    """The ranges the cells ``extents`` cover, joined where they meet."""
+    spans: list[tuple[float, float]] = []
+    if not extents.size:
+        return spans
+    tol = 1e-9 * max(float(np.ptp(extents)), 1.0)
+    for a, b in sorted(map(tuple, extents.tolist())):
+        if spans and a <= spans[-1][1] + tol:
+            spans[-1] = (spans[-1][0], max(spans[-1][1], b))
+        else:
+            spans.append((a, b))
+    return spans
 
 
 def _lines(extents: FloatArray, forces: FloatArray
@@ -198,7 +220,11 @@ def evaluate_qois(
             values = reactions[q.boundary][:, q.component]
         elif q.kind == "contact_pressure":
             assert q.bodies is not None and q.segment is not None
-            values = (pressures or ContactPressures()).mean(frozenset(q.bodies), q.segment)
+            try:
+                values = (pressures or ContactPressures()).mean(frozenset(q.bodies),
+                                                                q.segment)
+            except ModelError as exc:
+                raise ModelError(f"qoi {q.name!r}: {exc}") from None
         else:  # pragma: no cover - rejected when the model is read
             raise ValueError(q.kind)
         values = q.scale * values + 0.0  # + 0.0: no "-0" for a zero force

@@ -35,6 +35,7 @@ import numpy.typing as npt
 from ..decomposition.assembly import Assembly
 from ..decomposition.interfaces import InterfacePoints
 from ..decomposition.qoi import latin_contact_pressures, point_substructure
+from ..errors import ModelError
 from ..fem.elasticity import FloatArray, IntArray, shape_functions
 from .operators import LatinOperators
 
@@ -163,7 +164,10 @@ def qoi_functionals(ops: LatinOperators, assembly: Assembly,
             assert q.bodies is not None and q.segment is not None
             first = points.contact_pairs[0]
             unit = latin_contact_pressures(assembly, points, np.eye(first.size))
-            weights = unit.mean(frozenset(q.bodies), q.segment)  # mean = weights · pressure
+            try:  # mean = weights · pressure
+                weights = unit.mean(frozenset(q.bodies), q.segment)
+            except ModelError as exc:
+                raise ModelError(f"qoi {q.name!r}: {exc}") from None
             # pressure = −F·n at the contact pair's first-side points
             on_f_hat[i, first] -= q.scale * weights[:, None] * points.normals[first]
         elif q.kind == "displacement":
