@@ -217,17 +217,3 @@ def test_two_conditions_prescribing_one_node_differently_are_refused():
     with pytest.raises(ml.ModelError, match=r"\(0 and 0.5 at step 1\) \(parameters P = 1\); a "
                        r"node cannot take both"):
         spec.build({"P": 1.0})
-
-
-def test_an_interface_between_other_thicknesses_is_refused_by_latin():
-    """LATIN's interface forces are densities of one thickness on both sides: two plates of
-    3 and 1 mm pulled end to end stalled at η = 0.38 ("not converged, another κ may
-    converge"); now a clear error. The monolithic reference takes them."""
-    def thicker(d):
-        d["substructures"][0]["thickness"] = 3.0
-    spec = spec_with(thicker)()
-    model = ml.Model(spec)
-    assert model.reference().converged
-    with pytest.raises(ml.ModelError, match=r"interface between 'a' and 'b': thicknesses 3 "
-                       r"and 1 differ; LATIN joins parts of one thickness only"):
-        model.solve()

@@ -185,3 +185,9 @@ def test_a_contact_pressure_over_no_contact_is_refused(segment: str, between: st
             model.reference()
     assert _b1_with_segment("[0.0, 50.0]").solve(
         options=LatinOptions(max_iter=5), check=False).iterations == 5
+
+
+def test_a_segment_holding_the_whole_contact_means_all_of_it() -> None:
+    whole = _b1_with_segment("[-10.0, 100.0]").reference({"mu1": 0.3, "mu2": 0.0})
+    exact = _b1_with_segment("[0.0, 50.0]").reference({"mu1": 0.3, "mu2": 0.0})
+    assert whole.qoi["p_B"] == pytest.approx(exact.qoi["p_B"], rel=1e-12)

@@ -124,19 +124,21 @@ def _discretise_interface(assembly: Assembly, itf: Interface, kind: str
     """Interface elements on each side of ``itf``. Between non-matching meshes (mortar,
     ``decomposition.mortar``) both sides carry the slave side's points: the master's trace
     there is the mortar projection of its own, with the slave's weights, so the local stage
-    acts on pairs of points at the same places as on a matching interface."""
+    acts on pairs of points at the same places as on a matching interface. The weights are
+    lengths (thickness 1): LATIN's interface forces are per unit length, whatever the two
+    sides' thicknesses (a traction density times its side's thickness), so that a perfect
+    pair balances as F_a = −F_b between parts of other thicknesses."""
     subs = [assembly.substructures[ref.substructure] for ref in itf.sides]
     coupling = mortar_coupling(assembly, itf)
-    if coupling is None:
-        return [discretise_side(sub.mesh.nodes, ref.nodes(sub.mesh), kind,
-                                sub.material.thickness)
+    if coupling is None:  # weights of thickness 1: LATIN's fields are per unit length
+        return [discretise_side(sub.mesh.nodes, ref.nodes(sub.mesh), kind, 1.0)
                 for ref, sub in zip(itf.sides, subs, strict=True)]
     if kind != "nodal":
         raise ModelError(f"interface {itf.name!r} joins non-matching meshes (mortar), which "
                          f"needs interface_elements = 'nodal', got {kind!r}")
     slave_sub = subs[coupling.slave]
-    slave = discretise_side(slave_sub.mesh.nodes, coupling.slave_nodes, "nodal",
-                            slave_sub.material.thickness, along=coupling.slave_along)
+    slave = discretise_side(slave_sub.mesh.nodes, coupling.slave_nodes, "nodal", 1.0,
+                            along=coupling.slave_along)
     master = dataclasses.replace(slave, nodes=coupling.master_nodes, trace=coupling.projection)
     return [slave, master] if coupling.slave == 0 else [master, slave]
 
@@ -151,7 +153,7 @@ class InterfacePoints:
     substructure: IntArray  # (P,) owning substructure
     interface: IntArray  # (P,) interface index in ``assembly.interfaces``
     coords: FloatArray  # (P, 2)
-    weights: FloatArray  # (P,) diagonal of M0
+    weights: FloatArray  # (P,) diagonal of M0: lengths (fields are per unit length)
     normals: FloatArray  # (P, 2) outward normal of the point's substructure side
     extents: FloatArray  # (P, 2) element start/end along its side's coordinate
     offsets: IntArray  # (n_sub + 1,) points of substructure s: offsets[s]:offsets[s+1]
@@ -207,24 +209,6 @@ def _dof_trace(rows: list[IntArray], nodes: list[IntArray], values: list[FloatAr
                          shape=(2 * n_points, 2 * n_nodes))
 
 
-def _check_one_thickness(assembly: Assembly) -> None:
-    """LATIN's interface fields are force densities of one thickness on both sides of an
-    interface (F_a = −F_b): parts of other thicknesses joined there have no fixed point
-    (η stalled at 0.38 on two plates of 3 and 1 mm pulled end to end, which the monolithic
-    reference solves). Refused with the interface named."""
-    subs = assembly.substructures
-    for itf in assembly.interfaces:
-        if len(itf.sides) != 2:
-            continue
-        a, b = (subs[ref.substructure] for ref in itf.sides)
-        if a.material.thickness != b.material.thickness:
-            raise ModelError(
-                f"interface between {a.name!r} and {b.name!r}: thicknesses "
-                f"{a.material.thickness:g} and {b.material.thickness:g} differ; LATIN joins "
-                "parts of one thickness only (the monolithic reference, `multilatin "
-                "reference`, takes them)")
-
-
 def build_points(assembly: Assembly, kind: str = "nodal", *,
                  held_nodes: bool = True) -> InterfacePoints:
     """Discretise every interface side of ``assembly`` with interface elements ``kind``.
@@ -232,7 +216,6 @@ def build_points(assembly: Assembly, kind: str = "nodal", *,
     held_nodes: find the contact and perfect pairs held on one side (``held_nodes.held_corners``,
         ``held_nodes.held_perfect_pairs``); False leaves them to the two-sided rule (before issue 15).
     """
-    _check_one_thickness(assembly)
     per_sub: list[list[tuple[int, int, SideDiscretisation]]] = [
         [] for _ in assembly.substructures
     ]

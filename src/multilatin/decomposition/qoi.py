@@ -76,10 +76,15 @@ _WEIGHTS_LOCK = threading.Lock()
 
 def _mean(extents: FloatArray, pressure: FloatArray, bodies: frozenset[str],
           segment: tuple[float, float], recovery: str) -> FloatArray:
-    """``ContactPressures.mean`` of the nodes of ``extents`` (their ``pressure``, (n, n_nodes))."""
+    """``ContactPressures.mean`` of the nodes of ``extents`` (their ``pressure``, (n, n_nodes)).
+    The contact must cover ``segment``, or lie wholly inside it (the mean over the whole
+    contact); a segment that reaches past part of it only is refused."""
     spans = _spans(extents)
     covered = sum(max(0.0, min(b, segment[1]) - max(a, segment[0])) for a, b in spans)
-    if covered < (1.0 - 1e-9) * (segment[1] - segment[0]):
+    tol = 1e-9 * (segment[1] - segment[0])
+    whole = bool(spans) and all(segment[0] - tol <= a and b <= segment[1] + tol
+                                for a, b in spans)  # "[0, 100]": the whole contact
+    if not whole and covered < (segment[1] - segment[0]) - tol:
         between = " and ".join(map(repr, sorted(bodies)))
         raise ModelError(
             f"segment {list(segment)} is not covered by the contact between {between}: "
@@ -175,14 +180,20 @@ def latin_contact_pressures(assembly: Assembly, points: InterfacePoints,
                             ) -> ContactPressures:
     """``ContactPressures`` on the first side of every contact pair of the interface
     ``points``, with ``pressure`` (n, n_pairs) there (LATIN's fields, or unit columns for the
-    mean's weights) and ``shear`` (zero when not given)."""
+    mean's weights) and ``shear`` (zero when not given), forces per unit length as LATIN's
+    fields are: divided into pressures by the contact's thickness (the thinner side's, the
+    face that touches; the reference's ``ContactSet.weight``)."""
     first = points.contact_pairs[0]
     interfaces = points.interface[first].tolist()
     joined = {j: frozenset(assembly.substructures[ref.substructure].body
                            for ref in assembly.interfaces[j].sides) for j in set(interfaces)}
     bodies = [joined[j] for j in interfaces]
-    return ContactPressures(bodies, points.extents[first], pressure, points.coords[first],
-                            np.zeros_like(pressure) if shear is None else shear)
+    of_sub = np.array([sub.material.thickness for sub in assembly.substructures])
+    thickness = np.minimum(of_sub[points.substructure[first]],
+                           of_sub[points.substructure[points.contact_pairs[1]]])
+    return ContactPressures(bodies, points.extents[first], pressure / thickness,
+                            points.coords[first],
+                            (np.zeros_like(pressure) if shear is None else shear) / thickness)
 
 
 def point_substructure(substructures: Sequence[Substructure], q: QuantityOfInterest) -> int:

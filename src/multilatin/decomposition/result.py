@@ -19,6 +19,8 @@ class InterfaceFields:
 
     ``displacement``/``force`` are the admissible pair s (linear stage, A_d);
     ``displacement_hat``/``force_hat`` the pair ŝ that satisfies the interface behaviour (Γ).
+    Forces are per unit length (a traction times its part's thickness); ``weights`` are the
+    points' lengths (the diagonal of M0).
     """
 
     coords: FloatArray

@@ -75,12 +75,15 @@ def _solid(result: SolveResult) -> tuple[FloatArray, list[tuple[str, IntArray]],
 
 def _contact(result: SolveResult) -> dict[str, FloatArray] | None:
     """Contact interfaces and stops, on the first side's points: coordinates, outward
-    normal, traction F̂ (force per unit area), normal pressure (positive in compression),
-    tangential traction, displacement jump and status (0 open, 1 stick, 2 slip) per step."""
+    normal, traction (force per unit area: F̂, per unit length, over the contact's thickness),
+    normal pressure (positive in compression), tangential traction, displacement jump and
+    status (0 open, 1 stick, 2 slip) per step."""
     itf = result.interface
     if itf is None:
         return None
-    chosen, normals = [], []
+    chosen: list[IntArray] = []
+    normals: list[FloatArray] = []
+    thicknesses: list[FloatArray] = []
     for i, interface in enumerate(result.assembly.interfaces):
         if interface.contact is None:
             continue
@@ -90,6 +93,10 @@ def _contact(result: SolveResult) -> dict[str, FloatArray] | None:
             .outward_normal(interface.sides[0].side)
         chosen.append(first)
         normals.append(np.tile(normal, (first.size, 1)))
+        # the face that touches: the thinner side's (LATIN's forces are per unit length)
+        thicknesses.append(np.full(first.size, min(
+            result.assembly.substructures[ref.substructure].material.thickness
+            for ref in interface.sides)))
     if not chosen:
         return None
     index = np.concatenate(chosen)
@@ -99,12 +106,13 @@ def _contact(result: SolveResult) -> dict[str, FloatArray] | None:
     for step in range(n_steps):
         for name, points in status_indices(result, step).items():
             status[step, points] = STATUS_CODES[name]
-    traction = itf.force_hat[:, index]
+    thickness = np.concatenate(thicknesses)
+    traction = itf.force_hat[:, index] / thickness[:, None]
     pressure = -np.einsum("tpd,pd->tp", traction, normal)
     tangent = np.column_stack([-normal[:, 1], normal[:, 0]])
     return {"coords": itf.coords[index], "normal": normal, "traction": traction,
             "pressure": pressure, "tangential_traction": np.einsum("tpd,pd->tp", traction, tangent),
-            "status": status[:, index], "weights": itf.weights[index]}
+            "status": status[:, index], "weights": itf.weights[index] * thickness}
 
 
 def _planar(vectors: FloatArray) -> FloatArray:

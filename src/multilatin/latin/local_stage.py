@@ -14,7 +14,7 @@ import numpy as np
 import numpy.typing as npt
 import scipy.linalg as sla
 
-from ..decomposition.assembly import Assembly
+from ..decomposition.assembly import DISPLACEMENT, Assembly
 from ..decomposition.interfaces import InterfacePoints, interface_functions
 from ..errors import ModelError
 from ..fem.elasticity import FloatArray, IntArray
@@ -402,7 +402,8 @@ class LocalStage:
 
 
 def _prescribed(assembly: Assembly, points: InterfacePoints) -> FloatArray:
-    """W_d on displacement components, F_d on force ones, at the boundary points, per step."""
+    """W_d on displacement components, F_d on force ones, at the boundary points, per step
+    (F_d per unit length: the traction times the side's thickness)."""
     prescribed = np.zeros((assembly.n_steps, points.boundary.size, 2))
     offset = 0
     for i, itf in enumerate(assembly.interfaces):
@@ -411,12 +412,15 @@ def _prescribed(assembly: Assembly, points: InterfacePoints) -> FloatArray:
         assert itf.condition is not None
         n = points.side_points[(i, 0)].size
         factor = assembly.history.factor(itf.condition.factor)
+        thickness = assembly.substructures[itf.sides[0].substructure].material.thickness
         if itf.condition.pressure:  # traction −p n at each point
             traction = -itf.condition.value[0] * points.normals[points.side_points[(i, 0)]]
             prescribed[:, offset:offset + n] = factor[:, None, None] * traction[None]
         else:
             prescribed[:, offset:offset + n] = (factor[:, None] *
                                                 np.asarray(itf.condition.value))[:, None, :]
+        force = np.array([kind != DISPLACEMENT for kind in itf.condition.kinds])
+        prescribed[:, offset:offset + n, force] *= thickness
         offset += n
     return prescribed
 

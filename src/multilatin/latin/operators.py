@@ -268,7 +268,8 @@ class LatinOperators:
                                      force_response)
 
     def _search_direction(self) -> FloatArray:
-        """k per interface point and component: κ E / L, with E and L per side as
+        """k per interface point and component: κ E t / L (per unit length, as the
+        interface forces: t the thickness), with E, t and L per side as
         ``LatinOptions.search_modulus`` says; stiffer on prescribed displacements."""
         opts = self.options
         pts = self.points
@@ -277,12 +278,13 @@ class LatinOperators:
         for i, itf in enumerate(self.assembly.interfaces):
             subs = [self.assembly.substructures[r.substructure] for r in itf.sides]
             if opts.search_modulus == "mean" or len(subs) == 1:
-                young = float(np.mean([s.material.young for s in subs]))
+                young = float(np.mean([s.material.young * s.material.thickness
+                                       for s in subs]))
                 values = [opts.kappa * young / self._smaller_side(subs[0].body)] * len(subs)
             else:  # each side from the substructure on the other side, or its own
                 source = reversed(subs) if opts.search_modulus == "neighbour" else subs
-                values = [opts.kappa * sub.material.young / self._smaller_side(sub.body)
-                          for sub in source]
+                values = [opts.kappa * sub.material.young * sub.material.thickness
+                          / self._smaller_side(sub.body) for sub in source]
             for side_index, value in enumerate(values):
                 k[pts.side_points[(i, side_index)]] = value
             if itf.contact is not None and opts.tangential_ratio != 1.0:

@@ -49,7 +49,9 @@ log = logging.getLogger(__name__)
 class ContactSet:
     """Node-to-node contact pairs of the merged mesh. For a rigid stop ``second`` is −1.
 
-    ``normal`` points out of the first body; ``weight`` is the dual-cell length × thickness;
+    ``normal`` points out of the first body; ``length`` is the dual-cell length, ``weight``
+    that × the contact's thickness (the thinner side's: the face that touches), the area a
+    pressure is read on;
     ``extent`` the dual cell along the interface (for mean pressures); ``bodies`` and
     ``boundary`` name what each pair belongs to.
     """
@@ -60,6 +62,7 @@ class ContactSet:
     friction: FloatArray
     gap: FloatArray
     weight: FloatArray
+    length: FloatArray
     extent: FloatArray
     position: FloatArray  # (n, 2) where the first side's node is (the slave's, when mortar)
     bodies: list[frozenset[str]]
@@ -97,13 +100,15 @@ def contact_set(assembly: Assembly, maps: list[IntArray],
         first, second, coupling = (mortar_points or {}).get(index, (None, None, None))
         if coupling is None:
             nodes = ref.nodes(sub.mesh)
-            cells = discretise_side(sub.mesh.nodes, nodes, "nodal", sub.material.thickness)
+            cells = discretise_side(sub.mesh.nodes, nodes, "nodal", 1.0)
         else:  # the slave side's points
             slave_sub = assembly.substructures[itf.sides[coupling.slave].substructure]
-            cells = discretise_side(slave_sub.mesh.nodes, coupling.slave_nodes, "nodal",
-                                    slave_sub.material.thickness, along=coupling.slave_along)
+            cells = discretise_side(slave_sub.mesh.nodes, coupling.slave_nodes, "nodal", 1.0,
+                                    along=coupling.slave_along)
             nodes = coupling.slave_nodes
-        weight = cells.weights
+        length = cells.weights
+        thickness = min(assembly.substructures[r.substructure].material.thickness
+                        for r in itf.sides)
         lo, hi = cells.extents[:, 0], cells.extents[:, 1]
         position = cells.coords
         bodies = frozenset(assembly.substructures[r.substructure].body for r in itf.sides)
@@ -135,11 +140,13 @@ def contact_set(assembly: Assembly, maps: list[IntArray],
             same = records.setdefault((int(first[p]), int(second[p])), [])
             rec = next((r for r in same if float(np.dot(r[0], normal[p])) > 0.5), None)
             if rec is not None:
-                rec[4] += weight[p]
+                rec[4] += length[p] * thickness
+                rec[8] += length[p]
                 rec[5] = (min(rec[5][0], lo[p]), max(rec[5][1], hi[p]))
             else:
                 same.append([normal[p], itf.contact.friction, itf.contact.gap + offset[p],
-                             bodies, weight[p], (lo[p], hi[p]), boundary, position[p]])
+                             bodies, length[p] * thickness, (lo[p], hi[p]), boundary,
+                             position[p], length[p]])
     keys = [key for key, same in records.items() for _ in same]
     vals = [rec for same in records.values() for rec in same]
     return ContactSet(
@@ -149,6 +156,7 @@ def contact_set(assembly: Assembly, maps: list[IntArray],
         friction=np.array([v[1] for v in vals], dtype=float),
         gap=np.array([v[2] for v in vals], dtype=float),
         weight=np.array([v[4] for v in vals], dtype=float),
+        length=np.array([v[8] for v in vals], dtype=float),
         extent=np.array([v[5] for v in vals], dtype=float).reshape(-1, 2),
         position=np.array([v[7] for v in vals], dtype=float).reshape(-1, 2),
         bodies=[v[3] for v in vals],

@@ -7,7 +7,8 @@ Where the load uses up the friction along a rigid motion that nothing else holds
 returns one of them (its Jacobian regularised for floating bodies), as LATIN does. Both now
 say so. Ŵ is the trace of the reference's displacements on every interface point; F̂, on the
 contact and stop points (the only ones the search reads), is the reference's multiplier of
-the pair at that point over the pair's weight: the force density on that side.
+the pair at that point over the pair's dual-cell length: the force per unit length on that
+side, as LATIN's fields are.
 """
 
 from __future__ import annotations
@@ -33,7 +34,7 @@ def reference_free_motions(assembly: Assembly, displacements: dict[str, FloatArr
     """The free rigid motions of the reference's converged state: ``displacements`` per
     substructure (n_steps, n_nodes, 2), ``multipliers`` (n_steps, n_pairs, 2) the normal
     and tangential forces of ``contacts``' pairs on their second side. None are searched
-    where LATIN's interface points cannot be built (parts of other thicknesses joined)."""
+    where LATIN's interface points cannot be built."""
     if contacts.size == 0:
         return ()
     try:
@@ -49,7 +50,7 @@ def reference_free_motions(assembly: Assembly, displacements: dict[str, FloatArr
         w_hat[:, lo:hi] = (points.traces[s] @ u).T.reshape(n_steps, hi - lo, 2)
     on_first = -(multipliers[..., :1] * contacts.normal
                  + multipliers[..., 1:] * tangents(contacts.normal))  # (T, n_pairs, 2)
-    density = on_first / contacts.weight[:, None]
+    density = on_first / contacts.length[:, None]  # per unit length, as LATIN's fields
     f_hat = np.zeros_like(w_hat)
     a, b = points.contact_pairs
     for own, other in ((a, b), (b, a)):
