@@ -167,6 +167,30 @@ def test_another_study_in_the_same_folder_is_refused(b1: ml.Model, tmp_path: Pat
                   options=LatinOptions(qoi_rtol=1e-3, settled_steps=0.0))
 
 
+def test_a_study_of_an_edited_mesh_file_is_not_resumed(tmp_path: Path) -> None:
+    """A mesh file is part of the model: resumed after the mesh was edited (one node moved
+    by 1e-4 mm), a study used to keep its finished cases, solved on the old mesh, beside
+    new ones (session 44)."""
+    from importlib import resources
+
+    models = resources.files("multilatin") / "models"
+    for name in ("lug.toml", "lug_plate.msh", "lug_pin.msh"):
+        (tmp_path / name).write_bytes((models / name).read_bytes())
+    grid = Grid({"mu": [0.2]})
+    out = tmp_path / "study"
+    run_study(ml.load_model(tmp_path / "lug.toml"), grid, out=out, progress=False)
+    run_study(ml.load_model(tmp_path / "lug.toml"), grid, out=out, progress=False)  # resumes
+    pin = tmp_path / "lug_pin.msh"
+    lines = pin.read_text().split("\n")
+    at = lines.index("$Nodes") + 4  # the first node block's first coordinates
+    x, rest = lines[at].split(" ", 1)
+    lines[at] = f"{float(x) + 1e-4!r} {rest}"
+    pin.write_text("\n".join(lines))
+    with pytest.raises(ModelError, match=r"differs in the contents of the mesh file\(s\) "
+                       r"lug_pin\.msh"):
+        run_study(ml.load_model(tmp_path / "lug.toml"), grid, out=out, progress=False)
+
+
 def _comparable(dataset: xr.Dataset) -> xr.Dataset:
     return dataset.drop_vars(["wall_s", "setup_s", "log"]).drop_attrs()
 

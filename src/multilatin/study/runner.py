@@ -234,6 +234,9 @@ def run_study(
     }
     if requested != "neighbour":  # studies written before the option keep their identity
         identity["start"] = requested
+    if model.spec.mesh_files:  # their contents: a mesh edited between runs is another model
+        identity["mesh_sha1"] = {path: sha1(Path(path).read_bytes()).hexdigest()
+                                 for path in model.spec.mesh_files}
     folder = Path(out) if out is not None else Path(tempfile.mkdtemp(prefix="multilatin-"))
     store = StudyStore(folder, identity, record_fits=_record_fits(plan))
     attrs = {"model": model.name, "title": model.title, "command": command,

@@ -305,6 +305,12 @@ def _difference_message(folder: Path, existing: dict[str, Any],
         if key == "options" and isinstance(old, dict) and isinstance(new, dict):
             named += [f"options.{k} ({_given(new, k)} here, {_given(old, k)} in the folder)"
                       for k in sorted(set(old) | set(new)) if old.get(k) != new.get(k)]
+        elif key == "mesh_sha1" and isinstance(new, dict):
+            changed = [Path(k).name for k in sorted(new) if not isinstance(old, dict)
+                       or old.get(k) != new[k]]
+            named.append(f"the contents of the mesh file(s) {', '.join(changed)}"
+                         + ("" if isinstance(old, dict) else
+                            " (not recorded in the folder, begun by an earlier multilatin)"))
         else:
             named.append(key)
     return (f"--out {folder}: the folder holds a different study (differs in "

@@ -100,6 +100,12 @@ class ModelSpec:
         return spec
 
     @property
+    def mesh_files(self) -> list[str]:
+        """The mesh files the model reads (paths as resolved when it was read)."""
+        return sorted({str(table["mesh_file"]) for table in self.data.get("substructures", [])
+                       if isinstance(table, Mapping) and "mesh_file" in table})
+
+    @property
     def units(self) -> dict[str, str]:
         """The unit of each parameter and quantity of interest ("" where none is given)."""
         units = {name: p.unit for name, p in self.parameters.items()}
