@@ -191,3 +191,30 @@ def test_a_segment_holding_the_whole_contact_means_all_of_it() -> None:
     whole = _b1_with_segment("[-10.0, 100.0]").reference({"mu1": 0.3, "mu2": 0.0})
     exact = _b1_with_segment("[0.0, 50.0]").reference({"mu1": 0.3, "mu2": 0.0})
     assert whole.qoi["p_B"] == pytest.approx(exact.qoi["p_B"], rel=1e-12)
+
+
+def _lug_with_hole(tmp_path, centre: str) -> ml.ModelSpec:
+    _lug_with_point(tmp_path, "[47.0, 0.0]")
+    path = tmp_path / "lug.toml"
+    path.write_text(path.read_text() + f'''
+[[holes]]
+name = "h"
+shape = "circle"
+centre = {centre}
+radius = 1.0
+''')
+    return ml.ModelSpec.from_toml(path)
+
+
+def test_a_hole_is_placed_in_the_cells_that_hold_its_centre(tmp_path) -> None:
+    """A hole centred in the pin, with no body named, was placed in the lug, whose extent
+    holds the centre in its bore: it cut nothing, and the lug was solved without it (F =
+    1 515.9 N against 1 493.4 N with the hole in the pin). A centre in the pin's hub hole is
+    in no part's cells: refused."""
+    assembly = ml.Model(_lug_with_hole(tmp_path, "[44.5, 0.0]")).assemble()
+    holed = {sub.name for sub in assembly.substructures if sub.hole is not None}
+    assert holed == {"pin"}
+    with pytest.raises(ml.ModelError, match=r"holes\[0\] \('h'\): the hole at \[40\.0, 0\.0\] "
+                       r"lies outside the assembly \(it lies in the extent of 'lug' but in "
+                       r"none of its cells"):
+        _lug_with_hole(tmp_path, "[40.0, 0.0]")

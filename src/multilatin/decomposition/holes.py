@@ -74,18 +74,33 @@ def _owner(table: Mapping[str, Any], where: str, subs: Sequence[Substructure],
         if index is None and name.partition("[")[0] not in replaced:
             raise ModelError(f"{where}.substructure: no substructure named {name!r}")
         if index is not None:
-            if not subs[index].mesh.contains(place, tol=0.0):
+            if not (subs[index].mesh.contains(place, tol=0.0)
+                    and subs[index].mesh.holds(place)):
                 raise ModelError(f"{where}: the hole at {list(place)} lies outside "
-                                 f"substructure {name!r} {_box(subs[index])}{params}")
+                                 f"substructure {name!r} {_box(subs[index])}{params}"
+                                 + _void_note(subs[index], place))
             return index
         body = name.partition("[")[0]
     if body is not None and not any(s.body == body for s in subs):
         raise ModelError(f"{where}.body: no body named {body!r}")
+    # the substructure whose cells hold the centre (a mesh file's extent may hold another
+    # part: a pin in a lug's bore)
     for i, sub in enumerate(subs):
-        if (body is None or sub.body == body) and sub.mesh.contains(place, tol=0.0):
+        if (body is None or sub.body == body) and sub.mesh.contains(place, tol=0.0) \
+                and sub.mesh.holds(place):
             return i
     scope = f"body {body!r}" if body is not None else "the assembly"
-    raise ModelError(f"{where}: the hole at {list(place)} lies outside {scope}{params}")
+    extents = [sub for sub in subs if (body is None or sub.body == body)
+               and sub.mesh.contains(place, tol=0.0)]
+    raise ModelError(f"{where}: the hole at {list(place)} lies outside {scope}{params}"
+                     + (_void_note(extents[0], place) if extents else ""))
+
+
+def _void_note(sub: Substructure, place: tuple[float, float]) -> str:
+    """For a centre in a mesh file's extent but in none of its cells, say so."""
+    return "" if sub.mesh.holds(place) else (
+        f" (it lies in the extent of {sub.name!r} but in none of its cells: a hole of its "
+        "mesh)")
 
 
 def _box(sub: Substructure) -> str:
