@@ -218,3 +218,31 @@ def test_a_hole_is_placed_in_the_cells_that_hold_its_centre(tmp_path) -> None:
                        r"lies outside the assembly \(it lies in the extent of 'lug' but in "
                        r"none of its cells"):
         _lug_with_hole(tmp_path, "[40.0, 0.0]")
+
+
+@pytest.mark.parametrize(("name", "other", "message"), [
+    ("R", "R", r"qoi\[1\] \('R'\)\.name: 'R' names qoi\[0\] too"),
+    ("mu", "S", r"qoi\[0\] \('mu'\)\.name: 'mu' is a parameter's name"),
+    ("converged", "S", r"'converged' is a name the study's outputs use"),
+    ("R", "R_err", r"qoi\[1\] \('R_err'\)\.name: 'R_err' is the name of 'R''s error "
+     r"estimate"),
+])
+def test_qoi_names_that_would_mix_up_the_outputs_are_refused(name: str, other: str,
+                                                              message: str) -> None:
+    """Before session 44: two QoIs of one name gave one value (the second's); a QoI named
+    ``converged`` or ``iterations`` was written in study.nc in place of that variable; one
+    named ``R_err`` beside ``R`` took R's error estimate there; one named as a parameter
+    crashed the study after its last case."""
+    text = TWO_BODIES.format(kind="contact", point="[20.0, 15.0]", extra="").replace(
+        '''[[qoi]]
+name = "u"''', f'''[parameters.mu]
+default = 0.3
+[[qoi]]
+name = "{name}"
+type = "reaction"
+boundary = "clamp"
+component = "y"
+[[qoi]]
+name = "{other}"''').replace("friction = 0.3", 'friction = "mu"')
+    with pytest.raises(ml.ModelError, match=message):
+        ml.ModelSpec.from_string(text, name="two")

@@ -72,8 +72,36 @@ class QoiSections(SectionReader):
             else:
                 raise ModelError(f"{where}.type: unknown kind {kind!r} "
                                  "(known: displacement, reaction, contact_pressure)")
+        _check_names(out, set(self.data.get("parameters", {})))
         return out
 
+
+
+#: names the study's outputs give their own variables and coordinates (study.nc, table.csv)
+RESERVED_NAMES = ("mode", "step", "iterations", "indicator", "wall_s", "setup_s", "finished",
+                  "converged", "unique", "log", "start")
+
+
+def _check_names(qois: list[QuantityOfInterest], parameters: set[str]) -> None:
+    """A QoI's name labels its values in the results, study.nc and table.csv: two QoIs of one
+    name (the second replaced the first), or a QoI named as a parameter, a study variable
+    (its values written as ``converged`` or ``iterations``) or another QoI's error estimate
+    (``<name>_err``) would mix them up."""
+    names = [q.name for q in qois]
+    for i, name in enumerate(names):
+        where = f"qoi[{i}] ({name!r}).name"
+        if not name:
+            raise ModelError(f"{where}: a name must not be empty")
+        if name in names[:i]:
+            raise ModelError(f"{where}: {name!r} names qoi[{names.index(name)}] too")
+        if name in parameters:
+            raise ModelError(f"{where}: {name!r} is a parameter's name")
+        if name in RESERVED_NAMES:
+            raise ModelError(f"{where}: {name!r} is a name the study's outputs use "
+                             f"({', '.join(RESERVED_NAMES)}): choose another")
+        if name.endswith("_err") and name[:-4] in names:
+            raise ModelError(f"{where}: {name!r} is the name of {name[:-4]!r}'s error "
+                             "estimate in the study's outputs: choose another")
 
 
 def _extent_note(subs: list[Substructure], point: tuple[float, float]) -> str:
