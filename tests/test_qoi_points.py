@@ -246,3 +246,13 @@ component = "y"
 name = "{other}"''').replace("friction = 0.3", 'friction = "mu"')
     with pytest.raises(ml.ModelError, match=message):
         ml.ModelSpec.from_string(text, name="two")
+
+
+@pytest.mark.parametrize("name", ["mode", "step", "converged", "iterations", "log"])
+def test_parameter_names_the_study_outputs_use_are_refused(name: str) -> None:
+    """A study over a parameter named ``converged`` (or ``mode``, ``iterations``, ``log``)
+    crashed after its last case, writing study.nc; ``step`` became study.nc's step axis."""
+    text = TWO_BODIES.format(kind="contact", point="[20.0, 15.0]", extra="")
+    with pytest.raises(ml.ModelError, match=rf"parameters\.{name}: '{name}' is a name the "
+                       r"study's outputs use"):
+        ml.ModelSpec.from_string(f"[parameters.{name}]\ndefault = 1.0\n" + text, name="two")

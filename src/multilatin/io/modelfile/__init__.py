@@ -20,7 +20,15 @@ from ...errors import ModelError
 from ...parameters import Mu, Parameter, Parameters
 from ..expressions import evaluate
 from .builder import Builder
-from .checks import TOP_LEVEL, BuildCache, check_keys, positive_int, require, unit_text
+from .checks import (
+    RESERVED_NAMES,
+    TOP_LEVEL,
+    BuildCache,
+    check_keys,
+    positive_int,
+    require,
+    unit_text,
+)
 
 if sys.version_info >= (3, 11):
     import tomllib
@@ -82,6 +90,9 @@ class ModelSpec:
             where = f"parameters.{pname}"
             if not pname.isidentifier():
                 raise ModelError(f"{where}: parameter names must be identifiers")
+            if pname in RESERVED_NAMES:  # a study crashed on it after its last case
+                raise ModelError(f"{where}: {pname!r} is a name the study's outputs use "
+                                 f"({', '.join(RESERVED_NAMES)}): choose another")
             if not isinstance(table, Mapping):
                 table = {"default": table}
             check_keys(table, {"default", "min", "max", "description", "unit"}, where)

@@ -15,6 +15,10 @@ from ..expressions import evaluate
 TOP_LEVEL = {"title", "description", "analysis", "parameters", "materials", "bodies",
              "substructures", "interfaces", "boundary", "history", "qoi", "holes"}
 OPPOSITE = {"left": "right", "right": "left", "bottom": "top", "top": "bottom"}
+#: names the study's outputs give their own variables and coordinates (study.nc, table.csv):
+#: no parameter or quantity of interest may take them
+RESERVED_NAMES = ("mode", "step", "iterations", "indicator", "wall_s", "setup_s", "finished",
+                  "converged", "unique", "log", "start")
 
 
 def require(table: Mapping[str, Any], key: str, where: str) -> Any:

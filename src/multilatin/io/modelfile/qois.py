@@ -6,7 +6,7 @@ import numpy as np
 
 from ...decomposition.assembly import History, Interface, QuantityOfInterest, Substructure
 from ...errors import ModelError
-from .checks import SectionReader, check_keys, pair, require, unit_text
+from .checks import RESERVED_NAMES, SectionReader, check_keys, pair, require, unit_text
 
 
 class QoiSections(SectionReader):
@@ -75,11 +75,6 @@ class QoiSections(SectionReader):
         _check_names(out, set(self.data.get("parameters", {})))
         return out
 
-
-
-#: names the study's outputs give their own variables and coordinates (study.nc, table.csv)
-RESERVED_NAMES = ("mode", "step", "iterations", "indicator", "wall_s", "setup_s", "finished",
-                  "converged", "unique", "log", "start")
 
 
 def _check_names(qois: list[QuantityOfInterest], parameters: set[str]) -> None:
