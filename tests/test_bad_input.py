@@ -1,7 +1,9 @@
 """Bad input gets a clear error naming the offending field and value."""
 
 import copy
+import re
 
+import numpy as np
 import pytest
 
 import multilatin as ml
@@ -99,6 +101,16 @@ def test_unknown_parameter_in_set():
 def test_parameter_outside_its_range():
     with pytest.raises(ml.ModelError, match="parameter 'P': value -1.0 is outside"):
         ml.load_model("b0").parameters.parse({"P": -1.0})
+
+
+@pytest.mark.parametrize("value", [None, True, "0.1", [0.1]])
+def test_a_parameter_value_that_is_not_a_number_is_refused(value):
+    """``solve({"P": None})`` raised a TypeError from ``float``; True and "0.1" passed as 1
+    and 0.1 (session 44)."""
+    with pytest.raises(ml.ModelError, match=rf"parameter 'P': expected a number, got "
+                       rf"{re.escape(repr(value))}"):
+        ml.load_model("b0").parameters.parse({"P": value})
+    assert ml.load_model("b0").parameters.parse({"P": np.float32(2.5)})["P"] == 2.5
 
 
 def test_cli_reports_bad_input_with_exit_status_2(capsys, tmp_path):

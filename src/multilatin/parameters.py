@@ -10,6 +10,7 @@ Base room: imports only ``errors`` and ``limits``; every other room may import i
 from __future__ import annotations
 
 import math
+import numbers
 from collections.abc import Iterable, Iterator, Mapping
 from dataclasses import dataclass
 
@@ -107,8 +108,16 @@ class Parameters(Mapping[str, Parameter]):
             if name not in self._params:
                 known = ", ".join(sorted(self._params)) or "none"
                 raise ModelError(f"unknown parameter {name!r} (this model's parameters: {known})")
-            merged[name] = self._params[name].check(float(value))
+            merged[name] = self._params[name].check(_number(name, value))
         return Mu(merged)
+
+
+def _number(name: str, value: object) -> float:
+    """A parameter's value as a float: a real number (a NumPy one too), not a bool, None or
+    text."""
+    if isinstance(value, bool) or not isinstance(value, numbers.Real):
+        raise ModelError(f"parameter {name!r}: expected a number, got {value!r}")
+    return float(value)
 
 
 def parse_assignments(assignments: list[str]) -> dict[str, float]:
