@@ -237,9 +237,9 @@ def test_a_level_set_hole_meeting_the_file_mesh_boundary_is_refused(tmp_path: Pa
         ml.ModelSpec.from_toml(tmp_path / "holed.toml")
 
 
-def _gmsh_notched(path: Path, closed_hole: bool = False) -> Path:
+def _gmsh_notched(path: Path, closed_hole: bool = False, notch: str = "notch") -> Path:
     """[0, 60] × [0, 20] with a semicircular notch of radius 4 at (30, 20) in its top, the
-    notch's arc a physical group "notch" (and, with ``closed_hole``, a round hole at (10, 10)
+    notch's arc a physical group ``notch`` (and, with ``closed_hole``, a round hole at (10, 10)
     as one closed group "hole")."""
     def geometry(gmsh: Any) -> None:
         occ = gmsh.model.occ
@@ -248,7 +248,7 @@ def _gmsh_notched(path: Path, closed_hole: bool = False) -> Path:
             tools.append((2, occ.addDisk(10.0, 10.0, 0.0, 2.0, 2.0)))
         occ.cut([(2, occ.addRectangle(0.0, 0.0, 0.0, 60.0, 20.0))], tools)
         occ.synchronize()
-        boxes = {"notch": (26.0, 34.0, 16.0, 20.0), "hole": (8.0, 12.0, 8.0, 12.0)}
+        boxes = {notch: (26.0, 34.0, 16.0, 20.0), "hole": (8.0, 12.0, 8.0, 12.0)}
         for name, (x0, x1, y0, y1) in boxes.items():
             arcs = []
             for _, tag in gmsh.model.getEntities(1):
@@ -304,6 +304,18 @@ def test_a_named_group_of_edges_takes_a_boundary_condition(tmp_path: Path) -> No
         assert result.reactions["bearing"][0, 1] == pytest.approx(-3.0 * length, rel=1e-12)
         assert result.reactions["clamp"][0, 1] == pytest.approx(3.0 * length, rel=1e-7)
     assert latin.qoi["v"] == pytest.approx(reference.qoi["v"], rel=1e-7)
+
+
+def test_a_group_named_as_a_side_is_refused(tmp_path: Path) -> None:
+    """A group named "top" (the notch's arc) was shadowed by the extent's top side: face =
+    "plate.top" loaded the straight top edges beside the notch instead, silently (session
+    44)."""
+    _gmsh_notched(tmp_path / "plate.msh", notch="top")
+    (tmp_path / "a.toml").write_text(NOTCH.replace("plate.notch", "plate.top"))
+    with pytest.raises(ml.ModelError, match=r"group 'top' has the name of a side of the "
+                       r"part's extent \(bottom, right, top, left\), which face = "
+                       r"\"<part>\.top\" reads; rename the group"):
+        ml.ModelSpec.from_toml(tmp_path / "a.toml")
 
 
 def test_named_groups_errors_name_the_groups(tmp_path: Path) -> None:

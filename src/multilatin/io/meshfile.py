@@ -13,7 +13,7 @@ import numpy as np
 
 from ..errors import ModelError
 from ..fem.elasticity import FloatArray, IntArray
-from ..fem.mesh import boundary_edges
+from ..fem.mesh import SIDES, boundary_edges
 
 #: 2-D cell types meshio may return that the Q4 elements cannot use yet (issue 18)
 _UNSUPPORTED = ("triangle6", "triangle7", "quad8", "quad9", "polygon")
@@ -116,6 +116,10 @@ def _line_groups(mesh: Any, renumber: IntArray, cells: IntArray, path: str | Pat
         chosen = chosen[on_part[chosen]]
         if chosen.size == 0:
             continue  # a group of another part's edges
+        if name in SIDES:  # "part.top" would silently read the extent's side instead
+            raise ModelError(f"{where}: mesh file {str(path)!r}: group {name!r} has the name "
+                             f"of a side of the part's extent ({', '.join(SIDES)}), which "
+                             f"face = \"<part>.{name}\" reads; rename the group")
         edges = renumber[all_lines[chosen]]
         inside = [k for k, edge in enumerate(np.sort(edges, axis=1).tolist())
                   if min(edge) < 0 or tuple(edge) not in boundary]
