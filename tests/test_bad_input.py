@@ -229,3 +229,14 @@ def test_two_conditions_prescribing_one_node_differently_are_refused():
     with pytest.raises(ml.ModelError, match=r"\(0 and 0.5 at step 1\) \(parameters P = 1\); a "
                        r"node cannot take both"):
         spec.build({"P": 1.0})
+
+
+@pytest.mark.parametrize("name", ["a.b", "a[0,0]", "", 3])
+def test_part_names_that_faces_cannot_name_are_refused(name):
+    """A body named "a.b" gave a confusing error about named groups of mesh files, and ""
+    was accepted (session 44)."""
+    def renamed(d):
+        d["substructures"][1]["name"] = name
+    with pytest.raises(ml.ModelError, match=r"substructures\[1\]\.name: expected a name "
+                       r"without '\.', '\[' or '\]'"):
+        spec_with(renamed)()

@@ -120,7 +120,7 @@ class BodySections(SectionReader):
         for b, table in enumerate(self.data.get("bodies", [])):
             where = f"bodies[{b}]"
             check_keys(table, common | {"split", "mesh"}, where)
-            name = str(require(table, "name", where))
+            name = _part_name(require(table, "name", where), where)
             where = f"bodies[{b}] ({name!r})"
             if name in bodies:
                 raise ModelError(f"{where}.name: body {name!r} is defined twice")
@@ -156,7 +156,7 @@ class BodySections(SectionReader):
         for s, table in enumerate(self.data.get("substructures", [])):
             where = f"substructures[{s}]"
             check_keys(table, common | {"body", "mesh_file", "mesh_part"}, where)
-            name = str(require(table, "name", where))
+            name = _part_name(require(table, "name", where), where)
             where = f"substructures[{s}] ({name!r})"
             if "mesh_part" in table and "mesh_file" not in table:
                 raise ModelError(f"{where}.mesh_part: applies with mesh_file only")
@@ -283,3 +283,13 @@ def _cells_overlap(a: RectMesh | UnstructuredMesh, b: RectMesh | UnstructuredMes
     cross = edge[..., 0] * to_point[..., 1] - edge[..., 1] * to_point[..., 0]
     size = float(np.abs(edge).max())
     return bool(np.any(np.all(cross > 1e-9 * size * size, axis=1)))
+
+
+def _part_name(value: object, where: str) -> str:
+    """A body's or substructure's name: text, not empty, without "." (faces are named
+    "body.side") nor "[" / "]" (a split body's substructures are named "body[i,j]")."""
+    name = str(value)
+    if not isinstance(value, str) or not name.strip() or any(c in name for c in ".[]"):
+        raise ModelError(f"{where}.name: expected a name without '.', '[' or ']' (faces are "
+                         f"'body.side', a split body's parts 'body[i,j]'), got {value!r}")
+    return name
