@@ -13,6 +13,7 @@ import numpy as np
 import pytest
 
 import multilatin as ml
+from multilatin.cli import main
 from multilatin.latin import LatinOptions
 
 TWO_BODIES = '''
@@ -256,3 +257,15 @@ def test_parameter_names_the_study_outputs_use_are_refused(name: str) -> None:
     with pytest.raises(ml.ModelError, match=rf"parameters\.{name}: '{name}' is a name the "
                        r"study's outputs use"):
         ml.ModelSpec.from_string(f"[parameters.{name}]\ndefault = 1.0\n" + text, name="two")
+
+
+def test_a_qoi_name_that_is_no_file_name_gets_its_figure(tmp_path) -> None:
+    """A study of a QoI named "R/push" crashed after its last case, writing
+    response_R/push.png (session 44): its figure is response_R_push.png."""
+    text = (resources.files("multilatin") / "models" / "slide.toml").read_text()
+    model = tmp_path / "slide.toml"
+    model.write_text(text.replace('name = "R_push"', 'name = "R/push"'))
+    out = tmp_path / "study"
+    assert main(["study", str(model), "--grid", "mu=0.2,0.3", "--out", str(out),
+                 "--no-progress"]) == 0
+    assert (out / "response_R_push.png").is_file()

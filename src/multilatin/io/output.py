@@ -21,7 +21,8 @@ from .plots import plot_deformed, plot_histories, status_indices
 log = logging.getLogger(__name__)
 
 
-def _safe(name: str) -> str:
+def safe_file_name(name: str) -> str:
+    """``name`` as part of a file name: letters, digits, "-" and "_" kept, others "_"."""
     return "".join(c if c.isalnum() or c in "-_" else "_" for c in name)
 
 
@@ -129,7 +130,7 @@ def write_vtk(result: SolveResult, folder: Path) -> Path:
     folder.mkdir(parents=True, exist_ok=True)
     points, blocks, displacement, cell_data = _solid(result)
     contact = _contact(result)
-    name = _safe(result.assembly.name)
+    name = safe_file_name(result.assembly.name)
     datasets = []
     sizes = [cells.shape[0] for _, cells in blocks]
     splits = np.cumsum(sizes)[:-1]

@@ -16,6 +16,7 @@ import matplotlib.pyplot as plt  # noqa: E402
 import numpy as np  # noqa: E402
 import xarray as xr  # noqa: E402
 
+from ..io.output import safe_file_name  # noqa: E402
 from ..latin.tracking import SETTLED  # noqa: E402
 from ..parameters import label  # noqa: E402
 from .runner import StudyResult  # noqa: E402
@@ -244,7 +245,7 @@ def plot_response(dataset: xr.Dataset, folder: Path, mode: str) -> list[Path]:
         values = data[name].where(data["converged"])
         if "step" in values.dims:
             values = values.isel(step=-1)
-        path = folder / f"response_{name}.png"
+        path = folder / f"response_{safe_file_name(name)}.png"  # "R/x": response_R_x.png
         if len(varied) == 0 or not np.isfinite(values.values).any():
             continue
         if len(varied) == 1:
