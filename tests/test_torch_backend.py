@@ -404,7 +404,7 @@ def test_geometry_waves_on_dask_chains_each_start_once_from_zero(tmp_path: Path)
     pytest.importorskip("dask.distributed")
     model = ml.load_model("b3")
     grid = ml.Grid({"mu1": [0.1, 0.4], "mu2": [0.1, 0.4], "xc": [24.0, 25.0, 26.0],
-                    "yc": [74.0, 75.0, 76.0], "rc": [3.0]})
+                    "yc": [74.0, 76.0], "rc": [3.0]})
     options = LatinOptions(qoi_rtol=1e-3, backend="torch", device=DEVICE)
     serial = ml.run_study(model, grid, options=options, out=tmp_path / "serial",
                           progress=False)
