@@ -269,3 +269,13 @@ def test_a_qoi_name_that_is_no_file_name_gets_its_figure(tmp_path) -> None:
     assert main(["study", str(model), "--grid", "mu=0.2,0.3", "--out", str(out),
                  "--no-progress"]) == 0
     assert (out / "response_R_push.png").is_file()
+
+
+def test_show_says_which_part_a_point_is_read_in(capsys) -> None:
+    assert main(["show", "slide"]) == 0
+    shown = capsys.readouterr().out
+    assert "u_right [mm]: x displacement at (20, 10) of block, per load step" in shown
+    assert "R_push [N]: x resultant of boundary 'push' on the structure" in shown
+    assert main(["show", "b1"]) == 0
+    assert ("p_B [MPa]: mean contact pressure between bottom and centre over [41.6667, 50]"
+            in capsys.readouterr().out)
