@@ -300,8 +300,7 @@ def solve_monolithic(assembly: Assembly) -> SolveResult:
         for sub, gmap in zip(assembly.substructures, maps, strict=True)
     }
     qoi = evaluate_qois(assembly, displacements, reactions, pressures)
-    motions = (reference_free_motions(assembly, displacements, contacts, multipliers)
-               if contacts.size else ())
+    motions = reference_free_motions(assembly, displacements, contacts, multipliers)
     wall = time.perf_counter() - t0
     return SolveResult(
         method="monolithic",

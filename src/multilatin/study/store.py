@@ -45,6 +45,7 @@ import xarray as xr
 
 from ..errors import ModelError
 from ..io.files import ensure_writable_folder
+from ..io.modelfile.checks import CASE_FLAGS, CASE_NUMBERS, CASE_TEXTS
 from ..parameters import Grid
 from .chain_state import ChainState
 
@@ -336,10 +337,10 @@ def to_dataset(grid: Grid, records: Iterable[dict[str, Any]], attrs: dict[str, A
     names = list(grid)
     shape = (len(modes), *grid.shape)
     dims = ("mode", *names)
-    scalars = {name: np.full(shape, np.nan) for name in
-               ("iterations", "indicator", "wall_s", "setup_s")}
-    flags = {name: np.zeros(shape, dtype=bool) for name in ("finished", "converged", "unique")}
-    texts = {name: np.full(shape, "", dtype=object) for name in ("log", "start")}
+    # the names the model reader keeps from parameters and QoIs (``RESERVED_NAMES``)
+    scalars = {name: np.full(shape, np.nan) for name in CASE_NUMBERS}
+    flags = {name: np.zeros(shape, dtype=bool) for name in CASE_FLAGS}
+    texts = {name: np.full(shape, "", dtype=object) for name in CASE_TEXTS}
     qoi_values: dict[str, np.ndarray] = {}
     for record in records:
         at = (modes.index(record["mode"]), *record["index"])

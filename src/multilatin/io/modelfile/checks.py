@@ -15,10 +15,13 @@ from ..expressions import evaluate
 TOP_LEVEL = {"title", "description", "analysis", "parameters", "materials", "bodies",
              "substructures", "interfaces", "boundary", "history", "qoi", "holes"}
 OPPOSITE = {"left": "right", "right": "left", "bottom": "top", "top": "bottom"}
+#: study.nc's variables per case (``study.store.to_dataset``): numbers, flags and texts
+CASE_NUMBERS = ("iterations", "indicator", "wall_s", "setup_s")
+CASE_FLAGS = ("finished", "converged", "unique")
+CASE_TEXTS = ("log", "start")
 #: names the study's outputs give their own variables and coordinates (study.nc, table.csv):
 #: no parameter or quantity of interest may take them
-RESERVED_NAMES = ("mode", "step", "iterations", "indicator", "wall_s", "setup_s", "finished",
-                  "converged", "unique", "log", "start")
+RESERVED_NAMES = ("mode", "step", *CASE_NUMBERS, *CASE_FLAGS, *CASE_TEXTS)
 
 
 def require(table: Mapping[str, Any], key: str, where: str) -> Any:
