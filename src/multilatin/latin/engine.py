@@ -23,7 +23,7 @@ import numpy.typing as npt
 from ..fem.elasticity import FloatArray, IntArray
 from . import kernels
 from .acceleration import Anderson
-from .guards import FORCE_MARGIN
+from .guards import FORCE_FLOOR, FORCE_MARGIN
 from .indicator_kernel import weighted_squares
 from .local_stage import LocalStage
 from .operators import Geometries, LatinOperators
@@ -220,10 +220,11 @@ class NumpyFields:
             return
         # and its forces' own share below ``FORCE_MARGIN`` × the bound × ½(‖F‖ + ‖F̂‖):
         # a large displacement of the assembly fills ‖s‖ and would settle steps whose
-        # forces are unbalanced (``guards.FORCE_MARGIN``)
+        # forces are unbalanced (``guards.FORCE_MARGIN``); forces under ``FORCE_FLOOR`` × the
+        # size are zero to the solver's precision
+        force_size = np.maximum(self.force_size, FORCE_FLOOR * size)
         calm = ((self.step_gaps < (bound * size)[:, None] ** 2)
-                & (self.step_force_gaps
-                   < (FORCE_MARGIN * bound * self.force_size)[:, None] ** 2))
+                & (self.step_force_gaps < (FORCE_MARGIN * bound * force_size)[:, None] ** 2))
         self.calm = np.where(calm, self.calm + 1, 0)
         n_steps = int(self.step_gaps.shape[1])
         leading = np.cumprod(self.calm >= SETTLE_ITERATIONS, axis=1).sum(axis=1)

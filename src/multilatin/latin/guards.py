@@ -15,8 +15,8 @@ from ..fem.elasticity import FloatArray, IntArray
 from .indicator_kernel import weighted_squares
 from .options import LatinOptions
 
-__all__ = ["BLOWUP", "DRIFT_WINDOW", "FORCE_MARGIN", "blows_up", "damp_stagnating", "drifts",
-           "force_indicator", "forces_unsettled"]
+__all__ = ["BLOWUP", "DRIFT_WINDOW", "FORCE_FLOOR", "FORCE_MARGIN", "blows_up",
+           "damp_stagnating", "drifts", "force_indicator", "forces_unsettled"]
 
 log = logging.getLogger(__name__)
 
@@ -42,16 +42,26 @@ BLOWUP = 1e3
 #: B0 (51, its size being its deflection); under the QoI rule η_F ≤ 2.6e-4 (session 41,
 #: docs/correctness.md)
 FORCE_MARGIN = 100.0
+#: η_F's size ½(‖F‖ + ‖F̂‖) is at least this share of the state's ½(‖s‖ + ‖ŝ‖): forces
+#: below it are zero to the solver's precision. Where the answer has no interface force at
+#: all (a block moved rigidly by a prescribed displacement, its contact never closing) the
+#: relative η_F read rounding (0.2 with forces of 3e-15 against a state of 4.9) and the case
+#: ran to ``max_iter`` as "not converged" (session 45). The moved block above has forces
+#: of 2.2e-6 of its state: the floor leaves its guard as it was.
+FORCE_FLOOR = 1e-8
 
 
-def force_indicator(force_weight: FloatArray, force: FloatArray, force_hat: FloatArray
-                    ) -> FloatArray:
+def force_indicator(force_weight: FloatArray, force: FloatArray, force_hat: FloatArray,
+                    floor: FloatArray | None = None) -> FloatArray:
     """η_F per case (first axis) of fields ``(n_cases, n_steps, n_points, 2)``: ‖F − F̂‖ /
     ½(‖F‖ + ‖F̂‖), ‖F‖² = Σ_t Σ_points ∫ k⁻¹ F·F dΓ (``force_weight``: ∫ k⁻¹ per flattened
-    point and component); 0 where both are zero."""
+    point and component); 0 where both are zero. ``floor``: per case, the least size
+    (``FORCE_FLOOR`` × the state's size)."""
     gap = np.sqrt(weighted_squares(force_weight, force - force_hat))
     size = 0.5 * (np.sqrt(weighted_squares(force_weight, force))
                   + np.sqrt(weighted_squares(force_weight, force_hat)))
+    if floor is not None:
+        size = np.maximum(size, floor)
     out = np.zeros(force.shape[0])
     np.divide(gap, size, out=out, where=size > 0.0)
     out[(size == 0.0) & (gap > 0.0)] = np.inf
@@ -72,8 +82,10 @@ def forces_unsettled(state: Any, cases: IntArray, fields: Sequence[FloatArray],
     unsettled = np.zeros(cases.size, dtype=bool)
     eta_force = np.zeros(cases.size)
     if checked.any():
+        state_size = np.array([state.sizes[c][-1] if state.sizes[c] else 0.0
+                               for c in cases[checked]])
         eta_force[checked] = force_indicator(force_weight, fields[1][checked],
-                                             fields[3][checked])
+                                             fields[3][checked], FORCE_FLOOR * state_size)
         # η's own bound: ``tol``, or ``eta_under`` × tol where η that far under it stopped
         # the case before its QoIs' estimates settled (``iteration.ETA_STOP_UNDER``)
         on_eta = options.tol * np.where(eta < eta_under * options.tol, eta_under, 1.0)
