@@ -7,6 +7,8 @@ one.
     python benchmarks/force_guard.py                 # both tables, this checkout
     PYTHONPATH=/tmp/old/src python benchmarks/force_guard.py --moved   # another commit's
     python benchmarks/force_guard.py --references new.json [--against old.json]
+    python benchmarks/force_guard.py --lifted        # session 45: answers with no force
+    python benchmarks/force_guard.py --solves new.json [--against old.json]
 
 Bundled models at their defaults, b1, b1-9 and b3 at ``convergence.py``'s four friction
 pairs, each under η < tol and under the studies' QoI rule (``qoi_rtol`` = 1e-3): the largest
@@ -16,7 +18,12 @@ iterations, and R_base's and u_right − 100's relative differences from the unm
 reference. ``--references``: the bundled models' monolithic references (B1's four pairs,
 b1-9, slide at two stiffness ratios, punch, b2, b0, lug, roller) written to a JSON file, and
 with ``--against`` (the same written by another commit) each one's largest relative QoI
-difference.
+difference. ``--lifted`` (session 45, ``guards.FORCE_FLOOR``): the lifted block of
+``tests/test_large_displacement.py`` (moved 4 µm toward a base ``gap`` below it) at gaps
+0.001–0.01 mm and ``slide`` at p = 0, each rule: outcome, iterations, the largest reaction
+and its difference from the reference. ``--solves``: LATIN's iterations, η and QoIs on
+the bundled models (B1's and B3's four pairs), each rule, written to a JSON file, and with
+``--against`` the entries that differ.
 """
 
 from __future__ import annotations
@@ -109,13 +116,59 @@ def references(path: str, against: str | None) -> None:
         print(f"{key}: largest relative QoI difference {worst:.1e}")
 
 
+def lifted() -> None:
+    import sys
+    sys.path.insert(0, str(Path(__file__).parents[1] / "tests"))
+    from test_large_displacement import LIFTED
+    cases = [(ml.Model(ml.ModelSpec.from_string(LIFTED, name="lifted")), "R_top", {"gap": g})
+             for g in (0.001, 0.003, 0.004, 0.005, 0.01)]
+    cases.append((ml.load_model("slide"), "R_push", {"p": 0.0}))
+    print("| model | parameters | rule | outcome, iterations | largest reaction | "
+          "difference from the reference |")
+    print("|---|---|---|---|---|---|")
+    for model, qoi, params in cases:
+        reference = np.asarray(model.reference(params).qoi[qoi])
+        for rule, rtol in (("η < tol", None), ("QoI rule", 1e-3)):
+            result = model.solve(params, options=LatinOptions(qoi_rtol=rtol), check=False)
+            value = np.asarray(result.qoi[qoi])
+            outcome = "converged" if result.converged else "not converged"
+            print(f"| {model.name} | {params} | {rule} | {outcome}, {result.iterations} | "
+                  f"{np.abs(value).max():.3g} | {np.abs(value - reference).max():.2g} |")
+
+
+def solves(path: str, against: str | None) -> None:
+    found = {}
+    for name in MODELS:
+        model = ml.load_model(name)
+        for params in (PAIRS if name in ("b1", "b1-9", "b3") else [{}]):
+            for rtol in (None, 1e-3):
+                result = model.solve(params, options=LatinOptions(qoi_rtol=rtol), check=False)
+                found[f"{name} {json.dumps(params)} {rtol}"] = [
+                    result.iterations, result.indicator,
+                    {q: np.asarray(v).tolist() for q, v in result.qoi.items()}]
+    Path(path).write_text(json.dumps(found), encoding="utf-8")
+    if against is not None:
+        other = json.loads(Path(against).read_text(encoding="utf-8"))
+        differ = [key for key in found if other.get(key) != found[key]]
+        print(f"{len(found)} solves, {len(differ)} differ: {differ}")
+
+
 def main() -> None:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument("--moved", action="store_true", help="the moved block alone")
     parser.add_argument("--references", help="write the references' QoIs to this JSON file")
-    parser.add_argument("--against", help="with --references: compare with this one")
+    parser.add_argument("--against", help="with --references or --solves: compare with "
+                                          "this one")
+    parser.add_argument("--lifted", action="store_true", help="answers with no force")
+    parser.add_argument("--solves", help="write LATIN's solves of the bundled models here")
     args = parser.parse_args()
     warnings.filterwarnings("ignore")
+    if args.lifted:
+        lifted()
+        return
+    if args.solves:
+        solves(args.solves, args.against)
+        return
     if args.references:
         references(args.references, args.against)
         return
