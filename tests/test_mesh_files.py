@@ -306,6 +306,17 @@ def test_a_named_group_of_edges_takes_a_boundary_condition(tmp_path: Path) -> No
     assert latin.qoi["v"] == pytest.approx(reference.qoi["v"], rel=1e-7)
 
 
+def test_a_named_group_takes_no_segment(tmp_path: Path) -> None:
+    """``segment`` (a range along a straight side, session 45) has no meaning on a curved
+    group: refused, naming the field."""
+    _gmsh_notched(tmp_path / "plate.msh")
+    text = NOTCH.replace('face = "plate.notch"', 'face = "plate.notch"\nsegment = [26, 30]')
+    assert text != NOTCH
+    (tmp_path / "notch.toml").write_text(text)
+    with pytest.raises(ml.ModelError, match=r"\.segment: a segment applies to a side"):
+        ml.ModelSpec.from_toml(tmp_path / "notch.toml")
+
+
 def test_a_group_named_as_a_side_is_refused(tmp_path: Path) -> None:
     """A group named "top" (the notch's arc) was shadowed by the extent's top side: face =
     "plate.top" loaded the straight top edges beside the notch instead, silently (session

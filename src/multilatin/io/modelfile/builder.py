@@ -29,7 +29,10 @@ class Builder(BodySections, InterfaceSections, LoadingSections, QoiSections):
     def assembly(self, name: str) -> Assembly:
         subs, bodies = self.substructures()
         interfaces = self.interfaces(subs)
-        used = {(ref.substructure, ref.side) for itf in interfaces for ref in itf.sides}
+        used: dict[tuple[int, str], list[tuple[float, float] | None]] = {}
+        for itf in interfaces:  # the sides (or their segments) the interfaces take
+            for ref in itf.sides:
+                used.setdefault((ref.substructure, ref.side), []).append(ref.segment)
         history = self.history()
         boundaries = self.boundaries(subs, bodies, history, used)
         _check_held(subs, interfaces, boundaries)

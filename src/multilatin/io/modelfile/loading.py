@@ -52,14 +52,14 @@ class LoadingSections(SectionReader):
         subs: list[Substructure],
         bodies: dict[str, tuple[float, ...]],
         history: History,
-        used: set[tuple[int, str]],
+        used: dict[tuple[int, str], list[tuple[float, float] | None]],
     ) -> list[Interface]:
         out: list[Interface] = []
         names: set[str] = set()
         for b, table in enumerate(self.data.get("boundary", [])):
             where = f"boundary[{b}]"
             check_keys(table, {"name", "face", "substructure", "side", "type", "value",
-                                "components", "factor", "friction", "gap"}, where)
+                                "components", "factor", "friction", "gap", "segment"}, where)
             name = str(table.get("name", f"boundary{b}"))
             where = f"boundary[{b}] ({name!r})"
             if name in names:
@@ -67,6 +67,8 @@ class LoadingSections(SectionReader):
             names.add(name)
             kind = require(table, "type", where)
             refs = self._select_sides(table, where, subs, bodies, set(self.split))
+            if "segment" in table:
+                refs = self._segment(table, where, subs, refs)
             if kind in (STOP, "wall") and any(ref.side not in SIDES for ref in refs):
                 raise ModelError(f"{where}.type: a named group of edges takes displacement, "
                                  f"force or mixed conditions, not {kind!r}")
@@ -118,14 +120,46 @@ class LoadingSections(SectionReader):
                 raise ModelError(f"{where}.face: no substructure side lies on {table['face']!r}")
             for ref in refs:
                 key = (ref.substructure, ref.side)
-                if key in used:
-                    raise ModelError(
-                        f"{where}: side {ref.side!r} of {subs[ref.substructure].name!r} already "
-                        "belongs to an interface or another boundary condition"
-                    )
-                used.add(key)
+                _check_free(subs[ref.substructure], ref, used.get(key, []), where)
+                used.setdefault(key, []).append(ref.segment)
                 out.append(Interface(f"{name}@{subs[ref.substructure].name}", "boundary",
                                      (ref,), condition, law))
+        return out
+
+    def _segment(self, table: Mapping[str, Any], where: str, subs: list[Substructure],
+                 refs: list[SideRef]) -> list[SideRef]:
+        """The parts of the face's sides that ``segment`` = [start, end] spans (a range of
+        the coordinate along the face); its ends must be nodes of the meshes."""
+        if any(ref.side not in SIDES for ref in refs):
+            raise ModelError(f"{where}.segment: a segment applies to a side (bottom, right, "
+                             "top, left), not to a named group of edges")
+        start, end = (self.num(v, f"{where}.segment")
+                      for v in pair(table["segment"], f"{where}.segment"))
+        if not start < end:
+            raise ModelError(f"{where}.segment: expected [start, end] with start < end, got "
+                             f"[{start:g}, {end:g}]")
+        lines = [subs[ref.substructure].mesh.side_line(ref.side) for ref in refs]
+        low, high = min(line[2] for line in lines), max(line[3] for line in lines)
+        tolerance = 1e-9 * (high - low)
+        if start < low - tolerance or end > high + tolerance:
+            raise ModelError(f"{where}.segment: [{start:g}, {end:g}] reaches past the face, "
+                             f"which spans [{low:g}, {high:g}]")
+        out = []
+        for ref, (axis, _, lo, hi) in zip(refs, lines, strict=True):
+            a, b = max(lo, start), min(hi, end)
+            if b - a <= tolerance:
+                continue
+            mesh = subs[ref.substructure].mesh
+            along = mesh.nodes[mesh.side_nodes(ref.side), 1 - axis]
+            for value in (a, b):
+                if np.abs(along - value).min() > tolerance:
+                    below, above = along[along < value].max(), along[along > value].min()
+                    raise ModelError(
+                        f"{where}.segment: {value:g} is not a node of side {ref.side!r} of "
+                        f"{subs[ref.substructure].name!r} (its nearest nodes are at "
+                        f"{below:g} and {above:g}); a segment starts and ends on nodes")
+            whole = a - lo <= tolerance and hi - b <= tolerance
+            out.append(SideRef(ref.substructure, ref.side, None if whole else (a, b)))
         return out
 
     @staticmethod
@@ -164,6 +198,36 @@ class LoadingSections(SectionReader):
                 "the reference on the same meshes (mesh = 'same')")
         raise ModelError(f"{where}.substructure: no substructure named {sub_name!r}")
 
+
+
+def _check_free(sub: Substructure, ref: SideRef, taken: list[tuple[float, float] | None],
+                where: str) -> None:
+    """A boundary condition's side (or segment) must not overlap what interfaces or other
+    conditions took of it; the error names the parts that are still free."""
+    if not taken:
+        return
+    if ref.side not in SIDES:
+        raise ModelError(f"{where}: group {ref.side!r} of {sub.name!r} already belongs to an "
+                         "interface or another boundary condition")
+    _, _, lo, hi = sub.mesh.side_line(ref.side)
+    tolerance = 1e-9 * (hi - lo)
+    start, end = ref.segment or (lo, hi)
+    spans = sorted(segment or (lo, hi) for segment in taken)
+    if all(min(end, b) - max(start, a) <= tolerance for a, b in spans):
+        return
+    free, at = [], lo
+    for a, b in spans:
+        if a - at > tolerance:
+            free.append(f"[{at:g}, {a:g}]")
+        at = max(at, b)
+    if hi - at > tolerance:
+        free.append(f"[{at:g}, {hi:g}]")
+    taken_text = ", ".join(f"[{a:g}, {b:g}]" for a, b in spans)
+    what = ("choose a segment within one" if ref.segment is not None else
+            "give segment = [start, end] to load one")
+    hint = f"; its free parts are {' and '.join(free)}: {what}" if free else ""
+    raise ModelError(f"{where}: side {ref.side!r} of {sub.name!r} already belongs to an "
+                     f"interface or another boundary condition over {taken_text}{hint}")
 
 
 def _named_groups(subs: list[Substructure], group: str, where: str,
