@@ -183,3 +183,20 @@ def test_segments_that_cannot_be_are_refused(change: tuple[str, str], message: s
     assert text != BESIDE
     with pytest.raises(ml.ModelError, match=message):
         ml.ModelSpec.from_string(text, name="bad")
+
+
+def test_show_says_where_each_condition_acts(tmp_path, capsys) -> None:
+    """``multilatin show`` lists the boundary conditions with the sides, and the parts of
+    sides, they act on."""
+    from multilatin.cli import main
+
+    path = tmp_path / "patch.toml"
+    path.write_text(PATCH)
+    assert main(["show", str(path)]) == 0
+    out = capsys.readouterr().out
+    assert "clamp: displacement (0, 0) on plate[0,0].bottom, plate[1,0].bottom" in out
+    assert "patch: traction (2, -8) on plate[0,0].top [10, 20], plate[1,0].top [20, 25]" in out
+    assert main(["show", "b1"]) == 0
+    out = capsys.readouterr().out
+    assert "stop: rigid stop, gap 0.04, friction 0 on centre.right" in out
+    assert "push: traction (1, 0) × factor 'P2' on centre.left" in out

@@ -20,10 +20,9 @@ from pathlib import Path
 import numpy as np
 
 from . import __version__
-from .decomposition.assembly import Assembly, QuantityOfInterest
-from .decomposition.qoi import point_substructure
 from .decomposition.result import SolveResult
 from .errors import ModelError, NotConvergedError
+from .io.describe import boundary_lines, qoi_reads
 from .io.files import ensure_writable_folder
 from .latin import LatinOptions
 from .latin.options import ACCELERATIONS, BACKENDS, STUDY_QOI_RTOL
@@ -304,28 +303,12 @@ def _show(model: Model) -> None:
         if sub.cut is not None:
             print(f"hole in {sub.name}: {sub.hole!r} ({sub.cut.cut.size} cut cells, "
                   f"{sub.cut.void.size} void cells, {sub.cut.inactive_nodes.size} nodes removed)")
+    print("boundary conditions:")
+    for line in boundary_lines(assembly):
+        print(f"  {line}")
     print("quantities of interest:")
     for q in assembly.qois:
-        print(f"  {label(q.name, q.unit)}: {_qoi_reads(assembly, q)}")
-
-
-def _qoi_reads(assembly: Assembly, q: QuantityOfInterest) -> str:
-    """What a QoI reads, in words: the part a point is read in (``point_substructure``),
-    the boundary, or the contact and its segment; its scale and step."""
-    if q.kind == "displacement":
-        assert q.point is not None
-        sub = assembly.substructures[point_substructure(assembly.substructures, q)]
-        what = (f"{'xy'[q.component]} displacement at ({q.point[0]:g}, {q.point[1]:g}) of "
-                f"{sub.name}" + (f" (body {sub.body})" if sub.body != sub.name else ""))
-    elif q.kind == "reaction":
-        what = f"{'xy'[q.component]} resultant of boundary {q.boundary!r} on the structure"
-    else:
-        assert q.bodies is not None and q.segment is not None
-        what = (f"mean contact pressure between {q.bodies[0]} and {q.bodies[1]} over "
-                f"[{q.segment[0]:g}, {q.segment[1]:g}]")
-    return (what + (f", times {q.scale:g}" if q.scale != 1.0 else "")
-            + (f", at step {q.step}" if q.step is not None else ", per load step"
-               if assembly.n_steps > 1 else ""))
+        print(f"  {label(q.name, q.unit)}: {qoi_reads(assembly, q)}")
 
 
 def _latin_options(args: argparse.Namespace, kappa: float | None = None) -> LatinOptions:

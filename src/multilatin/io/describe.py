@@ -1,0 +1,69 @@
+"""What a model defines, in words, for ``multilatin show``: its boundary conditions (the
+sides, or parts of sides, they act on) and what each quantity of interest reads."""
+
+from __future__ import annotations
+
+from ..decomposition.assembly import DISPLACEMENT, Assembly, Interface, QuantityOfInterest
+from ..decomposition.qoi import point_substructure
+
+__all__ = ["boundary_lines", "qoi_reads"]
+
+
+def _where(assembly: Assembly, interfaces: list[Interface]) -> str:
+    """The sides a condition acts on: ``sub.side``, with the segment where it is part of
+    one (``[a, b]`` along the side)."""
+    parts = []
+    for itf in interfaces:
+        for ref in itf.sides:
+            part = f"{assembly.substructures[ref.substructure].name}.{ref.side}"
+            if ref.segment is not None:
+                part += f" [{ref.segment[0]:g}, {ref.segment[1]:g}]"
+            parts.append(part)
+    return ", ".join(parts)
+
+
+def boundary_lines(assembly: Assembly) -> list[str]:
+    """One line per boundary condition: its kind and values (per component), the load
+    factor that multiplies them, and where it acts."""
+    by_name: dict[str, list[Interface]] = {}
+    for itf in assembly.interfaces:
+        if itf.condition is not None:
+            by_name.setdefault(itf.condition.name, []).append(itf)
+    lines = []
+    for name, interfaces in by_name.items():
+        condition, law = interfaces[0].condition, interfaces[0].contact
+        assert condition is not None
+        if law is not None:
+            what = f"rigid stop, gap {law.gap:g}, friction {law.friction:g}"
+        elif condition.pressure:
+            what = f"pressure {condition.value[0]:g}"
+        elif condition.kinds[0] == condition.kinds[1]:
+            noun = "displacement" if condition.kinds[0] == DISPLACEMENT else "traction"
+            what = f"{noun} ({condition.value[0]:g}, {condition.value[1]:g})"
+        else:
+            what = ", ".join(
+                f"{axis} {'displacement' if kind == DISPLACEMENT else 'traction'} {value:g}"
+                for axis, kind, value in zip("xy", condition.kinds, condition.value,
+                                             strict=True))
+        factor = f" × factor {condition.factor!r}" if condition.factor else ""
+        lines.append(f"{name}: {what}{factor} on {_where(assembly, interfaces)}")
+    return lines
+
+
+def qoi_reads(assembly: Assembly, q: QuantityOfInterest) -> str:
+    """What a QoI reads, in words: the part a point is read in (``point_substructure``),
+    the boundary, or the contact and its segment; its scale and step."""
+    if q.kind == "displacement":
+        assert q.point is not None
+        sub = assembly.substructures[point_substructure(assembly.substructures, q)]
+        what = (f"{'xy'[q.component]} displacement at ({q.point[0]:g}, {q.point[1]:g}) of "
+                f"{sub.name}" + (f" (body {sub.body})" if sub.body != sub.name else ""))
+    elif q.kind == "reaction":
+        what = f"{'xy'[q.component]} resultant of boundary {q.boundary!r} on the structure"
+    else:
+        assert q.bodies is not None and q.segment is not None
+        what = (f"mean contact pressure between {q.bodies[0]} and {q.bodies[1]} over "
+                f"[{q.segment[0]:g}, {q.segment[1]:g}]")
+    return (what + (f", times {q.scale:g}" if q.scale != 1.0 else "")
+            + (f", at step {q.step}" if q.step is not None else ", per load step"
+               if assembly.n_steps > 1 else ""))
