@@ -5,6 +5,7 @@ resultants; overlaps, ends between nodes and segments past the face are refused.
 
 from __future__ import annotations
 
+import numpy as np
 import pytest
 
 import multilatin as ml
@@ -115,11 +116,87 @@ between = ["base", "block"]
 segment = [10, 30]
 """
 
+#: a stop, a pressure, a smooth wall, a held part and a push, each on part of a face
+KINDS = """
+[materials.steel]
+E = 2e5
+nu = 0.3
+[[bodies]]
+name = "block"
+x = [0.0, 20.0]
+y = [0.0, 10.0]
+elements = [8, 4]
+split = [2, 1]
+material = "steel"
+[history.factors]
+f = [0.5, 1.0, 1.0]
+g = [0.0, 0.0, 1.0]
+[[boundary]]
+name = "stop"
+face = "block.bottom"
+segment = [5, 15]
+type = "stop"
+gap = 0.0005
+friction = 0.3
+[[boundary]]
+name = "left_hold"
+face = "block.left"
+segment = [0, 5]
+type = "mixed"
+components = ["displacement", "force"]
+value = [0.0, 0.0]
+[[boundary]]
+name = "press"
+face = "block.top"
+segment = [2.5, 17.5]
+type = "pressure"
+value = 20.0
+factor = "f"
+[[boundary]]
+name = "wall"
+face = "block.right"
+segment = [0, 7.5]
+type = "wall"
+[[boundary]]
+name = "push"
+face = "block.left"
+segment = [5, 10]
+type = "force"
+value = [5.0, 0.0]
+factor = "g"
+[[qoi]]
+name = "Rs_x"
+type = "reaction"
+boundary = "stop"
+component = "x"
+[[qoi]]
+name = "Rs_y"
+type = "reaction"
+boundary = "stop"
+component = "y"
+[[qoi]]
+name = "Rw_x"
+type = "reaction"
+boundary = "wall"
+component = "x"
+[[qoi]]
+name = "Rl_x"
+type = "reaction"
+boundary = "left_hold"
+component = "x"
+[[qoi]]
+name = "v"
+type = "displacement"
+point = [0.0, 10.0]
+component = "y"
+"""
+
 
 def _close(result: ml.SolveResult, reference: ml.SolveResult, rel: float) -> None:
+    scale = max(float(np.abs(v).max()) for v in reference.qoi.values())
     for name, value in reference.qoi.items():
-        scale = max(abs(v) for v in reference.qoi.values())
-        assert result.qoi[name] == pytest.approx(value, abs=rel * scale), name
+        assert np.asarray(result.qoi[name]) == pytest.approx(np.asarray(value),
+                                                             abs=rel * scale), name
 
 
 @pytest.mark.parametrize("start", [10.0, 5.0])
@@ -200,3 +277,18 @@ def test_show_says_where_each_condition_acts(tmp_path, capsys) -> None:
     out = capsys.readouterr().out
     assert "stop: rigid stop, gap 0.04, friction 0 on centre.right" in out
     assert "push: traction (1, 0) × factor 'P2' on centre.left" in out
+
+
+def test_every_kind_of_condition_on_part_of_a_face() -> None:
+    """A block on a frictional stop under 10 of its 20 mm, pressed by 20 MPa over 15 mm,
+    beside a smooth wall over part of its right face and held over part of its left,
+    then pushed over another part: the stop carries the pressure's 300 N, the x reactions
+    balance the push, LATIN = the reference at every step."""
+    model = ml.Model(ml.ModelSpec.from_string(KINDS, name="kinds"))
+    reference = model.reference()
+    assert reference.qoi["Rs_y"][-1] == pytest.approx(20.0 * 15.0, rel=1e-9)
+    balance = (reference.qoi["Rs_x"][-1] + reference.qoi["Rw_x"][-1]
+               + reference.qoi["Rl_x"][-1] + 5.0 * 5.0)
+    assert abs(balance) < 1e-6 * 300.0
+    result = model.solve(options=LatinOptions(tol=1e-10, max_iter=3000))
+    _close(result, reference, 1e-7)
