@@ -157,7 +157,7 @@ class LoadingSections(SectionReader):
                     raise ModelError(
                         f"{where}.segment: {value:g} is not a node of side {ref.side!r} of "
                         f"{subs[ref.substructure].name!r} (its nearest nodes are at "
-                        f"{below:g} and {above:g}); a segment starts and ends on nodes")
+                        f"{below:.12g} and {above:.12g}); a segment starts and ends on nodes")
             whole = a - lo <= tolerance and hi - b <= tolerance
             out.append(SideRef(ref.substructure, ref.side, None if whole else (a, b)))
         return out
