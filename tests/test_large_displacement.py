@@ -100,50 +100,7 @@ def test_the_force_indicator() -> None:
                            np.array([[[[0.0, 3.0]]]]))[0] == pytest.approx(1.0)
 
 
-LIFTED = """
-[parameters.gap]
-default = 0.01
-[materials.steel]
-E = 2e5
-nu = 0.3
-[[bodies]]
-name = "base"
-x = [0.0, 40.0]
-y = [0.0, 10.0]
-elements = [16, 4]
-split = [2, 1]
-material = "steel"
-[[bodies]]
-name = "block"
-x = [10.0, 30.0]
-y = [10.0, 20.0]
-elements = [8, 4]
-material = "steel"
-[[interfaces]]
-between = ["base", "block"]
-type = "contact"
-friction = 0.2
-gap = "gap"
-[[boundary]]
-name = "clamp"
-face = "base.bottom"
-type = "displacement"
-value = [0.0, 0.0]
-[[boundary]]
-name = "top"
-face = "block.top"
-type = "mixed"
-components = ["force", "displacement"]
-value = [0.0, -1.0]
-factor = "d"
-[history.factors]
-d = [0.001, 0.003, 0.004]
-[[qoi]]
-name = "R_top"
-type = "reaction"
-boundary = "top"
-component = "y"
-"""
+LIFTED = Path(__file__).parent / "data" / "lifted_block.toml"
 
 
 @pytest.mark.parametrize("qoi_rtol", [None, 1e-3])
@@ -153,7 +110,7 @@ def test_an_answer_without_any_interface_force_converges(qoi_rtol) -> None:
     there (0.2), and the case ran to ``max_iter`` as not converged; forces under
     ``guards.FORCE_FLOOR`` × the state's size are now zero (session 45). With a gap of
     3 µm the contact closes at the last step: the same answer as the reference."""
-    model = ml.Model(ml.ModelSpec.from_string(LIFTED, name="lifted"))
+    model = ml.Model(ml.ModelSpec.from_toml(LIFTED))
     options = LatinOptions(qoi_rtol=qoi_rtol, max_iter=400)
     result = model.solve(options=options, check=False)
     assert result.converged, result.failure
