@@ -1,3 +1,12 @@
+import os
+
+if os.environ.get("PYTEST_XDIST_WORKER"):
+    # pytest-xdist runs one worker per core (pyproject's ``-n auto``): each on one thread.
+    # PyTorch's and OpenBLAS's threads, two per worker on two cores, spin against the
+    # other worker's (a torch test measured 8 s alone, 155 s beside another worker)
+    for _name in ("OMP_NUM_THREADS", "OPENBLAS_NUM_THREADS", "MKL_NUM_THREADS"):
+        os.environ.setdefault(_name, "1")
+
 from collections.abc import Callable
 from typing import Any
 
