@@ -12,7 +12,7 @@ import pytest
 import xarray as xr
 
 import multilatin as ml
-from multilatin.latin import LatinOperators, solver, tracking
+from multilatin.latin import LatinOperators, iteration, solver, tracking
 from multilatin.latin.tracking import QoiFunctionals, error_estimates, qoi_functionals
 
 TIGHT = ml.LatinOptions(tol=1e-10, max_iter=10000)
@@ -87,13 +87,13 @@ def test_no_estimate_from_too_few_iterations() -> None:
 def _tracked(monkeypatch: pytest.MonkeyPatch, model: ml.Model, mu: dict[str, float]
              ) -> tuple[ml.SolveResult, np.ndarray]:
     seen: dict[str, np.ndarray] = {}
-    original = solver.error_estimates
+    original = iteration.IterationState.recent_qoi
 
-    def spy(series: np.ndarray, eta: np.ndarray) -> np.ndarray:
-        seen["series"] = series
-        return original(series, eta)
+    def spy(state: iteration.IterationState, case: int, iterations: int) -> np.ndarray:
+        seen["series"] = original(state, case, iterations)
+        return seen["series"]
 
-    monkeypatch.setattr(solver, "error_estimates", spy)
+    monkeypatch.setattr(iteration.IterationState, "recent_qoi", spy)
     return model.solve(mu, options=TIGHT), seen["series"]
 
 
@@ -267,8 +267,6 @@ def test_qoi_stopping_waits_for_the_state_when_its_qois_stall(monkeypatch) -> No
     iterations with R_stop 2.9 % off and an estimate of 0.085 %, η = 1.4e-3. The
     state's own remaining change (``iteration.state_settled``: η / (1 − ρ) < qoi_rtol)
     must settle too; then R_stop ends within 0.1 %, as with every QoI watched."""
-    from multilatin.latin import iteration
-
     model = _b1_watching_r_stop_alone()
     mu = {"mu1": 0.1, "mu2": 0.3}
     options = ml.LatinOptions(qoi_rtol=1e-3)
@@ -329,7 +327,7 @@ def test_an_early_qoi_stop_reads_only_the_iterations_a_case_has(monkeypatch) -> 
     B1 (0.3, 0.5), where the centre block sticks, warm from (0.3, 0.45) as the μ2 line runs
     it: 15 iterations today (the rule's first reading); from 9 on it stops sooner, with
     R_stop as accurate; with a margin no estimate can meet it runs as today."""
-    from multilatin.latin import iteration, solve_latin
+    from multilatin.latin import solve_latin
 
     model = ml.load_model("b1")
     neighbour = model.assemble({"mu1": 0.3, "mu2": 0.45})

@@ -32,6 +32,7 @@ from .tracking import (
     WINDOW,
     QoiFunctionals,
     error_estimates,
+    estimates_after,
     indicator_rate,
     remaining_change,
 )
@@ -60,11 +61,16 @@ JUMP_HOLD = True
 #: across it, 4 000 × its error, which held the warm start from μ2 = 0.05 until η < 1e-7:
 #: 71 iterations instead of 56)
 ESTIMATE_AFTER_JUMPS = True
+#: with η stopping alone (no ``qoi_rtol``), the iterations a case is held after a jump, as
+#: with it. Fewer (session 46: 10, 0) stop sooner, but QoI estimates read over fewer
+#: iterates miss their errors more often: not adopted (``benchmarks/eta_hold.py``)
+ETA_JUMP_HOLD = RECENT
 
 
 #: the per-case arrays of ``IterationState`` (first axis: the case)
 PER_CASE = ("qoi_recent", "eta_recent", "qoi_scale", "qoi_reported", "stopped_on_qoi",
-            "drifting", "first_size", "qoi_settled_error", "settled_steps", "force_eta")
+            "drifting", "first_size", "qoi_settled_error", "settled_steps", "force_eta",
+            "jumped_at")
 
 
 @dataclass
@@ -97,6 +103,8 @@ class IterationState:
     #: per case that left at the cap with η < tol: its forces' η_F where above its bound
     #: (``guards.forces_unsettled``: not converged), else 0
     force_eta: FloatArray = field(default_factory=lambda: np.zeros(0))
+    #: per case: the iteration after which it last jumped (``sliding``), −1: none
+    jumped_at: IntArray = field(default_factory=lambda: np.zeros(0, dtype=np.int64))
     t_linear: float = 0.0  # linear stage, macro problem included
     t_local: float = 0.0
     t_macro: float = 0.0
@@ -109,7 +117,8 @@ class IterationState:
                    np.zeros((n_cases, RECENT)), np.zeros((n_cases, RECENT, n_qoi)), reported,
                    np.zeros(n_cases, dtype=bool), [[] for _ in range(n_cases)],
                    np.zeros(n_cases, dtype=bool), np.zeros(n_cases), np.zeros(reported.shape),
-                   np.zeros(n_cases, dtype=np.int64), np.zeros(n_cases))
+                   np.zeros(n_cases, dtype=np.int64), np.zeros(n_cases),
+                   np.full(n_cases, -1, dtype=np.int64))
 
     def extend(self, reported: npt.NDArray[np.bool_]) -> None:
         """Room for more cases after these (cases joining a rolling batch): the per-case
@@ -133,25 +142,19 @@ class IterationState:
     def settled(self, case: int, iterations: int, steps: slice,
                 since: int | None = None) -> None:
         """The case's ``steps`` settled after ``iterations``: keep their QoIs' estimate
-        now (``tracking.error_estimates``; before 6 iterations, how far each moved over
-        them), which their frozen values would read as zero from here on. ``since``: the
-        iteration after which the case jumped (``sliding``), if within the iterations
-        held: the estimate then reads the iterates after it alone (across a jump their
-        envelope grows, and the estimate takes a rate of 0.999), and how far each moved
-        counts from the iterate before it (the jump's own shift included)."""
+        now (``estimates``), which their frozen values would read as zero from here on."""
         self.settled_steps[case] = steps.stop
-        if not self.qoi_recent.shape[2]:
-            return
-        series = self.recent_qoi(case, iterations)
-        eta = self.eta_recent[case, _held(iterations)]
-        moved_from = series
-        if since is not None and 0 < iterations - since < series.shape[0]:
-            after = iterations - since
-            moved_from, series, eta = series[-after - 1:], series[-after:], eta[-after:]
-        estimate = error_estimates(series, eta[:, None, None])
-        moved = moved_from.max(axis=0) - moved_from.min(axis=0)
-        self.qoi_settled_error[case][:, steps] = np.where(np.isnan(estimate), moved,
-                                                          estimate)[:, steps]
+        if self.qoi_recent.shape[2]:
+            self.qoi_settled_error[case][:, steps] = self.estimates(case, iterations,
+                                                                    since)[:, steps]
+
+    def estimates(self, case: int, iterations: int, since: int | None = None) -> FloatArray:
+        """The case's QoIs' error estimates (n_qoi, n_steps) after ``iterations``; those
+        after its jump (``sliding``) alone if it jumped after iteration ``since``, within
+        the iterations held (``tracking.estimates_after``)."""
+        return estimates_after(self.recent_qoi(case, iterations),
+                               self.eta_recent[case, _held(iterations)],
+                               None if since is None else iterations - since)
 
 
 def _held(iterations: int) -> IntArray:
@@ -179,7 +182,6 @@ def state_settled(state: IterationState, active: IntArray, counts: IntArray,
 #: start's first reactions to a base moved by 1 mm, 2e6 N, set a 20 N bound on a 31 N
 #: reaction, stopped 0.68 % off: ``tests/test_large_displacement.py``)
 QOI_FLOOR = 1e-2
-
 
 #: a case may stop on its QoIs from this many iterations on, before ``WINDOW`` + 5, with
 #: the shorter window it has (its count − 5), every estimate below ``EARLY_MARGIN`` times
@@ -400,11 +402,11 @@ class BatchIterations:
             damp_stagnating(out.histories, active[due], damped, options)
             relaxation[due] = damped
         capped = counts >= options.max_iter
-        # no stop within ``RECENT`` iterations of a jump: its check one window later runs
-        # first, and the QoIs' estimate then reads iterates after it alone
-        after_jumps = (np.ones_like(capped) if self.sliding is None else
-                       (self.sliding.jumped_at[active] < 0)
-                       | (counts - self.sliding.jumped_at[active] > RECENT))
+        # with QoI stopping, none within ``RECENT`` iterations of a jump: its check one window
+        # later runs first, and the QoIs' estimates then read iterates after it alone
+        out.jumped_at[active] = -1 if self.sliding is None else self.sliding.jumped_at[active]
+        held = RECENT if options.qoi_rtol is not None else ETA_JUMP_HOLD
+        after_jumps = (out.jumped_at[active] < 0) | (counts - out.jumped_at[active] > held)
         first = counts == 1
         out.first_size[active[first]] = size[first]
         blown = blows_up(size, out.first_size[active])
@@ -414,9 +416,8 @@ class BatchIterations:
             drifting = np.zeros_like(done)
             # a sliding jump moves s by a crawl's remaining iterations at once: the growth
             # is read from the last jump on (a slide without end has no gap ahead to jump to)
-            jumped = (self.sliding.jumped_at if self.sliding is not None
-                      else np.full(len(out.sizes), -1))
-            drifting[due] = [drifts(out.sizes[c][max(int(jumped[c]), 0):]) for c in active[due]]
+            drifting[due] = [drifts(out.sizes[c][max(int(out.jumped_at[c]), 0):])
+                             for c in active[due]]
             out.drifting[active[drifting]] = True
             done |= drifting
         if options.qoi_rtol is not None and self.tracked:
@@ -473,10 +474,11 @@ class BatchIterations:
         if not positions.size:
             return None
         fields: tuple[FloatArray, ...] = self.engine.fields(positions)
+        on_qois = self.tracked and self.options.qoi_rtol is not None
         going_on = forces_unsettled(self.state, self.active[positions], fields,
                                     eta[positions], ended[positions], self.force_weight,
-                                    self.options, ETA_STOP_UNDER if self.tracked
-                                    and self.options.qoi_rtol is not None else 1.0)
+                                    self.options, ETA_STOP_UNDER if on_qois else 1.0,
+                                    RECENT if self.options.qoi_rtol is None else 0)
         if going_on.any():
             done[positions[going_on]] = False
             fields = tuple(x[~going_on] for x in fields)

@@ -351,8 +351,11 @@ def _result(c: int, assembly: Assembly, pts: InterfacePoints, state: IterationSt
     # Anderson's and RRE's steps break the contraction the estimate reads, and a state
     # still changing by more than SETTLED may hold changes its QoIs have not begun: NaN (None)
     change = state_change(history)
-    estimates = (np.maximum(error_estimates(state.recent_qoi(c, history.size), history),
-                            state.qoi_settled_error[c])  # settled steps: as they settled
+    jumped = int(state.jumped_at[c])  # after a jump among the held iterates: those after it
+    recent = (state.estimates(c, history.size, jumped)
+              if 0 <= jumped and history.size - jumped < state.qoi_recent.shape[1]
+              else error_estimates(state.recent_qoi(c, history.size), history))
+    estimates = (np.maximum(recent, state.qoi_settled_error[c])  # settled: as they settled
                  if options.acceleration == "relaxation" and not change > SETTLED
                  else np.full(state.qoi_recent.shape[2:], np.nan))
     return SolveResult(

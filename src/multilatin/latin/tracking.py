@@ -192,6 +192,21 @@ def qoi_functionals(ops: LatinOperators, assembly: Assembly,
                           tuple(q.step for q in assembly.qois))
 
 
+def estimates_after(series: FloatArray, eta: FloatArray, after: int | None) -> FloatArray:
+    """``error_estimates`` of one case's held QoIs ``series`` (n_iter, n_qoi, n_steps) and
+    their η (n_iter,), where NaN (fewer than 6 iterations) how far each QoI moved over them.
+    ``after``: how many of them came after a jump (``sliding``; None or not fewer than
+    held: none among them): read those alone, how far each moved counted from the iterate
+    before the jump (its shift included); across a jump the envelope grows and the
+    estimate takes a rate of 0.999."""
+    moved_from = series
+    if after is not None and 0 < after < series.shape[0]:
+        moved_from, series, eta = series[-after - 1:], series[-after:], eta[-after:]
+    estimate = error_estimates(series, eta[:, None, None])
+    moved = moved_from.max(axis=0) - moved_from.min(axis=0)
+    return np.where(np.isnan(estimate), moved, estimate)
+
+
 def error_estimates(series: FloatArray, eta: FloatArray, window: int = WINDOW,
                     rate_floor: float = 0.0) -> FloatArray:
     """Estimated |q_n − q_∞| per QoI and step from the tracked values ``series`` (n_iter,
