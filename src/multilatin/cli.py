@@ -158,8 +158,8 @@ def build_parser() -> argparse.ArgumentParser:
     for p in (solve, ref):
         p.add_argument("--reference-mesh", choices=REFERENCE_MESHES, default="auto",
                        help="reference on the same meshes, or with holed bodies meshed "
-                       "conforming by gmsh (auto: conforming when the model has holes or "
-                       "non-matching interfaces)")
+                       "conforming by gmsh (auto: conforming when the model has holes in "
+                       "structured rectangles or non-matching interfaces)")
     study = sub.add_parser(
         "study", help="a parametric study over a grid, with multiresolution",
         description="Solve every parameter set of a grid; each case starts from its nearest "

@@ -16,6 +16,7 @@ from typing import TYPE_CHECKING
 from .decomposition.assembly import Assembly
 from .decomposition.result import SolveResult
 from .errors import ModelError
+from .fem.mesh import RectMesh
 from .io.modelfile import ModelSpec
 from .parameters import Mu, Parameters
 
@@ -98,13 +99,15 @@ class Model:
             meshes joined by the same mortar constraint; not macro-only interfaces);
             ``"conforming"``: every holed body meshed with the hole cut out (gmsh,
             ``multilatin.conforming``), one substructure per body; ``"auto"``: conforming
-            when the model has holes or macro-only interfaces, else the same meshes.
+            when the model has holes in structured rectangles or macro-only interfaces,
+            else the same meshes (a hole in a mesh file is not meshed again).
         """
         if mesh not in REFERENCE_MESHES:
             raise ModelError(f"mesh: expected one of {REFERENCE_MESHES}, got {mesh!r}")
         assembly = self.assemble(mu, refine=refine, split=split)
-        if mesh == "auto":
-            special = any(s.hole is not None for s in assembly.substructures) or any(
+        if mesh == "auto":  # holes in mesh files: X-FEM on the same meshes (no remeshing)
+            special = any(s.hole is not None and isinstance(s.mesh, RectMesh)
+                          for s in assembly.substructures) or any(
                 itf.kind == "macro" for itf in assembly.interfaces)
             mesh = "conforming" if special else "same"
         if mesh == "conforming":

@@ -144,7 +144,17 @@ def conforming_assembly(spec: ModelSpec, assembly: Assembly, refine: int = 1,
     substructure per body (the monolithic solver merges them anyway; macro-only interfaces
     disappear), every body holding a hole meshed by gmsh: its outer sides as the body's
     structured mesh (uniform, the same element counts), the hole cut out."""
-    bodies = {s.body for s in assembly.substructures}
+    for sub in assembly.substructures:
+        if sub.hole is not None and not isinstance(sub.mesh, RectMesh):
+            raise ModelError(
+                f"conforming reference: the hole of substructure {sub.name!r} lies in a mesh "
+                "of its own (a mesh file); only a structured rectangle can be meshed again "
+                "with the hole cut out. The reference on the same meshes solves the same "
+                "discrete problem (mesh='same', `--reference-mesh same`), or cut the hole "
+                "out of the mesh file")
+    # one substructure per [[bodies]] entry; [[substructures]] stay as they are
+    declared = {str(t.get("name")) for t in spec.data.get("bodies", []) if isinstance(t, dict)}
+    bodies = {s.body for s in assembly.substructures} & declared
     whole = spec.build(assembly.mu, refine=refine, split={body: (1, 1) for body in bodies})
     subs = list(whole.substructures)
     for i, sub in enumerate(subs):
