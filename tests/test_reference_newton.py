@@ -3,8 +3,8 @@ pressed on a wider base (nothing holds it sideways but friction), then pushed ag
 stop 2 µm away. Its first Newton step from a closed contact at rest takes every pair as
 open (λ − r g = 0 read as inactive): the plate floated in the Jacobian, the step was huge,
 and the steps cycled at every friction. Since session 46 such a step is solved again with
-the kink taken as active; the equations are the same. Once sliding, the stop takes the push less the friction,
-R_stop = 60 − μ 400 N, or nothing while friction holds."""
+the kink taken as active; the equations are the same. Once sliding, the stop takes the
+push less the friction, R_stop = 60 − μ 400 N, or nothing while friction holds."""
 
 from __future__ import annotations
 
