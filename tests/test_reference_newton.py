@@ -3,15 +3,18 @@ pressed on a wider base (nothing holds it sideways but friction), then pushed ag
 stop 2 µm away. Its first Newton step from a closed contact at rest takes every pair as
 open (λ − r g = 0 read as inactive): the plate floated in the Jacobian, the step was huge,
 and the steps cycled at every friction. Since session 46 such a step is solved again with
-the kink taken as active; the equations are the same. Once sliding, the stop takes the
-push less the friction, R_stop = 60 − μ 400 N, or nothing while friction holds."""
+the kink taken as active, where a pair at rest sticks; the equations are the same. Once
+sliding, the stop takes the push less the friction, R_stop = 60 − μ 400 N, or nothing
+while friction holds."""
 
 from __future__ import annotations
 
 from pathlib import Path
+from typing import Any
 
 import numpy as np
 import pytest
+from conftest import write_gmsh_mesh
 
 import multilatin as ml
 
@@ -94,3 +97,30 @@ def test_a_plate_floating_but_for_friction_has_its_reference(tmp_path: Path, mu:
                                    rtol=1e-7)
     else:  # held by the stop and friction at once from step 4: both say so
         assert not reference.unique and not latin.unique
+
+
+def test_the_same_plate_on_triangles_of_its_own_has_its_reference(tmp_path: Path) -> None:
+    """The plate and the base meshed by gmsh (T3, 1.5 and 2 mm: the contact by mortar), at
+    μ = 0.1: its first step cycled even with the kink active until a pair at rest counted
+    as sticking in the step solved again."""
+    def rectangle(x0: float, y0: float, width: float, height: float, name: str) -> Any:
+        def geometry(gmsh: Any) -> None:
+            gmsh.model.occ.addRectangle(x0, y0, 0.0, width, height)
+            gmsh.model.occ.synchronize()
+            gmsh.model.addPhysicalGroup(2, [1], name=name)
+        return geometry
+
+    write_gmsh_mesh(tmp_path / "plate.msh", rectangle(0.0, 10.0, 40.0, 20.0, "plate"), 1.5)
+    write_gmsh_mesh(tmp_path / "base.msh", rectangle(-5.0, 0.0, 50.0, 10.0, "base"), 2.0)
+    text = MODEL.replace('x = [-5.0, 45.0]\ny = [0.0, 10.0]\nelements = [25, 5]',
+                         'mesh_file = "base.msh"')
+    text = text.replace('x = [0.0, 40.0]\ny = [10.0, 30.0]\nelements = [20, 10]',
+                        'mesh_file = "plate.msh"')
+    assert text.count("mesh_file") == 2
+    (tmp_path / "plate.toml").write_text(text)
+    model = ml.load_model(tmp_path / "plate.toml")
+    reference = model.reference({"mu": 0.1})
+    latin = model.solve({"mu": 0.1}, options=ml.LatinOptions(tol=1e-10, max_iter=5000))
+    np.testing.assert_allclose(reference.qoi["R_stop"], [0.0, 0.0, 0.0, 0.0, 20.0], atol=1e-3)
+    np.testing.assert_allclose(latin.qoi["R_stop"], reference.qoi["R_stop"], atol=1e-6)
+    assert not reference.unique and not latin.unique

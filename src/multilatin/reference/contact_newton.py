@@ -313,12 +313,13 @@ def solve_contact_history(
         slip = jumps[1::2] - jump_prev
         lam_n, lam_t = lam[0::2], lam[1::2]
         normal_trial = lam_n - r * gap
-        # the kink λ_N − r g = 0 (a closed contact at rest) counts as inactive, or active
-        # where a step is solved again (``kink_active``); the residual is the same there
+        # the kink λ_N − r g = 0 (a closed contact at rest) counts as inactive, or as active
+        # and, with no friction bound yet, sticking where a step is solved again
+        # (``kink_active``); the residuals are the same there
         active = (normal_trial >= 0.0) if kink_active else (normal_trial > 0.0)
         bound = mu * np.where(active, normal_trial, 0.0)
         tangent_trial = lam_t - r * slip
-        stick = active & (bound > 0.0) & (np.abs(tangent_trial) <= bound)
+        stick = active & ((bound > 0.0) | kink_active) & (np.abs(tangent_trial) <= bound)
         slip_mask = active & ~stick
         sign = np.sign(tangent_trial)
         if corner.size or held_stop.size:
@@ -364,10 +365,11 @@ def solve_contact_history(
         converged = False
         start = (u_free, lam)
         # a step whose Newton iterations do not converge is solved again from its start
-        # with the kink of the normal law taken as active: a body held by its contact alone
-        # (a plate pressed on a wider base, nothing else holding it sideways) floated in
-        # the Jacobian of its first iteration, whose step was ~1e10 too long, and the steps
-        # cycled (session 46; docs/correctness.md); other models fail the other way
+        # with the kink of the normal law taken as active, a pair there sticking: a body
+        # held by its contact alone (a plate pressed on a wider base, nothing else holding
+        # it sideways) floated in the Jacobian of its first iteration, whose step was ~1e10
+        # too long, and the steps cycled (session 46; docs/correctness.md); other models
+        # fail the other way
         for kink_active in (False, True):  # noqa: B007 (``residuals`` reads it)
             u_free, lam = start
             residual, sets = residuals(u_free, lam, rhs, jump_fixed, jump_prev, lam_t_prev)
