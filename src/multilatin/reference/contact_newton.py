@@ -303,10 +303,10 @@ def solve_contact_history(
     held_stop, stop_holder = _held_stops(contacts, movable)
     lam_t_prev = np.zeros(n_pairs)  # tangential multipliers at the previous step
     total_iterations = 0
-    kink_active = False  # read by ``residuals``: set for a step solved again
 
     def residuals(u_free: FloatArray, lam: FloatArray, rhs: FloatArray, jump_fixed: FloatArray,
-                  jump_prev: FloatArray, lam_t_prev: FloatArray) -> tuple[FloatArray, Any]:
+                  jump_prev: FloatArray, lam_t_prev: FloatArray, kink_active: bool
+                  ) -> tuple[FloatArray, Any]:
         """Equilibrium and Alart–Curnier residuals at (u, λ), with the active sets."""
         jumps = jump_free @ u_free + jump_fixed
         gap = contacts.gap + jumps[0::2]
@@ -354,6 +354,57 @@ def solve_contact_history(
         size_c = (np.abs(residual[n_free:]).max() / (r * gap_tol)) if n_pairs else 0.0
         return float(max(size_eq, size_c))
 
+    def newton_iterations(u_free: FloatArray, lam: FloatArray, rhs: FloatArray,
+                          jump_fixed: FloatArray, force_tol: float, kink_active: bool
+                          ) -> tuple[bool, FloatArray, FloatArray, int]:
+        """Damped semi-smooth Newton iterations of one step from (u, λ): whether they
+        converged, (u, λ) and the index of the last iteration."""
+        def evaluate(u_free: FloatArray, lam: FloatArray) -> tuple[FloatArray, Any]:
+            return residuals(u_free, lam, rhs, jump_fixed, jump_prev, lam_t_prev, kink_active)
+
+        residual, sets = evaluate(u_free, lam)
+        for newton in range(max_newton):
+            if newton > 0 and merit(residual, force_tol) < 1.0:
+                return True, u_free, lam, newton
+            active, stick, slip_mask, sign = sets
+            # generalised Jacobian, rows: equilibrium, C_N, C_T
+            dn_du = sp.diags(np.where(active, r, 0.0)) @ g_n
+            # −δ on the diagonal of active constraint rows (Jacobian only): redundant
+            # constraints (a corner against a stop and a sticking face) keep it regular
+            dn_dln = sp.diags(np.where(active, -1e-10, 1.0))
+            dt_du = (sp.diags(np.where(stick, r, 0.0)) @ g_t
+                     + sp.diags(np.where(slip_mask, mu * sign * r, 0.0)) @ g_n)
+            dt_dln = sp.diags(np.where(slip_mask, -mu * sign, 0.0))
+            dt_dlt = sp.diags(np.where(stick, -1e-10, 1.0))
+            jacobian = sp.bmat([
+                [jacobian_uu, minus_g_n_t, minus_g_t_t],
+                [dn_du, dn_dln, zero],
+                [dt_du, dt_dln, dt_dlt],
+            ], format="csc")
+            delta = spla.splu(jacobian).solve(-residual)
+            delta_lam = np.empty(2 * n_pairs)
+            delta_lam[0::2] = delta[n_free:n_free + n_pairs]
+            delta_lam[1::2] = delta[n_free + n_pairs:]
+            # backtracking on the residual's norm: the full semi-smooth step can cycle
+            # between active sets (seen on B1 when the stop closes under friction)
+            current = float(np.linalg.norm(residual))
+            step_length = 1.0
+            for _ in range(BACKTRACKS):
+                trial_u = u_free + step_length * delta[:n_free]
+                trial_lam = lam + step_length * delta_lam
+                trial_residual, trial_sets = evaluate(trial_u, trial_lam)
+                if np.linalg.norm(trial_residual) < (1.0 - 1e-4 * step_length) * current:
+                    break
+                step_length *= 0.5
+            else:
+                # no decrease down to 2⁻¹¹: a point of nearly no pressure flipping
+                # between stick and slip at each tiny step (a holed block at μ = 100 on
+                # a conforming mesh, 60 such steps); the full step leaves that cycle
+                trial_u, trial_lam = u_free + delta[:n_free], lam + delta_lam
+                trial_residual, trial_sets = evaluate(trial_u, trial_lam)
+            u_free, lam, residual, sets = trial_u, trial_lam, trial_residual, trial_sets
+        return False, u_free, lam, max_newton - 1
+
     for step in range(n_steps):
         corner_moving = _moving_corners(contacts, corner, corner_stops, u_fixed, step)
         rhs = load[free, step] - k_fc @ u_fixed[~free, step]
@@ -362,61 +413,17 @@ def solve_contact_history(
         force_tol = max(tol * scale_force, ROUNDING * np.finfo(np.float64).eps * float(
             np.max(abs_ff @ np.abs(u_free) + abs_fc @ np.abs(u_fixed[~free, step]),
                    initial=0.0)))
-        converged = False
-        start = (u_free, lam)
         # a step whose Newton iterations do not converge is solved again from its start
         # with the kink of the normal law taken as active, a pair there sticking: a body
         # held by its contact alone (a plate pressed on a wider base, nothing else holding
         # it sideways) floated in the Jacobian of its first iteration, whose step was ~1e10
         # too long, and the steps cycled (session 46; docs/correctness.md); other models
         # fail the other way
-        for kink_active in (False, True):  # noqa: B007 (``residuals`` reads it)
-            u_free, lam = start
-            residual, sets = residuals(u_free, lam, rhs, jump_fixed, jump_prev, lam_t_prev)
-            for newton in range(max_newton):
-                total_iterations += 1
-                if newton > 0 and merit(residual, force_tol) < 1.0:
-                    converged = True
-                    break
-                active, stick, slip_mask, sign = sets
-                # generalised Jacobian, rows: equilibrium, C_N, C_T
-                dn_du = sp.diags(np.where(active, r, 0.0)) @ g_n
-                # −δ on the diagonal of active constraint rows (Jacobian only): redundant
-                # constraints (a corner against a stop and a sticking face) keep it regular
-                dn_dln = sp.diags(np.where(active, -1e-10, 1.0))
-                dt_du = (sp.diags(np.where(stick, r, 0.0)) @ g_t
-                         + sp.diags(np.where(slip_mask, mu * sign * r, 0.0)) @ g_n)
-                dt_dln = sp.diags(np.where(slip_mask, -mu * sign, 0.0))
-                dt_dlt = sp.diags(np.where(stick, -1e-10, 1.0))
-                jacobian = sp.bmat([
-                    [jacobian_uu, minus_g_n_t, minus_g_t_t],
-                    [dn_du, dn_dln, zero],
-                    [dt_du, dt_dln, dt_dlt],
-                ], format="csc")
-                delta = spla.splu(jacobian).solve(-residual)
-                delta_lam = np.empty(2 * n_pairs)
-                delta_lam[0::2] = delta[n_free:n_free + n_pairs]
-                delta_lam[1::2] = delta[n_free + n_pairs:]
-                # backtracking on the residual's norm: the full semi-smooth step can cycle
-                # between active sets (seen on B1 when the stop closes under friction)
-                current = float(np.linalg.norm(residual))
-                step_length = 1.0
-                for _ in range(BACKTRACKS):
-                    trial_u = u_free + step_length * delta[:n_free]
-                    trial_lam = lam + step_length * delta_lam
-                    trial_residual, trial_sets = residuals(trial_u, trial_lam, rhs, jump_fixed,
-                                                          jump_prev, lam_t_prev)
-                    if np.linalg.norm(trial_residual) < (1.0 - 1e-4 * step_length) * current:
-                        break
-                    step_length *= 0.5
-                else:
-                    # no decrease down to 2⁻¹¹: a point of nearly no pressure flipping
-                    # between stick and slip at each tiny step (a holed block at μ = 100 on
-                    # a conforming mesh, 60 such steps); the full step leaves that cycle
-                    trial_u, trial_lam = u_free + delta[:n_free], lam + delta_lam
-                    trial_residual, trial_sets = residuals(trial_u, trial_lam, rhs, jump_fixed,
-                                                          jump_prev, lam_t_prev)
-                u_free, lam, residual, sets = trial_u, trial_lam, trial_residual, trial_sets
+        start = (u_free, lam)
+        for kink_active in (False, True):
+            converged, u_free, lam, newton = newton_iterations(*start, rhs, jump_fixed,
+                                                               force_tol, kink_active)
+            total_iterations += newton + 1
             if converged:
                 break
         if not converged:
