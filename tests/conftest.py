@@ -83,3 +83,14 @@ def write_gmsh_mesh(path: Any, geometry: Callable[[Any], object], size: float,
     finally:
         gmsh.finalize()
     return path
+
+
+def rectangle(x0: float, y0: float, width: float, height: float, name: str
+              ) -> Callable[[Any], None]:
+    """A geometry for ``write_gmsh_mesh``: the rectangle from (x0, y0), its surface the
+    physical group ``name`` (a mesh file's part)."""
+    def geometry(gmsh: Any) -> None:
+        tag = gmsh.model.occ.addRectangle(x0, y0, 0.0, width, height)
+        gmsh.model.occ.synchronize()
+        gmsh.model.addPhysicalGroup(2, [tag], name=name)
+    return geometry

@@ -7,11 +7,10 @@ not. Before session 46 both ended in "--split base: no body of that name in [[bo
 from __future__ import annotations
 
 from pathlib import Path
-from typing import Any
 
 import numpy as np
 import pytest
-from conftest import write_gmsh_mesh
+from conftest import rectangle, write_gmsh_mesh
 
 import multilatin as ml
 
@@ -79,12 +78,7 @@ def test_a_hole_in_a_structured_substructure_is_meshed_again(tmp_path: Path) -> 
 
 
 def test_a_hole_in_a_mesh_file_is_not_meshed_again(tmp_path: Path) -> None:
-    def plate(gmsh: Any) -> None:
-        gmsh.model.occ.addRectangle(0.0, 10.0, 0.0, 40.0, 20.0)
-        gmsh.model.occ.synchronize()
-        gmsh.model.addPhysicalGroup(2, [1], name="plate")
-
-    write_gmsh_mesh(tmp_path / "plate.msh", plate, 1.5)
+    write_gmsh_mesh(tmp_path / "plate.msh", rectangle(0.0, 10.0, 40.0, 20.0, "plate"), 1.5)
     (tmp_path / "plate.toml").write_text(PLATE_ON_BASE.replace(
         "PLATE", 'mesh_file = "plate.msh"'))
     model = ml.load_model(tmp_path / "plate.toml")

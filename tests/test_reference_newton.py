@@ -10,11 +10,10 @@ while friction holds."""
 from __future__ import annotations
 
 from pathlib import Path
-from typing import Any
 
 import numpy as np
 import pytest
-from conftest import write_gmsh_mesh
+from conftest import rectangle, write_gmsh_mesh
 
 import multilatin as ml
 
@@ -103,13 +102,6 @@ def test_the_same_plate_on_triangles_of_its_own_has_its_reference(tmp_path: Path
     """The plate and the base meshed by gmsh (T3, 1.5 and 2 mm: the contact by mortar), at
     μ = 0.1: its first step cycled even with the kink active until a pair at rest counted
     as sticking in the step solved again."""
-    def rectangle(x0: float, y0: float, width: float, height: float, name: str) -> Any:
-        def geometry(gmsh: Any) -> None:
-            gmsh.model.occ.addRectangle(x0, y0, 0.0, width, height)
-            gmsh.model.occ.synchronize()
-            gmsh.model.addPhysicalGroup(2, [1], name=name)
-        return geometry
-
     write_gmsh_mesh(tmp_path / "plate.msh", rectangle(0.0, 10.0, 40.0, 20.0, "plate"), 1.5)
     write_gmsh_mesh(tmp_path / "base.msh", rectangle(-5.0, 0.0, 50.0, 10.0, "base"), 2.0)
     text = MODEL.replace('x = [-5.0, 45.0]\ny = [0.0, 10.0]\nelements = [25, 5]',
