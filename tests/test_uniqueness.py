@@ -263,3 +263,58 @@ def test_the_reference_says_when_its_answer_is_not_unique(b1: ml.Model, capsys) 
     for found in (reference, result):
         assert not found.unique
         assert [(m.step, m.bodies) for m in found.free_motions] == [(3, ("block",))]
+
+
+RESTING = """
+[materials.steel]
+E = 2e5
+nu = 0.3
+[[bodies]]
+name = "base"
+x = [0.0, 40.0]
+y = [0.0, 10.0]
+elements = [16, 4]
+material = "steel"
+[[bodies]]
+name = "block"
+x = [10.0, 30.0]
+y = [10.0, 20.0]
+elements = [8, 4]
+material = "steel"
+[[interfaces]]
+between = ["base", "block"]
+type = "contact"
+friction = 0.2
+gap = 0.01
+[[boundary]]
+name = "clamp"
+face = "base.bottom"
+type = "displacement"
+value = [0.0, 0.0]
+[[boundary]]
+name = "top"
+face = "block.top"
+type = "force"
+value = [0.0, -1.0]
+factor = "P"
+[history.factors]
+P = [0.0, 1.0]
+"""
+
+
+def test_a_free_motion_with_no_friction_to_resist_it_says_so(tmp_path: Path) -> None:
+    """A block 10 µm above a base, unloaded at step 1: free in every direction with its
+    contact open (no friction capacity at all, the reserve's 0 of 0); the report says
+    nothing resists it, not that its friction is used to 100 %. Pressed at step 2, friction
+    carries its position on: not unique, in both solvers."""
+    (tmp_path / "resting.toml").write_text(RESTING)
+    model = ml.load_model(tmp_path / "resting.toml")
+    for result in (model.solve(), model.reference()):
+        at_rest = [m for m in result.free_motions if m.step == 1]
+        assert at_rest and not result.unique
+        for motion in at_rest:
+            assert not motion.friction_holds
+            assert "nothing resists it" in motion.describe()
+    pressed = ml.load_model("b1").solve({"mu1": 0.15, "mu2": 0.15}).free_motions
+    assert pressed and all(m.friction_holds and "100.00 % of its capacity" in m.describe()
+                           for m in pressed)

@@ -259,6 +259,8 @@ def _report(result: SolveResult, args: argparse.Namespace,
             print(f"  NOT UNIQUE: {motion.describe()}"
                   + (f" (read on a state still changing by ~{result.state_change:.1e}: "
                      "check with a tighter --tol)" if unsettled else ""))
+    for slip in result.large_slips:
+        print(f"  LARGE SLIP: {slip.describe()}")
     units = {q.name: q.unit for q in result.assembly.qois}
     for which, res in [("", result)] + ([("reference ", reference)] if reference else []):
         for name, value in res.qoi.items():

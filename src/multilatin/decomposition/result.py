@@ -10,6 +10,7 @@ import numpy as np
 from ..fem.elasticity import FloatArray
 from .assembly import Assembly
 from .qoi import ContactPressures
+from .sliding_extent import LargeSlip
 from .uniqueness import FreeMotion
 
 
@@ -51,6 +52,8 @@ class SolveResult:
     options: dict[str, Any] = field(default_factory=dict)
     #: rigid motions that change no force in the converged state (``multilatin.uniqueness``)
     free_motions: tuple[FreeMotion, ...] = ()
+    #: contacts whose converged slip leaves the small-sliding range (``sliding_extent``)
+    large_slips: tuple[LargeSlip, ...] = ()
     #: why the solve failed, when it did ("" when converged)
     failure: str = ""
     #: estimated |QoI − its converged value| (LATIN: ``multilatin.latin.tracking``; None
@@ -89,6 +92,7 @@ class SolveResult:
             "failure": self.failure,
             "unique": self.unique,
             "free_motions": [m.describe() for m in self.free_motions],
+            "large_slips": [s.describe() for s in self.large_slips],
             "iterations": self.iterations,
             "indicator": _finite_or_none(self.indicator),
             "wall_s": self.wall_s,

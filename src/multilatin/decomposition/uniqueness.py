@@ -49,7 +49,8 @@ class FreeMotion:
     """A rigid motion of ``bodies`` at ``step`` (1-based) that changes no force: velocity
     (vx, vy) + ω × (x − centre), with ``reserve`` the unused share of friction along it.
     ``reaches_last_step``: the last step's answer depends on it (it is the last step, or
-    friction carries the position into the later steps)."""
+    friction carries the position into the later steps). ``friction_holds``: friction
+    resists the motion at all (false where its contacts are open or frictionless)."""
 
     step: int
     bodies: tuple[str, ...]
@@ -58,13 +59,16 @@ class FreeMotion:
     centre: tuple[float, float]
     reserve: float
     reaches_last_step: bool
+    friction_holds: bool = True
 
     def describe(self) -> str:
         what = (f"translation ({self.velocity[0]:+.3g}, {self.velocity[1]:+.3g})"
                 if abs(self.rotation) < 1e-9 else
                 f"rotation about ({self.centre[0]:.4g}, {self.centre[1]:.4g})")
-        return (f"step {self.step}: {'+'.join(self.bodies)} is free to move ({what}), the "
-                f"friction along it used to {100 * (1 - self.reserve):.2f} % of its capacity"
+        why = (f"the friction along it used to {100 * (1 - self.reserve):.2f} % of its "
+               "capacity" if self.friction_holds else
+               "nothing resists it (no pressed contact with friction along it)")
+        return (f"step {self.step}: {'+'.join(self.bodies)} is free to move ({what}), {why}"
                 + ("; the answers from this step on are not determined by the discrete "
                    "problem" if self.reaches_last_step else
                    "; only this step's displacements are undetermined"))
@@ -312,9 +316,9 @@ def _motions_of(clusters: list[_Cluster], points: Sequence[InterfacePoints],
         velocity = np.einsum("nck,pk->pnc", modes, directions)  # (P, n, 2)
         into = _along(velocity, normal)  # along n: into the partner
         near = touching[cases, steps]
-        reserves = _friction_reserve(velocity, into, normal, tangential_force[cases, steps],
-                                     limit[cases, steps], moving[cases, steps],
-                                     cluster.weights)
+        *reserves, capacity = _friction_reserve(
+            velocity, into, normal, tangential_force[cases, steps], limit[cases, steps],
+            moving[cases, steps], cluster.weights)
         admissible = [(~np.any(near & (sign * into > 1e-9), axis=1)
                        & (reserve <= reserve_tol), reserve)
                       for sign, reserve in zip((1.0, -1.0), reserves, strict=True)]
@@ -327,7 +331,8 @@ def _motions_of(clusters: list[_Cluster], points: Sequence[InterfacePoints],
                                              (float(mode[0]), float(mode[1])),
                                              float(mode[2] / cluster.size), centre,
                                              max(float(reserve[i]), 0.0),
-                                             t + 1 == n_steps or bool(with_friction[c])))
+                                             t + 1 == n_steps or bool(with_friction[c]),
+                                             bool(capacity[i] > 0.0)))
                     break
     return out
 
@@ -339,13 +344,13 @@ def _largest(x: FloatArray) -> float:
 
 def _friction_reserve(velocity: FloatArray, into: FloatArray, normal: FloatArray,
                       tangential_force: FloatArray, limit: FloatArray, moving: np.ndarray,
-                      weights: FloatArray) -> tuple[FloatArray, FloatArray]:
+                      weights: FloatArray) -> tuple[FloatArray, FloatArray, FloatArray]:
     """Per motion p (``velocity`` (P, n, 2) at the n points, ``into`` its normal part, and
     the forces, limits and slips of its step, (P, n, …)): the share of the friction
     capacity along it not yet used, 0 when the motion changes no friction force — for the
-    motion and for its opposite. A point slipping during the step (``moving``) keeps its
-    force for a small motion either way if its force is at the limit; a point at rest keeps
-    it only for a motion against its force, at the limit."""
+    motion and for its opposite —, and the capacity itself. A point slipping during the
+    step (``moving``) keeps its force for a small motion either way if its force is at the
+    limit; a point at rest keeps it only for a motion against its force, at the limit."""
     slide = velocity - into[..., None] * normal
     speed = np.hypot(slide[..., 0], slide[..., 1])
     slipping = np.hypot(tangential_force[..., 0], tangential_force[..., 1]) * speed
@@ -357,7 +362,7 @@ def _friction_reserve(velocity: FloatArray, into: FloatArray, normal: FloatArray
         np.where(positive, (capacity - np.where(moving, slipping, sign * against) @ weights)
                  / divisor, 0.0)
         for sign in (1.0, -1.0))
-    return forward, backward
+    return forward, backward, capacity
 
 
 def rigid_rows(x: FloatArray, centre: FloatArray, size: float) -> FloatArray:

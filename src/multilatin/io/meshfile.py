@@ -76,7 +76,44 @@ def read_mesh(path: str | Path, where: str, part: str | None = None
                 f"{where}: mesh file {str(path)!r}: cell {bad} (nodes "
                 f"{[int(i) for i in used[cells[bad]]]}) is inverted, twisted or not convex "
                 f"(its Jacobian changes sign; {bad_cells.size} such cell(s))")
+    _check_one_piece(nodes, cells, used, path, where)
     return nodes, cells, _line_groups(mesh, renumber, cells, path, where)
+
+
+def _check_one_piece(nodes: FloatArray, cells: IntArray, used: IntArray, path: str | Path,
+                     where: str) -> None:
+    """A substructure's mesh is one piece with no cut inside: no two of its nodes at one
+    point (surfaces meshed apart, or a crack, whose faces would pass through each other
+    unseen, and a point QoI there would read either side), and every cell joined to every
+    other through shared nodes (a piece that touches nothing floats: no equilibrium, or a
+    position nothing determines)."""
+    from scipy.sparse import coo_matrix
+    from scipy.sparse.csgraph import connected_components
+    from scipy.spatial import cKDTree
+
+    scale = float(np.ptp(nodes, axis=0).max())
+    pairs = cKDTree(nodes).query_pairs(1e-9 * scale, output_type="ndarray")
+    if pairs.size:
+        first, second = (int(k) for k in pairs[0])
+        x, y = nodes[first]
+        raise ModelError(
+            f"{where}: mesh file {str(path)!r}: nodes {int(used[first])} and "
+            f"{int(used[second])} lie at the same point ({x:.6g}, {y:.6g}) ({len(pairs)} such "
+            "pair(s)): the mesh is cut there (surfaces meshed "
+            "apart, or a crack). Fuse the surfaces before meshing (gmsh: occ.fragment, or "
+            "Geometry.AutoCoherence), or make each piece a part of its own, joined to the "
+            "others by an interface")
+    ring = np.roll(cells, -1, axis=1)
+    graph = coo_matrix((np.ones(cells.size), (cells.ravel(), ring.ravel())),
+                       shape=(nodes.shape[0],) * 2)
+    n_pieces, piece = connected_components(graph, directed=False)
+    if n_pieces > 1:
+        sizes = np.bincount(piece[cells[:, 0]], minlength=n_pieces)
+        raise ModelError(
+            f"{where}: mesh file {str(path)!r}: its cells form {n_pieces} separate pieces "
+            f"({', '.join(str(int(k)) for k in sizes)} cells) that share no node; a "
+            "substructure is one piece: give each piece a named group of surfaces of its "
+            "own (a part) and join the parts by interfaces")
 
 
 def _cells_by_type(mesh: Any, path: str | Path, where: str, part: str | None

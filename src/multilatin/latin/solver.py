@@ -21,6 +21,7 @@ from ..decomposition.assembly import Assembly
 from ..decomposition.interfaces import InterfacePoints, with_contact_data
 from ..decomposition.qoi import evaluate_qois, latin_contact_pressures
 from ..decomposition.result import InterfaceFields, SolveResult
+from ..decomposition.sliding_extent import large_slips
 from ..decomposition.uniqueness import free_motions_batch
 from ..errors import ModelError, NotConvergedError
 from ..fem.elasticity import FloatArray, IntArray
@@ -264,6 +265,8 @@ def log_result(result: SolveResult, batch: int) -> None:
     for motion in result.free_motions:
         if motion.reaches_last_step:
             log.info("%s: not unique: %s", result.assembly.label, motion.describe())
+    for slip in result.large_slips:
+        log.info("%s: large slip: %s", result.assembly.label, slip.describe())
 
 
 def _recovered(state: IterationState, cases: Sequence[int],
@@ -292,7 +295,7 @@ def results_of(cases: Sequence[int], assemblies: Sequence[Assembly],
     """Cases ``cases`` of ``state`` as results (``_result``; ``fields``: their recovered
     displacements, empty where not recovered, then the QoIs come from ``functionals``), the
     converged ones' free motions found together (``free_motions_batch``: vectorised over
-    the cases of a geometry)."""
+    the cases of a geometry), and their slips beyond the small-sliding range."""
     results = [_result(c, assembly, pts, state, field, options, functional)
                for c, assembly, pts, field, functional
                in zip(cases, assemblies, points, fields, functionals, strict=True)]
@@ -303,8 +306,9 @@ def results_of(cases: Sequence[int], assemblies: Sequence[Assembly],
                                      [points[n] for n in converged],
                                      [exit_fields[2] for exit_fields in exits],
                                      [exit_fields[3] for exit_fields in exits])
-        for n, found in zip(converged, motions, strict=True):
-            results[n] = replace(results[n], free_motions=tuple(found))
+        for n, found, (_, _, w_hat, f_hat) in zip(converged, motions, exits, strict=True):
+            slips = large_slips(assemblies[n], points[n], w_hat, f_hat)
+            results[n] = replace(results[n], free_motions=tuple(found), large_slips=slips)
     return results
 
 

@@ -300,7 +300,7 @@ def solve_monolithic(assembly: Assembly) -> SolveResult:
         for sub, gmap in zip(assembly.substructures, maps, strict=True)
     }
     qoi = evaluate_qois(assembly, displacements, reactions, pressures)
-    motions = reference_free_motions(assembly, displacements, contacts, multipliers)
+    motions, slips = reference_free_motions(assembly, displacements, contacts, multipliers)
     wall = time.perf_counter() - t0
     return SolveResult(
         method="monolithic",
@@ -315,4 +315,5 @@ def solve_monolithic(assembly: Assembly) -> SolveResult:
         qoi=qoi,
         contact=pressures if pair.any() else None,
         free_motions=motions,
+        large_slips=slips,
     )

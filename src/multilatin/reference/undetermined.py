@@ -20,6 +20,7 @@ from scipy.spatial import cKDTree
 
 from ..decomposition.assembly import Assembly
 from ..decomposition.interfaces import InterfacePoints, build_points
+from ..decomposition.sliding_extent import LargeSlip, large_slips
 from ..decomposition.uniqueness import FreeMotion, free_motions
 from ..errors import ModelError
 from ..fem.elasticity import FloatArray
@@ -30,18 +31,19 @@ log = logging.getLogger(__name__)
 
 def reference_free_motions(assembly: Assembly, displacements: dict[str, FloatArray],
                            contacts: ContactSet, multipliers: FloatArray
-                           ) -> tuple[FreeMotion, ...]:
-    """The free rigid motions of the reference's converged state: ``displacements`` per
+                           ) -> tuple[tuple[FreeMotion, ...], tuple[LargeSlip, ...]]:
+    """The free rigid motions of the reference's converged state, and its contacts' slips
+    beyond the small-sliding range (``sliding_extent``): ``displacements`` per
     substructure (n_steps, n_nodes, 2), ``multipliers`` (n_steps, n_pairs, 2) the normal
     and tangential forces of ``contacts``' pairs on their second side. None are searched
     where LATIN's interface points cannot be built."""
     if contacts.size == 0:
-        return ()
+        return (), ()
     try:
         points = build_points(assembly)
     except ModelError as exc:
-        log.info("reference: free motions not searched (%s)", exc)
-        return ()
+        log.info("reference: free motions and slips not searched (%s)", exc)
+        return (), ()
     n_steps = assembly.n_steps
     w_hat = np.zeros((n_steps, points.n_points, 2))
     for s, sub in enumerate(assembly.substructures):
@@ -60,7 +62,8 @@ def reference_free_motions(assembly: Assembly, displacements: dict[str, FloatArr
         f_hat[:, other[hit]] = -density[:, found[hit]]
     found = _pairs_at(points, points.stops, contacts, stop=True)
     f_hat[:, points.stops[found >= 0]] = density[:, found[found >= 0]]
-    return tuple(free_motions(assembly, points, w_hat, f_hat))
+    return (tuple(free_motions(assembly, points, w_hat, f_hat)),
+            large_slips(assembly, points, w_hat, f_hat))
 
 
 def _pairs_at(points: InterfacePoints, at: np.ndarray, contacts: ContactSet, *,

@@ -40,6 +40,7 @@ def case_record(grid: Grid, case: Case, mode: str, result: SolveResult, wall_s: 
     text = ", ".join(f"{k}={v:g}" for k, v in params.items())
     iterations = int(result.iterations) + warm_attempt
     undetermined = [m.describe() for m in result.free_motions if m.reaches_last_step]
+    slips = [s.describe() for s in result.large_slips]
     status = ("converged" if result.converged else f"NOT CONVERGED ({result.failure})")
     return {
         "mode": mode,
@@ -50,6 +51,7 @@ def case_record(grid: Grid, case: Case, mode: str, result: SolveResult, wall_s: 
         "converged": bool(result.converged),
         "unique": bool(result.unique),
         "free_motions": undetermined,
+        "large_slips": slips,
         "iterations": iterations,
         "indicator": float(result.indicator),
         "wall_s": wall_s,
@@ -67,5 +69,6 @@ def case_record(grid: Grid, case: Case, mode: str, result: SolveResult, wall_s: 
                 f"{iterations} iterations, eta={result.indicator:.2e}, "
                 f"{wall_s:.3f} s{f' (share of a batch of {batch})' if batch > 1 else ''}, "
                 f"start: {start}, operators {'built' if built else 'reused'}"
-                + ("; NOT UNIQUE: " + "; ".join(undetermined) if undetermined else "")),
+                + ("; NOT UNIQUE: " + "; ".join(undetermined) if undetermined else "")
+                + ("; LARGE SLIP: " + "; ".join(slips) if slips else "")),
     }

@@ -16,6 +16,7 @@ import matplotlib.pyplot as plt  # noqa: E402
 import numpy as np  # noqa: E402
 import xarray as xr  # noqa: E402
 
+from ..io.modelfile.checks import CASE_FLAGS, CASE_NUMBERS, CASE_TEXTS  # noqa: E402
 from ..io.output import safe_file_name  # noqa: E402
 from ..latin.tracking import SETTLED  # noqa: E402
 from ..parameters import label  # noqa: E402
@@ -120,6 +121,14 @@ def summary_lines(result: StudyResult) -> list[str]:
             + ", ".join("(" + ", ".join(f"{k}={v:g}" for k, v in r["params"].items()) + ")"
                         for r in not_unique[:8]) + (", ..." if len(not_unique) > 8 else "")
             + _unsettled_note(not_unique))
+    sliding = [r for r in records if r.get("large_slips")]
+    if sliding:
+        lines.append(
+            f"LARGE SLIP: {len(sliding)} case(s) whose contacts slide beyond the "
+            "small-sliding range (pairs no longer facing: their answers are those of "
+            "contacts that did not slide; study.nc's small_sliding is false there), e.g. "
+            + "(" + ", ".join(f"{k}={v:g}" for k, v in sliding[0]["params"].items()) + "): "
+            + sliding[0]["large_slips"][0])
     for repair in result.repairs:
         lines.append(f"repaired on resume: {repair}")
     return lines
@@ -209,8 +218,7 @@ def plot_response(dataset: xr.Dataset, folder: Path, mode: str) -> list[Path]:
     data = dataset.sel(mode=mode)
     varied = [str(d) for d in data["iterations"].dims if data.sizes[d] > 1]
     qois = [str(name) for name in data.data_vars
-            if name not in ("iterations", "indicator", "wall_s", "setup_s", "finished",
-                            "converged", "unique", "log", "start")
+            if name not in (*CASE_NUMBERS, *CASE_FLAGS, *CASE_TEXTS)
             and not str(name).endswith("_err")]
     paths = []
 

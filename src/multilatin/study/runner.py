@@ -105,6 +105,7 @@ class StudyResult:
             "converged": all(r["converged"] for r in self.records),
             "not_converged": len(self.failed),
             "not_unique": sum(not r.get("unique", True) for r in self.records),
+            "large_slip": sum(bool(r.get("large_slips")) for r in self.records),
             "repairs": list(self.repairs),
             "store": str(self.folder) if self.folder else None,
         }
@@ -119,6 +120,7 @@ def _case_json(record: dict[str, Any]) -> dict[str, Any]:
     out = {key: record[key] for key in ("params", "iterations", "wall_s", "converged", "qoi",
                                          "setup_s", "start")}
     out["unique"] = record.get("unique", True)
+    out["large_slips"] = record.get("large_slips", [])
     out["qoi_error"] = record.get("qoi_error", {})
     if not record["converged"]:  # no answer: masked, as in study.nc
         out["qoi"] = withheld(record["qoi"])

@@ -349,6 +349,7 @@ def to_dataset(grid: Grid, records: Iterable[dict[str, Any]], attrs: dict[str, A
         flags["finished"][at] = True
         flags["converged"][at] = record["converged"]
         flags["unique"][at] = record.get("unique", True)
+        flags["small_sliding"][at] = not record.get("large_slips")
         for name in texts:
             texts[name][at] = record[name]
         for name, value in record["qoi"].items():

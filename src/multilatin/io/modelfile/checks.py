@@ -17,7 +17,7 @@ TOP_LEVEL = {"title", "description", "analysis", "parameters", "materials", "bod
 OPPOSITE = {"left": "right", "right": "left", "bottom": "top", "top": "bottom"}
 #: study.nc's variables per case (``study.store.to_dataset``): numbers, flags and texts
 CASE_NUMBERS = ("iterations", "indicator", "wall_s", "setup_s")
-CASE_FLAGS = ("finished", "converged", "unique")
+CASE_FLAGS = ("finished", "converged", "unique", "small_sliding")
 CASE_TEXTS = ("log", "start")
 #: names the study's outputs give their own variables and coordinates (study.nc, table.csv):
 #: no parameter or quantity of interest may take them
