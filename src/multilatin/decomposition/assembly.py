@@ -167,7 +167,8 @@ class History:
 
 @dataclass(frozen=True)
 class QuantityOfInterest:
-    """``displacement`` at ``point`` (component), ``reaction``: the resultant force that a
+    """``displacement`` at ``point`` (component: x, y), ``stress`` there (component: xx,
+    yy, xy; ``decomposition.qoi.point_functional``), ``reaction``: the resultant force that a
     boundary exerts on the structure (component), or ``contact_pressure``: the mean contact
     pressure on the contact interfaces between two bodies over ``segment`` (a range of the
     coordinate along the interface). ``step`` (1-based) keeps one load step only.

@@ -12,12 +12,20 @@ from typing import Any
 import numpy as np
 
 from ..errors import ModelError
-from ..fem.elasticity import FloatArray, interpolate
+from ..fem.elasticity import (
+    FloatArray,
+    element_dofs,
+    interpolate,
+    point_stress_matrix,
+    shape_functions,
+)
 from .assembly import Assembly, QuantityOfInterest, Substructure
 from .interfaces import InterfacePoints
 
 #: how a mean contact pressure is recovered from the nodal contact forces
 PRESSURE_RECOVERIES = ("consistent", "lumped")
+#: the components of a ``stress`` QoI, in ``QuantityOfInterest.component``'s order
+STRESS_COMPONENTS = ("xx", "yy", "xy")
 
 
 @dataclass(frozen=True)
@@ -211,6 +219,29 @@ def point_substructure(substructures: Sequence[Substructure], q: QuantityOfInter
     return (named or holding)[0]
 
 
+def point_functional(substructures: Sequence[Substructure], q: QuantityOfInterest
+                     ) -> tuple[int, FloatArray]:
+    """A ``displacement`` or ``stress`` QoI at a point: the substructure it reads
+    (``point_substructure``) and the row φ over that substructure's interleaved dofs whose
+    product with its displacements is the QoI (before ``scale``). A displacement
+    interpolates the nodes' with the shape functions at the point; a stress is D B there, in
+    the cell that holds the point (stresses jump between cells: on an edge, the cell
+    ``locate`` finds first, the same in every solver)."""
+    assert q.point is not None
+    s = point_substructure(substructures, q)
+    sub = substructures[s]
+    mesh = sub.mesh
+    cell, ref = mesh.locate(q.point)
+    phi = np.zeros(2 * mesh.n_nodes)
+    if q.kind == "displacement":
+        shape, _ = shape_functions(np.asarray(ref, dtype=float)[None], mesh.cells.shape[1])
+        phi[2 * mesh.cells[cell] + q.component] = np.ravel(shape)
+    else:
+        row = point_stress_matrix(mesh.nodes[mesh.cells[cell]], ref, sub.material.hooke)
+        phi[element_dofs(mesh.cells[cell][None])[0]] = row[q.component]
+    return s, phi
+
+
 def evaluate_qois(
     assembly: Assembly,
     displacements: Mapping[str, FloatArray],
@@ -226,6 +257,10 @@ def evaluate_qois(
             cell, ref = sub.mesh.locate(q.point)
             values = interpolate(sub.mesh.nodes, sub.mesh.cells, displacements[sub.name],
                                  cell, ref)[:, q.component]
+        elif q.kind == "stress":
+            s, phi = point_functional(assembly.substructures, q)
+            u = displacements[assembly.substructures[s].name]
+            values = u.reshape(u.shape[0], -1) @ phi
         elif q.kind == "reaction":
             assert q.boundary is not None
             values = reactions[q.boundary][:, q.component]

@@ -228,6 +228,15 @@ def cell_stresses(
     return np.asarray(np.einsum("ij,...cj->...ci", hooke, strain), dtype=np.float64)
 
 
+def point_stress_matrix(cell_coords: FloatArray, ref: FloatArray, hooke: FloatArray
+                        ) -> FloatArray:
+    """D B at reference point ``ref`` (2,) of one cell (``cell_coords`` (a, 2)): the stress
+    (xx, yy, xy) there is this (3, 2a) matrix times the cell's interleaved displacements."""
+    point = Quadrature(np.asarray(ref, dtype=np.float64).reshape(1, 1, 2), np.ones((1, 1)))
+    _, grad, _ = physical_gradients(np.asarray(cell_coords)[None], point)
+    return np.asarray(hooke @ strain_matrices(grad)[0, 0], dtype=np.float64)
+
+
 def von_mises(stress: FloatArray, poisson: float, hypothesis: str) -> FloatArray:
     """Von Mises equivalent stress from (..., 3) in-plane stresses."""
     sxx, syy, sxy = stress[..., 0], stress[..., 1], stress[..., 2]

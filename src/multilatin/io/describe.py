@@ -4,7 +4,7 @@ sides, or parts of sides, they act on) and what each quantity of interest reads.
 from __future__ import annotations
 
 from ..decomposition.assembly import DISPLACEMENT, Assembly, Interface, QuantityOfInterest
-from ..decomposition.qoi import point_substructure
+from ..decomposition.qoi import STRESS_COMPONENTS, point_substructure
 
 __all__ = ["boundary_lines", "qoi_reads"]
 
@@ -58,6 +58,12 @@ def qoi_reads(assembly: Assembly, q: QuantityOfInterest) -> str:
         sub = assembly.substructures[point_substructure(assembly.substructures, q)]
         what = (f"{'xy'[q.component]} displacement at ({q.point[0]:g}, {q.point[1]:g}) of "
                 f"{sub.name}" + (f" (body {sub.body})" if sub.body != sub.name else ""))
+    elif q.kind == "stress":
+        assert q.point is not None
+        sub = assembly.substructures[point_substructure(assembly.substructures, q)]
+        what = (f"stress {STRESS_COMPONENTS[q.component]} at ({q.point[0]:g}, "
+                f"{q.point[1]:g}) of {sub.name}"
+                + (f" (body {sub.body})" if sub.body != sub.name else ""))
     elif q.kind == "reaction":
         what = f"{'xy'[q.component]} resultant of boundary {q.boundary!r} on the structure"
     else:

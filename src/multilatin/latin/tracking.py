@@ -34,9 +34,9 @@ import numpy.typing as npt
 
 from ..decomposition.assembly import Assembly
 from ..decomposition.interfaces import InterfacePoints
-from ..decomposition.qoi import latin_contact_pressures, point_substructure
+from ..decomposition.qoi import latin_contact_pressures, point_functional
 from ..errors import ModelError
-from ..fem.elasticity import FloatArray, IntArray, shape_functions
+from ..fem.elasticity import FloatArray, IntArray
 from .operators import LatinOperators
 
 #: iterations the estimate looks back over
@@ -170,14 +170,8 @@ def qoi_functionals(ops: LatinOperators, assembly: Assembly,
                 raise ModelError(f"qoi {q.name!r}: {exc}") from None
             # pressure = −F·n at the contact pair's first-side points
             on_f_hat[i, first] -= q.scale * weights[:, None] * points.normals[first]
-        elif q.kind == "displacement":
-            assert q.point is not None
-            s = point_substructure(assembly.substructures, q)
-            mesh = assembly.substructures[s].mesh
-            cell, ref = mesh.locate(q.point)
-            shape, _ = shape_functions(np.asarray(ref, dtype=float)[None], mesh.cells.shape[1])
-            phi = np.zeros(2 * mesh.n_nodes)
-            phi[2 * mesh.cells[cell] + q.component] = np.ravel(shape)
+        elif q.kind in ("displacement", "stress"):
+            s, phi = point_functional(assembly.substructures, q)
             response = np.ravel(ops.factors[s].solve(phi[:, None]))  # S_E⁻¹ φ (S symmetric)
             lo, hi = points.offsets[s], points.offsets[s + 1]
             trace = (points.traces[s] @ response).reshape(hi - lo, 2)

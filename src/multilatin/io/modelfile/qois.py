@@ -5,6 +5,7 @@ from __future__ import annotations
 import numpy as np
 
 from ...decomposition.assembly import History, Interface, QuantityOfInterest, Substructure
+from ...decomposition.qoi import STRESS_COMPONENTS
 from ...errors import ModelError
 from .checks import RESERVED_NAMES, SectionReader, check_keys, pair, require, unit_text
 
@@ -47,9 +48,13 @@ class QoiSections(SectionReader):
                                               bodies=(a, b), segment=(lo, hi), unit=unit))
                 continue
             comp = require(table, "component", where)
-            if comp not in ("x", "y"):
-                raise ModelError(f"{where}.component: expected 'x' or 'y', got {comp!r}")
-            if kind == "displacement":
+            components = STRESS_COMPONENTS if kind == "stress" else ("x", "y")
+            if comp not in components:
+                raise ModelError(f"{where}.component: expected "
+                                 f"{' or '.join(map(repr, components))}"
+                                 + (" (a stress QoI's component)" if kind == "stress" else "")
+                                 + f", got {comp!r}")
+            if kind in ("displacement", "stress"):
                 px, py = (self.num(v, f"{where}.point")
                           for v in pair(require(table, "point", where), f"{where}.point"))
                 holding = [s for s, sub in enumerate(subs) if sub.mesh.holds((px, py))]
@@ -60,8 +65,8 @@ class QoiSections(SectionReader):
                        for sub in (subs[s] for s in holding)):
                     raise ModelError(f"{where}.point: {[px, py]} lies in a hole")
                 body, sub_name = _chosen_part(table, subs, holding, (px, py), interfaces, where)
-                out.append(QuantityOfInterest(name, kind, "xy".index(comp), (px, py), None, scale,
-                                              step, unit=unit, body=body,
+                out.append(QuantityOfInterest(name, kind, components.index(comp), (px, py),
+                                              None, scale, step, unit=unit, body=body,
                                               substructure=sub_name))
             elif kind == "reaction":
                 bname = require(table, "boundary", where)
@@ -71,7 +76,7 @@ class QoiSections(SectionReader):
                                               step, unit=unit))
             else:
                 raise ModelError(f"{where}.type: unknown kind {kind!r} "
-                                 "(known: displacement, reaction, contact_pressure)")
+                                 "(known: displacement, stress, reaction, contact_pressure)")
         _check_names(out, set(self.data.get("parameters", {})))
         return out
 
