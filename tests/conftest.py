@@ -94,3 +94,25 @@ def rectangle(x0: float, y0: float, width: float, height: float, name: str
         gmsh.model.occ.synchronize()
         gmsh.model.addPhysicalGroup(2, [tag], name=name)
     return geometry
+
+
+def write_gmsh_ring(path: Any, inner: float, outer: float, size: float,
+                    names: tuple[str | None, str | None]) -> Any:
+    """The quarter ring inner <= r <= outer, x, y >= 0; its arcs are physical groups
+    ``names`` (inner arc, outer arc; None: none)."""
+    def geometry(gmsh: Any) -> None:
+        occ = gmsh.model.occ
+        disc = occ.addDisk(0.0, 0.0, 0.0, outer, outer)
+        occ.cut([(2, disc)], [(2, occ.addDisk(0.0, 0.0, 0.0, inner, inner))])
+        occ.intersect([(2, disc)], [(2, occ.addRectangle(0.0, 0.0, 0.0, outer, outer))])
+        occ.synchronize()
+        for _, tag in gmsh.model.getEntities(1):
+            x0, y0, _, x1, y1, _ = gmsh.model.getBoundingBox(1, tag)
+            if x1 - x0 > 1e-6 and y1 - y0 > 1e-6:  # an arc
+                name = names[0] if max(x1, y1) < 0.5 * (inner + outer) else names[1]
+                if name is not None:
+                    gmsh.model.addPhysicalGroup(1, [tag], name=name)
+        gmsh.model.addPhysicalGroup(2, [tag for _, tag in gmsh.model.getEntities(2)],
+                                    name="ring")
+
+    return write_gmsh_mesh(path, geometry, size)

@@ -9,7 +9,7 @@ from typing import Any
 
 import numpy as np
 import pytest
-from conftest import write_gmsh_mesh
+from conftest import write_gmsh_mesh, write_gmsh_ring
 
 import multilatin as ml
 
@@ -346,86 +346,8 @@ def test_named_groups_errors_name_the_groups(tmp_path: Path) -> None:
         ml.ModelSpec.from_toml(tmp_path / "c.toml")
 
 
-def _gmsh_ring(path: Path, inner: float, outer: float, size: float,
-               names: tuple[str | None, str | None]) -> Path:
-    """The quarter ring inner <= r <= outer, x, y >= 0; its arcs are physical groups
-    ``names`` (inner arc, outer arc; None: none)."""
-    def geometry(gmsh: Any) -> None:
-        occ = gmsh.model.occ
-        disc = occ.addDisk(0.0, 0.0, 0.0, outer, outer)
-        occ.cut([(2, disc)], [(2, occ.addDisk(0.0, 0.0, 0.0, inner, inner))])
-        occ.intersect([(2, disc)], [(2, occ.addRectangle(0.0, 0.0, 0.0, outer, outer))])
-        occ.synchronize()
-        for _, tag in gmsh.model.getEntities(1):
-            x0, y0, _, x1, y1, _ = gmsh.model.getBoundingBox(1, tag)
-            if x1 - x0 > 1e-6 and y1 - y0 > 1e-6:  # an arc
-                name = names[0] if max(x1, y1) < 0.5 * (inner + outer) else names[1]
-                if name is not None:
-                    gmsh.model.addPhysicalGroup(1, [tag], name=name)
-        gmsh.model.addPhysicalGroup(2, [tag for _, tag in gmsh.model.getEntities(2)],
-                                    name="ring")
+RINGS = (Path(__file__).parent / "data" / "rings.toml").read_text()
 
-    return write_gmsh_mesh(path, geometry, size)
-
-
-RINGS = """
-[analysis]
-hypothesis = "plane_strain"
-[materials.steel]
-E = 210000.0
-nu = 0.3
-[[substructures]]
-name = "inner"
-mesh_file = "inner.msh"
-material = "steel"
-[[substructures]]
-name = "outer"
-mesh_file = "outer.msh"
-material = "steel"
-[[interfaces]]
-between = ["inner.rim", "outer.seat"]   # two named curved faces, meshes not matching
-type = "contact"
-friction = 0.2
-[[boundary]]
-name = "p"
-face = "inner.bore"
-type = "pressure"
-value = 100.0
-[[boundary]]
-name = "sym_inner_x"
-face = "inner.left"
-type = "mixed"
-components = ["displacement", "force"]
-value = [0.0, 0.0]
-[[boundary]]
-name = "sym_inner_y"
-face = "inner.bottom"
-type = "mixed"
-components = ["force", "displacement"]
-value = [0.0, 0.0]
-[[boundary]]
-name = "sym_outer_x"
-face = "outer.left"
-type = "mixed"
-components = ["displacement", "force"]
-value = [0.0, 0.0]
-[[boundary]]
-name = "sym_outer_y"
-face = "outer.bottom"
-type = "mixed"
-components = ["force", "displacement"]
-value = [0.0, 0.0]
-[[qoi]]
-name = "p_c"
-type = "contact_pressure"
-between = ["inner", "outer"]
-segment = [0.0, 100.0]
-[[qoi]]
-name = "u_out"
-type = "displacement"
-point = [20.0, 0.0]
-component = "x"
-"""
 
 
 def test_curved_faces_in_contact_converge_to_lame(tmp_path: Path) -> None:
@@ -440,8 +362,8 @@ def test_curved_faces_in_contact_converge_to_lame(tmp_path: Path) -> None:
     (tmp_path / "rings.toml").write_text(RINGS)
     errors = []
     for size in (1.0, 0.5):
-        _gmsh_ring(tmp_path / "inner.msh", a, b, size, ("bore", "rim"))
-        _gmsh_ring(tmp_path / "outer.msh", b, c, 1.6 * size, ("seat", None))
+        write_gmsh_ring(tmp_path / "inner.msh", a, b, size, ("bore", "rim"))
+        write_gmsh_ring(tmp_path / "outer.msh", b, c, 1.6 * size, ("seat", None))
         model = ml.Model(ml.ModelSpec.from_toml(tmp_path / "rings.toml"))
         reference = model.reference()
         errors.append((abs(reference.qoi["p_c"] / contact - 1.0),
@@ -461,8 +383,8 @@ def test_curved_faces_in_contact_converge_to_lame(tmp_path: Path) -> None:
 def test_named_faces_apart_are_refused(tmp_path: Path) -> None:
     """Named faces are taken to touch: faces with a clearance between them are refused by
     name, never solved as if they touched."""
-    _gmsh_ring(tmp_path / "inner.msh", 5.0, 10.0, 1.0, ("bore", "rim"))
-    _gmsh_ring(tmp_path / "outer.msh", 10.5, 20.0, 1.6, ("seat", None))
+    write_gmsh_ring(tmp_path / "inner.msh", 5.0, 10.0, 1.0, ("bore", "rim"))
+    write_gmsh_ring(tmp_path / "outer.msh", 10.5, 20.0, 1.6, ("seat", None))
     (tmp_path / "rings.toml").write_text(RINGS)
     with pytest.raises(ml.ModelError, match=r"interfaces\[0\].between: 'inner.rim' and "
                        r"'outer.seat' do not touch: \d+ node\(s\) 0.5 apart at most"):

@@ -121,12 +121,13 @@ class SectionReader:
         return evaluate(value, self.lookup, where)
 
     def contact_law(self, table: Mapping[str, Any], where: str) -> ContactLaw:
+        """A contact's or a stop's friction (>= 0) and initial gap: the sides' (or the face's
+        and the obstacle's) distance at rest, negative for an interference (they overlap
+        by -gap at rest, and are pushed apart from the first step: a shrink fit)."""
         friction = self.num(table.get("friction", 0.0), f"{where}.friction")
         gap = self.num(table.get("gap", 0.0), f"{where}.gap")
         if friction < 0.0:
             raise ModelError(f"{where}.friction: the friction coefficient must be >= 0, "
                              f"got {friction:g}")
-        if gap < 0.0:
-            raise ModelError(f"{where}.gap: the initial gap must be >= 0, got {gap:g}")
         return ContactLaw(friction, gap)
 
