@@ -179,3 +179,30 @@ def test_a_shrink_fit_of_two_rings_converges_to_lame(tmp_path: Path) -> None:
             assert latin.qoi["u_out"] == pytest.approx(reference.qoi["u_out"], rel=1e-8)
             assert latin.qoi["p_c"] == pytest.approx(reference.qoi["p_c"], rel=1e-3)
     assert errors[0] < 0.02 and errors[1] < errors[0] / 3.0 and errors[1] < 5e-3
+
+
+def test_a_press_fit_holds_sideways_up_to_its_friction(tmp_path: Path) -> None:
+    """The column's block pushed sideways by a prescribed displacement of its left face:
+    the push's force rises while the press fit sticks, then stays at its holding capacity
+    μ N = 0.3 × 133.3 N = 40 N once it slides; LATIN at two κ equals the reference."""
+    push = COLUMN.replace('name = "block_left"\nface = "block.left"\ntype = "mixed"\n'
+                          'components = ["displacement", "force"]\nvalue = [0.0, 0.0]\n',
+                          'name = "block_left"\nface = "block.left"\ntype = "mixed"\n'
+                          'components = ["displacement", "force"]\nvalue = [1.0, 0.0]\n'
+                          'factor = "push"\n')
+    assert push != COLUMN
+    (tmp_path / "push.toml").write_text(
+        push + '[history.factors]\npush = [0.0, 0.0005, 0.001, 0.002, 0.003]\n'
+        '[[qoi]]\nname = "R_push"\ntype = "reaction"\nboundary = "block_left"\n'
+        'component = "x"\n')
+    model = ml.load_model(tmp_path / "push.toml")
+    capacity = 0.3 * 20.0 * 0.001 / (30.0 / 2e5)
+    reference = model.reference({"mu": 0.3})
+    assert reference.qoi["R_push"][0] == pytest.approx(0.0, abs=1e-9)
+    assert 0.5 * capacity < reference.qoi["R_push"][1] < capacity
+    assert reference.qoi["R_push"][2:] == pytest.approx([capacity] * 3, rel=1e-9)
+    for kappa in (0.5, 2.0):
+        latin = model.solve({"mu": 0.3}, options=ml.LatinOptions(kappa=kappa))
+        assert latin.converged and latin.unique
+        assert latin.qoi["R_push"] == pytest.approx(reference.qoi["R_push"], rel=1e-5,
+                                                    abs=1e-6 * capacity)
