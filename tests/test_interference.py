@@ -206,3 +206,17 @@ def test_a_press_fit_holds_sideways_up_to_its_friction(tmp_path: Path) -> None:
         assert latin.converged and latin.unique
         assert latin.qoi["R_push"] == pytest.approx(reference.qoi["R_push"], rel=1e-5,
                                                     abs=1e-6 * capacity)
+
+
+def test_show_lists_each_contact_with_its_friction_and_interference(
+        tmp_path: Path, capsys: pytest.CaptureFixture[str]) -> None:
+    """``multilatin show`` gives each pair of bodies in contact its law, an interference as
+    such, and the pieces a split cuts it into (b1-9: three per contact)."""
+    from multilatin.cli import main
+
+    (tmp_path / "column.toml").write_text(COLUMN)
+    assert main(["show", str(tmp_path / "column.toml")]) == 0
+    assert "contacts:\n  base|block: friction 0, gap -0.001 (an interference of 0.001)\n" \
+        in capsys.readouterr().out
+    assert main(["show", "b1-9"]) == 0
+    assert "  bottom|centre: friction 0.3, gap 0 (3 interfaces)\n" in capsys.readouterr().out

@@ -22,7 +22,7 @@ import numpy as np
 from . import __version__
 from .decomposition.result import SolveResult
 from .errors import ModelError, NotConvergedError
-from .io.describe import boundary_lines, qoi_reads
+from .io.describe import boundary_lines, contact_lines, qoi_reads
 from .io.files import ensure_writable_folder
 from .latin import LatinOptions
 from .latin.options import ACCELERATIONS, BACKENDS, STUDY_QOI_RTOL
@@ -305,6 +305,11 @@ def _show(model: Model) -> None:
         if sub.cut is not None:
             print(f"hole in {sub.name}: {sub.hole!r} ({sub.cut.cut.size} cut cells, "
                   f"{sub.cut.void.size} void cells, {sub.cut.inactive_nodes.size} nodes removed)")
+    contacts = contact_lines(assembly)
+    if contacts:
+        print("contacts:")
+        for line in contacts:
+            print(f"  {line}")
     print("boundary conditions:")
     for line in boundary_lines(assembly):
         print(f"  {line}")

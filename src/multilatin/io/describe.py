@@ -1,12 +1,13 @@
-"""What a model defines, in words, for ``multilatin show``: its boundary conditions (the
-sides, or parts of sides, they act on) and what each quantity of interest reads."""
+"""What a model defines, in words, for ``multilatin show``: its contacts, its boundary
+conditions (the sides, or parts of sides, they act on) and what each quantity of interest
+reads."""
 
 from __future__ import annotations
 
 from ..decomposition.assembly import DISPLACEMENT, Assembly, Interface, QuantityOfInterest
 from ..decomposition.qoi import STRESS_COMPONENTS, point_substructure
 
-__all__ = ["boundary_lines", "qoi_reads"]
+__all__ = ["boundary_lines", "contact_lines", "qoi_reads"]
 
 
 def _where(assembly: Assembly, interfaces: list[Interface]) -> str:
@@ -20,6 +21,27 @@ def _where(assembly: Assembly, interfaces: list[Interface]) -> str:
                 part += f" [{ref.segment[0]:g}, {ref.segment[1]:g}]"
             parts.append(part)
     return ", ".join(parts)
+
+
+def contact_lines(assembly: Assembly) -> list[str]:
+    """One line per pair of bodies in contact: its friction and initial gap (negative: an
+    interference), and how many interfaces the substructures cut it into."""
+    by_bodies: dict[tuple[str, ...], list[Interface]] = {}
+    for itf in assembly.interfaces:
+        if itf.kind == "contact" and itf.contact is not None:
+            bodies = tuple(assembly.substructures[ref.substructure].body for ref in itf.sides)
+            by_bodies.setdefault(bodies, []).append(itf)
+    lines = []
+    for bodies, interfaces in by_bodies.items():
+        laws = sorted({(i.contact.friction, i.contact.gap) for i in interfaces
+                       if i.contact is not None})
+        law = "; ".join(f"friction {friction:g}, "
+                        + (f"gap {gap:g}" if gap >= 0.0 else
+                           f"gap {gap:g} (an interference of {-gap:g})")
+                        for friction, gap in laws)
+        pieces = f" ({len(interfaces)} interfaces)" if len(interfaces) > 1 else ""
+        lines.append(f"{'|'.join(bodies)}: {law}{pieces}")
+    return lines
 
 
 def boundary_lines(assembly: Assembly) -> list[str]:
