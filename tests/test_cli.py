@@ -92,6 +92,14 @@ def test_b1_figures_and_reference_overlay(tmp_path, capsys):
     status = contact.point_data["status"]
     assert set(np.unique(status)) <= {0.0, 1.0, 2.0} and (status == 2.0).any()
     assert np.all(np.abs(contact.point_data["pressure"][status == 0.0]) < 1e-6)
+    # the displacement jump: where the stop presses, the face stands at the gap (0.04 mm)
+    jump = contact.point_data["displacement_jump"][:, :2]
+    pressed = stop & (contact.point_data["pressure"] > 1e-3)
+    along = np.einsum("pd,pd->p", jump, contact.point_data["normal"][:, :2])
+    assert pressed.any() and along[pressed] == pytest.approx(-0.04, abs=1e-6)
+    tangent = np.column_stack([-contact.point_data["normal"][:, 1],
+                               contact.point_data["normal"][:, 0]])
+    assert contact.point_data["slip"] == pytest.approx(np.einsum("pd,pd->p", jump, tangent))
 
 
 def test_vtk_has_no_orphan_points_where_a_hole_removed_cells(tmp_path):

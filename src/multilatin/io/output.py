@@ -85,11 +85,19 @@ def _contact(result: SolveResult) -> dict[str, FloatArray] | None:
     chosen: list[IntArray] = []
     normals: list[FloatArray] = []
     thicknesses: list[FloatArray] = []
+    jumps: list[FloatArray] = []
     for i, interface in enumerate(result.assembly.interfaces):
         if interface.contact is None:
             continue
         pts = np.flatnonzero(itf.interface == i)
         first = pts[itf.substructure[pts] == interface.sides[0].substructure]
+        # the displacement jump: the other side's less this one's (a stop's obstacle: 0)
+        w = itf.displacement_hat[:, first]
+        if len(interface.sides) == 2:
+            second = pts[itf.substructure[pts] == interface.sides[1].substructure]
+            jumps.append(itf.displacement_hat[:, second] - w)
+        else:
+            jumps.append(-w)
         normal = result.assembly.substructures[interface.sides[0].substructure].mesh \
             .outward_normal(interface.sides[0].side)
         chosen.append(first)
@@ -111,9 +119,11 @@ def _contact(result: SolveResult) -> dict[str, FloatArray] | None:
     traction = itf.force_hat[:, index] / thickness[:, None]
     pressure = -np.einsum("tpd,pd->tp", traction, normal)
     tangent = np.column_stack([-normal[:, 1], normal[:, 0]])
+    jump = np.concatenate(jumps, axis=1)
     return {"coords": itf.coords[index], "normal": normal, "traction": traction,
             "pressure": pressure, "tangential_traction": np.einsum("tpd,pd->tp", traction, tangent),
-            "status": status[:, index], "weights": itf.weights[index] * thickness}
+            "status": status[:, index], "weights": itf.weights[index] * thickness,
+            "jump": jump, "slip": np.einsum("tpd,pd->tp", jump, tangent)}
 
 
 def _planar(vectors: FloatArray) -> FloatArray:
@@ -126,7 +136,9 @@ def write_vtk(result: SolveResult, folder: Path) -> Path:
     cell data stresses, strains (tensor components), von Mises stress, substructure index,
     material fraction; a hole's void cells and their nodes left out) and, for a LATIN result
     with contact, ``<model>_contact_stepNNN.vtu`` (the contact points with traction,
-    pressure, tangential traction, normal, area and status: 0 open, 1 stick, 2 slip)."""
+    pressure, tangential traction, normal, area, status: 0 open, 1 stick, 2 slip, the
+    displacement jump across the contact and its tangential part, the slip, along the
+    normal turned by +90°)."""
     folder.mkdir(parents=True, exist_ok=True)
     points, blocks, displacement, cell_data = _solid(result)
     contact = _contact(result)
@@ -151,6 +163,8 @@ def write_vtk(result: SolveResult, folder: Path) -> Path:
                             "pressure": contact["pressure"][step],
                             "tangential_traction": contact["tangential_traction"][step],
                             "status": contact["status"][step],
+                            "displacement_jump": _planar(contact["jump"][step]),
+                            "slip": contact["slip"][step],
                             "normal": _planar(contact["normal"]),
                             "area": contact["weights"]},
             ))
