@@ -55,18 +55,23 @@ def boundary_lines(assembly: Assembly) -> list[str]:
     for name, interfaces in by_name.items():
         condition, law = interfaces[0].condition, interfaces[0].contact
         assert condition is not None
+        texts = getattr(condition.varying, "expressions", None)  # expressions of x and y
+        shown = tuple(text if texts is not None and text is not None else f"{value:g}"
+                      for text, value in zip(texts or (None, None), condition.value,
+                                             strict=True))
         if law is not None:
             what = f"rigid stop, gap {law.gap:g}, friction {law.friction:g}"
-        elif condition.pressure:
-            what = f"pressure {condition.value[0]:g}"
-        elif condition.kinds[0] == condition.kinds[1]:
-            noun = "displacement" if condition.kinds[0] == DISPLACEMENT else "traction"
-            what = f"{noun} ({condition.value[0]:g}, {condition.value[1]:g})"
         else:
-            what = ", ".join(
-                f"{axis} {'displacement' if kind == DISPLACEMENT else 'traction'} {value:g}"
-                for axis, kind, value in zip("xy", condition.kinds, condition.value,
-                                             strict=True))
+            values = shown
+            if condition.pressure:
+                what = f"pressure {values[0]}"
+            elif condition.kinds[0] == condition.kinds[1]:
+                noun = "displacement" if condition.kinds[0] == DISPLACEMENT else "traction"
+                what = f"{noun} ({values[0]}, {values[1]})"
+            else:
+                what = ", ".join(
+                    f"{axis} {'displacement' if kind == DISPLACEMENT else 'traction'} {value}"
+                    for axis, kind, value in zip("xy", condition.kinds, values, strict=True))
         factor = f" × factor {condition.factor!r}" if condition.factor else ""
         lines.append(f"{name}: {what}{factor} on {_where(assembly, interfaces)}")
     return lines

@@ -14,7 +14,7 @@ import numpy as np
 import numpy.typing as npt
 import scipy.linalg as sla
 
-from ..decomposition.assembly import DISPLACEMENT, Assembly
+from ..decomposition.assembly import DISPLACEMENT, Assembly, consistent_densities
 from ..decomposition.interfaces import InterfacePoints, interface_functions
 from ..errors import ModelError
 from ..fem.elasticity import FloatArray, IntArray
@@ -413,13 +413,14 @@ def _prescribed(assembly: Assembly, points: InterfacePoints) -> FloatArray:
         n = points.side_points[(i, 0)].size
         factor = assembly.history.factor(itf.condition.factor)
         thickness = assembly.substructures[itf.sides[0].substructure].material.thickness
+        at = points.side_points[(i, 0)]
+        values = itf.condition.values_at(points.coords[at])  # (n, 2)
         if itf.condition.pressure:  # traction −p n at each point
-            traction = -itf.condition.value[0] * points.normals[points.side_points[(i, 0)]]
-            prescribed[:, offset:offset + n] = factor[:, None, None] * traction[None]
-        else:
-            prescribed[:, offset:offset + n] = (factor[:, None] *
-                                                np.asarray(itf.condition.value))[:, None, :]
+            values = -values[:, :1] * points.normals[at]
         force = np.array([kind != DISPLACEMENT for kind in itf.condition.kinds])
+        if itf.condition.varying is not None:  # the consistent load of a varying traction
+            values[:, force] = consistent_densities(points.coords[at], values)[:, force]
+        prescribed[:, offset:offset + n] = factor[:, None, None] * values[None]
         prescribed[:, offset:offset + n, force] *= thickness
         offset += n
     return prescribed

@@ -22,7 +22,7 @@ import scipy.sparse as sp
 import scipy.sparse.csgraph as csgraph
 import scipy.sparse.linalg as spla
 
-from ..decomposition.assembly import DISPLACEMENT, Assembly
+from ..decomposition.assembly import DISPLACEMENT, Assembly, consistent_densities
 from ..decomposition.interfaces import discretise_side, point_normals
 from ..decomposition.mortar import MortarCoupling, mortar_coupling
 from ..decomposition.qoi import ContactPressures, evaluate_qois
@@ -225,13 +225,16 @@ def solve_monolithic(assembly: Assembly) -> SolveResult:
         # dual-cell length × thickness at each node: the consistent load of a uniform traction
         nodal_len = discretise_side(sub.mesh.nodes, side, "nodal", sub.material.thickness).weights
         mine = own_load.setdefault(cond.name, np.zeros((n_dofs, n_steps)))
-        value = np.broadcast_to(np.asarray(cond.value, dtype=float), (side.size, 2))
+        value = cond.values_at(sub.mesh.nodes[side])  # (nodes, 2)
         if cond.pressure:  # traction −p n at each node
-            value = -cond.value[0] * point_normals(sub.mesh, ref.side, side)
+            value = -value[:, :1] * point_normals(sub.mesh, ref.side, side)
+        if cond.varying is not None:  # the consistent load of a varying traction
+            forces = [c for c, kind in enumerate(cond.kinds) if kind != DISPLACEMENT]
+            value[:, forces] = consistent_densities(sub.mesh.nodes[side], value)[:, forces]
         for comp, kind in enumerate(cond.kinds):
             dofs = 2 * gnodes + comp
             if kind == DISPLACEMENT:
-                fixed_value[dofs] = cond.value[comp] * factor[None, :]
+                fixed_value[dofs] = value[:, comp, None] * factor[None, :]
                 own = fixed_of.setdefault(cond.name, {})
                 for dof, length in zip(dofs.tolist(), nodal_len.tolist(), strict=True):
                     own[dof] = own.get(dof, 0.0) + length

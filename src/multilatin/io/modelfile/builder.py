@@ -90,13 +90,13 @@ def _check_one_displacement_per_node(subs: list[Substructure], boundaries: list[
         if condition is None or condition.pressure:
             continue
         sub = subs[itf.sides[0].substructure]
-        at = np.round(sub.mesh.nodes[itf.sides[0].nodes(sub.mesh)], 9)
+        nodes = sub.mesh.nodes[itf.sides[0].nodes(sub.mesh)]
+        at, prescribed = np.round(nodes, 9), condition.values_at(nodes)
         for c in range(2):
             if condition.kinds[c] == DISPLACEMENT:
                 keys.append(np.column_stack([np.full(len(at), bodies[sub.body]), at,
                                              np.full(len(at), c)]))
-                values.append(np.broadcast_to(condition.value[c] * history.factor(
-                    condition.factor), (len(at), history.n_steps)))
+                values.append(prescribed[:, c, None] * history.factor(condition.factor)[None])
                 owners.append(np.full(len(at), len(names)))
                 names.append(condition.name)
     if len(names) < 2:

@@ -3,7 +3,8 @@ boundary conditions (prescribed displacements, forces, rigid stops)."""
 
 from __future__ import annotations
 
-from collections.abc import Callable, Collection, Mapping
+from collections.abc import Callable, Collection, Mapping, Sequence
+from dataclasses import dataclass
 from typing import Any
 
 import numpy as np
@@ -19,7 +20,9 @@ from ...decomposition.assembly import (
     Substructure,
 )
 from ...errors import ModelError
+from ...fem.elasticity import FloatArray
 from ...fem.mesh import SIDES, normal_axis
+from ..expressions import MAX_EXPRESSION_LENGTH, evaluate, names_in
 from .checks import SectionReader, check_keys, pair, require
 
 
@@ -105,8 +108,11 @@ class LoadingSections(SectionReader):
                     f"{where}.type: unknown boundary type {kind!r} "
                     "(known: displacement, force, pressure, mixed, wall, stop)"
                 )
-            vx, vy = (self.num(v, f"{where}.value")
-                      for v in pair(require(table, "value", where), f"{where}.value"))
+            raw = pair(require(table, "value", where), f"{where}.value")
+            varying = CoordinateValues.of(raw, self.lookup, f"{where}.value")
+            vx, vy = (self.num(v, f"{where}.value") if varying is None
+                      or varying.expressions[c] is None else 0.0
+                      for c, v in enumerate(raw))
             factor = table.get("factor")
             if factor is not None and factor not in history.factors:
                 known = ", ".join(sorted(history.factors)) or "none"
@@ -115,7 +121,11 @@ class LoadingSections(SectionReader):
                     f"(defined: {known})"
                 )
             condition = BoundaryCondition(name, (kinds[0], kinds[1]), (vx, vy), factor,
-                                          pressure)
+                                          pressure, varying)
+            if varying is not None:  # evaluated at every node of the face, errors now
+                for ref in refs:
+                    sub = subs[ref.substructure]
+                    condition.values_at(sub.mesh.nodes[ref.nodes(sub.mesh)])
             if not refs:
                 raise ModelError(f"{where}.face: no substructure side lies on {table['face']!r}")
             for ref in refs:
@@ -247,3 +257,56 @@ def _named_groups(subs: list[Substructure], group: str, where: str,
         except ValueError as exc:
             raise ModelError(f"{where}: {exc}") from None
     return refs
+
+
+#: the names of a point's coordinates in a boundary value's expression
+COORDINATES = ("x", "y")
+
+
+@dataclass(frozen=True)
+class CoordinateValues:
+    """A boundary condition's values that vary along its face: per component the text of
+    an expression of the point's coordinates ``x`` and ``y`` and of the parameters (None
+    where the component's value is uniform, ``uniform`` then), evaluated point by point."""
+
+    expressions: tuple[str | None, str | None]
+    uniform: tuple[float, float]
+    parameters: tuple[tuple[str, float], ...]
+    where: str
+
+    @staticmethod
+    def of(raw: Sequence[Any], lookup: Mapping[str, float], where: str
+           ) -> CoordinateValues | None:
+        """The varying values of a ``value`` pair (None where neither component names x
+        or y); a parameter named x or y would shadow the coordinate: refused."""
+        texts = [v if isinstance(v, str) and len(v) <= MAX_EXPRESSION_LENGTH
+                 and set(COORDINATES) & _names(v) else None for v in raw]
+        if texts == [None, None]:
+            return None
+        clash = sorted(set(COORDINATES) & set(lookup))
+        if clash:
+            raise ModelError(f"{where}: {raw!r} names the coordinate {clash[0]!r}, which is "
+                             f"also a parameter's name: rename the parameter")
+        uniform = tuple(0.0 if text is not None else evaluate(v, lookup, where)
+                        for v, text in zip(raw, texts, strict=True))
+        return CoordinateValues((texts[0], texts[1]), (uniform[0], uniform[1]),
+                                tuple(sorted(lookup.items())), where)
+
+    def __call__(self, points: FloatArray) -> FloatArray:
+        out = np.tile(np.asarray(self.uniform, dtype=np.float64), (len(points), 1))
+        parameters = dict(self.parameters)
+        for c, text in enumerate(self.expressions):
+            if text is not None:
+                out[:, c] = [evaluate(text, {**parameters, "x": px, "y": py},
+                                      f"{self.where} at ({px:g}, {py:g})")
+                             for px, py in np.asarray(points, dtype=np.float64).tolist()]
+        return out
+
+
+def _names(text: str) -> set[str]:
+    """The names an expression reads (none where it does not parse: ``evaluate`` says
+    why)."""
+    try:
+        return names_in(text)
+    except (SyntaxError, RecursionError, MemoryError):
+        return set()
