@@ -38,6 +38,14 @@ def test_slide_reaches_the_closed_form_push_force(tmp_path: Path) -> None:
     assert (tmp_path / "slide.png").exists()
 
 
+def test_press_fit_holds_up_to_its_closed_form_capacity(tmp_path: Path) -> None:
+    module = _example("press_fit")
+    found = module.run(tmp_path, deltas=2, frictions=(0.1, 0.3))
+    for pushes, expected in zip(found["R_push"], found["closed_form"], strict=True):
+        assert pushes == pytest.approx(expected, rel=1e-3)  # the study's QoI rule
+    assert (tmp_path / "press_fit.png").exists()
+
+
 def test_punch_slides_at_the_closed_form_and_matches_the_reference(tmp_path: Path) -> None:
     module = _example("punch_position")
     pushes = module.run(tmp_path, positions=(6.0, 30.0), checked=6.0)

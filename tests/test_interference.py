@@ -14,94 +14,39 @@ from conftest import write_gmsh_ring
 
 import multilatin as ml
 
-COLUMN = """
-[parameters.delta]
-default = 0.001
-[parameters.mu]
-default = 0.0
-[materials.steel]
-E = 2e5
-nu = 0.3
-[[bodies]]
-name = "base"
-x = [0.0, 20.0]
-y = [0.0, 10.0]
-elements = [8, 4]
-material = "steel"
-[[bodies]]
-name = "block"
-x = [0.0, 20.0]
-y = [10.0, 30.0]
-elements = [8, 8]
-material = "steel"
-[[interfaces]]
-between = ["base", "block"]
-type = "contact"
-friction = "mu"
-gap = "-delta"
-[[boundary]]
-name = "bottom"
-face = "base.bottom"
-type = "mixed"
-components = ["force", "displacement"]
-value = [0.0, 0.0]
-[[boundary]]
-name = "hold"
-face = "block.top"
-type = "mixed"
-components = ["force", "displacement"]
-value = [0.0, 0.0]
-[[boundary]]
-name = "base_left"
-face = "base.left"
-type = "mixed"
-components = ["displacement", "force"]
-value = [0.0, 0.0]
-[[boundary]]
-name = "block_left"
-face = "block.left"
-type = "mixed"
-components = ["displacement", "force"]
-value = [0.0, 0.0]
-[[qoi]]
-name = "R_hold"
-type = "reaction"
-boundary = "hold"
-component = "y"
-[[qoi]]
-name = "p"
-type = "contact_pressure"
-between = ["base", "block"]
-segment = [0.0, 20.0]
-"""
+#: the press fit of the gallery (examples/press_fit.py): two blocks in a column overlapping
+#: by δ, then the upper one pushed sideways (no push at step 1)
+PRESS_FIT = Path(__file__).parents[1] / "examples" / "press_fit.toml"
 
 
-def test_a_column_with_an_interference_is_compressed_as_the_closed_form(
-        tmp_path: Path) -> None:
+def _column() -> ml.Model:
+    return ml.load_model(PRESS_FIT)
+
+
+
+def test_a_column_with_an_interference_is_compressed_as_the_closed_form() -> None:
     """Blocks of 10 and 20 mm overlapping by δ between two faces held vertically: a uniform
     stress σ = δ / (10 / E + 20 / E), exact on Q4 cells; the same at μ = 0.3 (one material:
     the lateral strains agree, nothing slips); LATIN (NumPy, PyTorch) = reference."""
-    (tmp_path / "column.toml").write_text(COLUMN)
-    model = ml.load_model(tmp_path / "column.toml")
+    model = _column()
     sigma = 0.001 / (10.0 / 2e5 + 20.0 / 2e5)
     for mu in (0.0, 0.3):
         for result in (model.solve({"mu": mu}, options=ml.LatinOptions(tol=1e-10)),
                        model.solve({"mu": mu}, options=ml.LatinOptions(tol=1e-10,
                                                                         backend="torch")),
                        model.reference({"mu": mu})):
-            assert result.qoi["p"] == pytest.approx(sigma, rel=1e-8)
-            assert result.qoi["R_hold"] == pytest.approx(-20.0 * sigma, rel=1e-8)
+            assert result.qoi["p"][0] == pytest.approx(sigma, rel=1e-8)
+            assert result.qoi["R_hold"][0] == pytest.approx(-20.0 * sigma, rel=1e-8)
 
 
-def test_a_study_over_the_interference_is_linear_in_it(tmp_path: Path) -> None:
+def test_a_study_over_the_interference_is_linear_in_it() -> None:
     """The answer is linear in δ (no contact opens): the study's forces (warm starts from
     one interference to the next) are δ times the one of unit δ, within its accuracy."""
-    (tmp_path / "column.toml").write_text(COLUMN)
-    model = ml.load_model(tmp_path / "column.toml")
+    model = _column()
     study = ml.run_study(model, ml.Grid.parse(["delta=0.0005:0.002:4"]))
     for record in study.mode_records("multiresolution"):
         delta = record["params"]["delta"]
-        assert record["qoi"]["p"] == pytest.approx(delta / (30.0 / 2e5), rel=1e-3)
+        assert record["qoi"]["p"][0] == pytest.approx(delta / (30.0 / 2e5), rel=1e-3)
 
 
 def test_a_stop_set_inside_a_bar_presses_it_by_the_interference(tmp_path: Path) -> None:
@@ -181,26 +126,17 @@ def test_a_shrink_fit_of_two_rings_converges_to_lame(tmp_path: Path) -> None:
     assert errors[0] < 0.02 and errors[1] < errors[0] / 3.0 and errors[1] < 5e-3
 
 
-def test_a_press_fit_holds_sideways_up_to_its_friction(tmp_path: Path) -> None:
+def test_a_press_fit_holds_sideways_up_to_its_friction() -> None:
     """The column's block pushed sideways by a prescribed displacement of its left face:
     the push's force rises while the press fit sticks, then stays at its holding capacity
-    μ N = 0.3 × 133.3 N = 40 N once it slides; LATIN at two κ equals the reference."""
-    push = COLUMN.replace('name = "block_left"\nface = "block.left"\ntype = "mixed"\n'
-                          'components = ["displacement", "force"]\nvalue = [0.0, 0.0]\n',
-                          'name = "block_left"\nface = "block.left"\ntype = "mixed"\n'
-                          'components = ["displacement", "force"]\nvalue = [1.0, 0.0]\n'
-                          'factor = "push"\n')
-    assert push != COLUMN
-    (tmp_path / "push.toml").write_text(
-        push + '[history.factors]\npush = [0.0, 0.0005, 0.001, 0.002, 0.003]\n'
-        '[[qoi]]\nname = "R_push"\ntype = "reaction"\nboundary = "block_left"\n'
-        'component = "x"\n')
-    model = ml.load_model(tmp_path / "push.toml")
+    μ N = 0.3 × 133.3 N = 40 N once it slides; LATIN at two κ equals the reference (the
+    gallery's press_fit study checks the capacity over δ and μ)."""
+    model = _column()
     capacity = 0.3 * 20.0 * 0.001 / (30.0 / 2e5)
     reference = model.reference({"mu": 0.3})
     assert reference.qoi["R_push"][0] == pytest.approx(0.0, abs=1e-9)
     assert 0.5 * capacity < reference.qoi["R_push"][1] < capacity
-    assert reference.qoi["R_push"][2:] == pytest.approx([capacity] * 3, rel=1e-9)
+    assert reference.qoi["R_push"][2:] == pytest.approx([capacity] * 4, rel=1e-9)
     for kappa in (0.5, 2.0):
         latin = model.solve({"mu": 0.3}, options=ml.LatinOptions(kappa=kappa))
         assert latin.converged and latin.unique
@@ -214,9 +150,8 @@ def test_show_lists_each_contact_with_its_friction_and_interference(
     such, and the pieces a split cuts it into (b1-9: three per contact)."""
     from multilatin.cli import main
 
-    (tmp_path / "column.toml").write_text(COLUMN)
-    assert main(["show", str(tmp_path / "column.toml")]) == 0
-    assert "contacts:\n  base|block: friction 0, gap -0.001 (an interference of 0.001)\n" \
+    assert main(["show", str(PRESS_FIT)]) == 0
+    assert "contacts:\n  base|block: friction 0.3, gap -0.001 (an interference of 0.001)\n" \
         in capsys.readouterr().out
     assert main(["show", "b1-9"]) == 0
     assert "  bottom|centre: friction 0.3, gap 0 (3 interfaces)\n" in capsys.readouterr().out
