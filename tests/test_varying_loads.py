@@ -27,27 +27,12 @@ y = [0.0, 10.0]
 elements = [6, 4]
 split = [2, 2]
 material = "steel"
-[[boundary]]
-name = "left"
-face = "block.left"
+""" + "".join(f"""[[boundary]]
+name = "{side}"
+face = "block.{side}"
 type = "displacement"
 value = ["eps * x", "-0.3 * eps * y"]
-[[boundary]]
-name = "right"
-face = "block.right"
-type = "displacement"
-value = ["eps * x", "-0.3 * eps * y"]
-[[boundary]]
-name = "bottom"
-face = "block.bottom"
-type = "displacement"
-value = ["eps * x", "-0.3 * eps * y"]
-[[boundary]]
-name = "top"
-face = "block.top"
-type = "displacement"
-value = ["eps * x", "-0.3 * eps * y"]
-[[qoi]]
+""" for side in ("left", "right", "bottom", "top")) + """[[qoi]]
 name = "sxx"
 type = "stress"
 point = [7.7, 3.3]

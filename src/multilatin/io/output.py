@@ -16,7 +16,7 @@ from ..decomposition.result import SolveResult
 from ..fem.elasticity import FloatArray, IntArray, cell_strains, cell_stresses, von_mises
 from ..parameters import label
 from .files import ensure_writable_folder
-from .plots import plot_deformed, plot_histories, status_indices
+from .plots import contact_jump, plot_deformed, plot_histories, status_indices
 
 log = logging.getLogger(__name__)
 
@@ -89,15 +89,8 @@ def _contact(result: SolveResult) -> dict[str, FloatArray] | None:
     for i, interface in enumerate(result.assembly.interfaces):
         if interface.contact is None:
             continue
-        pts = np.flatnonzero(itf.interface == i)
-        first = pts[itf.substructure[pts] == interface.sides[0].substructure]
-        # the displacement jump: the other side's less this one's (a stop's obstacle: 0)
-        w = itf.displacement_hat[:, first]
-        if len(interface.sides) == 2:
-            second = pts[itf.substructure[pts] == interface.sides[1].substructure]
-            jumps.append(itf.displacement_hat[:, second] - w)
-        else:
-            jumps.append(-w)
+        first, jump = contact_jump(result, i)
+        jumps.append(jump)
         normal = result.assembly.substructures[interface.sides[0].substructure].mesh \
             .outward_normal(interface.sides[0].side)
         chosen.append(first)

@@ -26,6 +26,22 @@ def _pyplot() -> Any:
     return plt
 
 
+def contact_jump(result: SolveResult, i: int) -> tuple[npt.NDArray[np.int64], FloatArray]:
+    """The points of contact interface (or stop) ``i``'s first side, and the displacement
+    jump there per step (n_steps, n, 2): the other side's Ŵ less this one's (a stop's
+    obstacle stays put)."""
+    itf = result.interface
+    assert itf is not None
+    interface = result.assembly.interfaces[i]
+    pts = np.flatnonzero(itf.interface == i)
+    first = pts[itf.substructure[pts] == interface.sides[0].substructure]
+    w = itf.displacement_hat[:, first]
+    if len(interface.sides) == 2:
+        second = pts[itf.substructure[pts] == interface.sides[1].substructure]
+        return first, itf.displacement_hat[:, second] - w
+    return first, -w
+
+
 def status_indices(result: SolveResult, step: int,
                    slip_tol: float = 1e-6) -> dict[str, npt.NDArray[np.int64]]:
     """Interface point indices (side E of contact interfaces and stops) by status at
@@ -38,14 +54,7 @@ def status_indices(result: SolveResult, step: int,
     for i, interface in enumerate(result.assembly.interfaces):
         if interface.contact is None:
             continue
-        pts = np.flatnonzero(itf.interface == i)
-        first = pts[itf.substructure[pts] == interface.sides[0].substructure]
-        w = itf.displacement_hat[:, first]
-        if len(interface.sides) == 2:
-            second = pts[itf.substructure[pts] == interface.sides[1].substructure]
-            jump = itf.displacement_hat[:, second] - w
-        else:
-            jump = -w
+        first, jump = contact_jump(result, i)
         increment = jump[step] - (jump[step - 1] if step > 0 else 0.0)
         normal = result.assembly.substructures[interface.sides[0].substructure].mesh \
             .outward_normal(interface.sides[0].side)

@@ -110,9 +110,8 @@ class LoadingSections(SectionReader):
                 )
             raw = pair(require(table, "value", where), f"{where}.value")
             varying = CoordinateValues.of(raw, self.lookup, f"{where}.value")
-            vx, vy = (self.num(v, f"{where}.value") if varying is None
-                      or varying.expressions[c] is None else 0.0
-                      for c, v in enumerate(raw))
+            vx, vy = (varying.uniform if varying is not None else
+                      (self.num(v, f"{where}.value") for v in raw))
             factor = table.get("factor")
             if factor is not None and factor not in history.factors:
                 known = ", ".join(sorted(history.factors)) or "none"
