@@ -1,3 +1,4 @@
+import importlib.util
 import os
 
 if os.environ.get("PYTEST_XDIST_WORKER"):
@@ -8,6 +9,7 @@ if os.environ.get("PYTEST_XDIST_WORKER"):
         os.environ.setdefault(_name, "1")
 
 from collections.abc import Callable
+from pathlib import Path
 from typing import Any
 
 import numpy as np
@@ -99,20 +101,13 @@ def rectangle(x0: float, y0: float, width: float, height: float, name: str
 def write_gmsh_ring(path: Any, inner: float, outer: float, size: float,
                     names: tuple[str | None, str | None]) -> Any:
     """The quarter ring inner <= r <= outer, x, y >= 0; its arcs are physical groups
-    ``names`` (inner arc, outer arc; None: none)."""
-    def geometry(gmsh: Any) -> None:
-        occ = gmsh.model.occ
-        disc = occ.addDisk(0.0, 0.0, 0.0, outer, outer)
-        occ.cut([(2, disc)], [(2, occ.addDisk(0.0, 0.0, 0.0, inner, inner))])
-        occ.intersect([(2, disc)], [(2, occ.addRectangle(0.0, 0.0, 0.0, outer, outer))])
-        occ.synchronize()
-        for _, tag in gmsh.model.getEntities(1):
-            x0, y0, _, x1, y1, _ = gmsh.model.getBoundingBox(1, tag)
-            if x1 - x0 > 1e-6 and y1 - y0 > 1e-6:  # an arc
-                name = names[0] if max(x1, y1) < 0.5 * (inner + outer) else names[1]
-                if name is not None:
-                    gmsh.model.addPhysicalGroup(1, [tag], name=name)
-        gmsh.model.addPhysicalGroup(2, [tag for _, tag in gmsh.model.getEntities(2)],
-                                    name="ring")
-
-    return write_gmsh_mesh(path, geometry, size)
+    ``names`` (inner arc, outer arc; None: none): the spinning-fit gallery script's mesher
+    (``examples/spinning_fit.ring_mesh``)."""
+    pytest.importorskip("gmsh")
+    spec = importlib.util.spec_from_file_location(
+        "gallery_spinning_fit_meshes",
+        Path(__file__).resolve().parents[1] / "examples" / "spinning_fit.py")
+    assert spec is not None and spec.loader is not None
+    module = importlib.util.module_from_spec(spec)
+    spec.loader.exec_module(module)
+    return module.ring_mesh(Path(path), inner, outer, size, names)

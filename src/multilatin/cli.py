@@ -22,7 +22,7 @@ import numpy as np
 from . import __version__
 from .decomposition.result import SolveResult
 from .errors import ModelError, NotConvergedError
-from .io.describe import boundary_lines, contact_lines, qoi_reads
+from .io.describe import body_force_lines, boundary_lines, contact_lines, qoi_reads
 from .io.files import ensure_writable_folder
 from .latin import LatinOptions
 from .latin.options import ACCELERATIONS, BACKENDS, STUDY_QOI_RTOL
@@ -313,6 +313,10 @@ def _show(model: Model) -> None:
     print("boundary conditions:")
     for line in boundary_lines(assembly):
         print(f"  {line}")
+    if assembly.body_forces:
+        print("body forces:")
+        for line in body_force_lines(assembly):
+            print(f"  {line}")
     print("quantities of interest:")
     for q in assembly.qois:
         print(f"  {label(q.name, q.unit)}: {qoi_reads(assembly, q)}")

@@ -18,7 +18,7 @@ import scipy.sparse as sp
 from ..fem.elasticity import FloatArray, IntArray, hooke_matrix
 from ..fem.levelset import CutCells, LevelSet, cut_cells
 from ..fem.mesh import RectMesh, UnstructuredMesh
-from ..fem.xfem import mesh_pattern, xfem_stiffness
+from ..fem.xfem import mesh_pattern, xfem_load_vector, xfem_stiffness
 from ..parameters import Mu
 
 DISPLACEMENT = "displacement"
@@ -220,6 +220,31 @@ class QuantityOfInterest:
 
 
 @dataclass(frozen=True)
+class BodyForce:
+    """A force per unit volume (N/mm³ in N, mm) on the substructures of ``bodies`` (every
+    body where empty): gravity ρ g, a spinning part's ρ ω² r. ``value`` is uniform, or
+    ``varying`` gives it at points (n, 2) → (n, 2) (a model file's expressions of x and
+    y); multiplied at each step by the load factor ``factor`` (1 where None). The data f_d
+    on Ω_E of the substructures' equilibrium (paper eq. [1])."""
+
+    name: str
+    value: tuple[float, float]
+    bodies: tuple[str, ...] = ()
+    factor: str | None = None
+    varying: Callable[[FloatArray], FloatArray] | None = None
+
+    def acts_on(self, sub: Substructure) -> bool:
+        return not self.bodies or sub.body in self.bodies
+
+    def values_at(self, points: FloatArray) -> FloatArray:
+        """The force densities (n, 2) at ``points`` (n, 2), before the load factor."""
+        if self.varying is not None:
+            return np.asarray(self.varying(np.asarray(points, dtype=np.float64)),
+                              dtype=np.float64)
+        return np.tile(np.asarray(self.value, dtype=np.float64), (len(points), 1))
+
+
+@dataclass(frozen=True)
 class Assembly:
     name: str
     substructures: tuple[Substructure, ...]
@@ -227,6 +252,28 @@ class Assembly:
     history: History
     qois: tuple[QuantityOfInterest, ...]
     mu: Mu
+    body_forces: tuple[BodyForce, ...] = ()
+
+    def body_load(self, s: int) -> FloatArray | None:
+        """Substructure ``s``'s body-force load vectors ∫ N f t dΩ over its material, per
+        step (n_steps, n_dofs), load factors applied; None where no body force acts on it.
+        Computed once per assembly and substructure."""
+        sub = self.substructures[s]
+        acting = [force for force in self.body_forces if force.acts_on(sub)]
+        if not acting:
+            return None
+        if s not in self._body_loads:
+            load = np.zeros((self.n_steps, 2 * sub.mesh.n_nodes))
+            for force in acting:
+                unit = xfem_load_vector(sub.mesh, force.values_at(sub.mesh.nodes),
+                                        sub.material.thickness, sub.cut)
+                load += self.history.factor(force.factor)[:, None] * unit[None, :]
+            self._body_loads[s] = load
+        return self._body_loads[s]
+
+    @cached_property
+    def _body_loads(self) -> dict[int, FloatArray]:
+        return {}
 
     @cached_property
     def digests(self) -> dict[object, str]:

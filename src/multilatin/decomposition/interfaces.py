@@ -35,7 +35,7 @@ import scipy.sparse as sp
 from ..errors import ModelError
 from ..fem.elasticity import FloatArray, IntArray
 from ..fem.mesh import SIDES, RectMesh, UnstructuredMesh, normal_axis
-from .assembly import DISPLACEMENT, FORCE, Assembly, Interface
+from .assembly import DISPLACEMENT, FORCE, Assembly, Interface, consistent_densities
 from .held_nodes import held_corners, held_perfect_pairs, held_stops, node_key, prescribed_components
 from .mortar import mortar_coupling, touching_by_declaration
 
@@ -443,3 +443,28 @@ def free_macro_components(itf: Interface) -> tuple[bool, bool]:
         return (frictionless and axis == 1, frictionless and axis == 0)
     kinds = itf.condition.kinds
     return kinds[0] == FORCE, kinds[1] == FORCE
+
+
+def boundary_data(assembly: Assembly, points: InterfacePoints) -> FloatArray:
+    """W_d on displacement components, F_d on force ones, at the boundary points, per step
+    (F_d per unit length: the traction times the side's thickness)."""
+    prescribed = np.zeros((assembly.n_steps, points.boundary.size, 2))
+    offset = 0
+    for i, itf in enumerate(assembly.interfaces):
+        if itf.kind != "boundary" or itf.is_stop:
+            continue
+        assert itf.condition is not None
+        n = points.side_points[(i, 0)].size
+        factor = assembly.history.factor(itf.condition.factor)
+        thickness = assembly.substructures[itf.sides[0].substructure].material.thickness
+        at = points.side_points[(i, 0)]
+        values = itf.condition.values_at(points.coords[at])  # (n, 2)
+        if itf.condition.pressure:  # traction −p n at each point
+            values = -values[:, :1] * points.normals[at]
+        force = np.array([kind != DISPLACEMENT for kind in itf.condition.kinds])
+        if itf.condition.varying is not None:  # the consistent load of a varying traction
+            values[:, force] = consistent_densities(points.coords[at], values)[:, force]
+        prescribed[:, offset:offset + n] = factor[:, None, None] * values[None]
+        prescribed[:, offset:offset + n, force] *= thickness
+        offset += n
+    return prescribed

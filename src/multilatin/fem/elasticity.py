@@ -195,10 +195,29 @@ def body_force_vector(
     """Load vector ∫ N f t dΩ of a body force density ``force(x) -> (..., 2)``."""
     quadrature = quadrature or Quadrature.for_cells(cells.shape[1], 4)
     n, _, wdet = physical_gradients(nodes[cells], quadrature)
-    x = np.einsum("cqa,cad->cqd", n, nodes[cells])
-    f = force(x)
-    fe = thickness * np.einsum("cqa,cqd,cq->cad", n, f, wdet)
-    out = np.zeros(2 * nodes.shape[0])
+    return _load_vector(n, force(np.einsum("cqa,cad->cqd", n, nodes[cells])), wdet, cells,
+                        thickness, nodes.shape[0])
+
+
+def interpolated_load_vector(nodes: FloatArray, cells: IntArray, nodal_force: FloatArray,
+                             thickness: float = 1.0, quadrature: Quadrature | None = None
+                             ) -> FloatArray:
+    """Load vector ∫ N f_h t dΩ of the body force density interpolated from its values at
+    the nodes, f_h = Σ_a N_a f_a (``nodal_force`` (n_nodes, 2)): exact for a density
+    linear in x and y (gravity, a spinning part's ρ ω² r), and one evaluation per node
+    instead of per quadrature point. ``quadrature``: per-cell rules too (a cut cell's)."""
+    quadrature = quadrature or Quadrature.for_cells(cells.shape[1], 4)
+    n, _, wdet = physical_gradients(nodes[cells], quadrature)
+    return _load_vector(n, np.einsum("cqa,cad->cqd", n, nodal_force[cells]), wdet, cells,
+                        thickness, nodes.shape[0])
+
+
+def _load_vector(n: FloatArray, force: FloatArray, wdet: FloatArray, cells: IntArray,
+                 thickness: float, n_nodes: int) -> FloatArray:
+    """Σ_cells ∫ N f t dΩ from shape functions (c, q, a), the force at the quadrature
+    points (c, q, 2) and w·det J (c, q), interleaved (2 n_nodes,)."""
+    fe = thickness * np.einsum("cqa,cqd,cq->cad", n, force, wdet)
+    out = np.zeros(2 * n_nodes)
     np.add.at(out, element_dofs(cells).ravel(), fe.reshape(-1))
     return out
 

@@ -22,6 +22,7 @@ from .elasticity import (
     assemble_cells,
     element_stiffness,
     error_norms,
+    interpolated_load_vector,
     stiffness_matrix,
 )
 from .levelset import CutCells
@@ -50,6 +51,21 @@ def xfem_stiffness(mesh: RectMesh | UnstructuredMesh, hooke: FloatArray, thickne
     pin = np.zeros(2 * mesh.n_nodes)
     pin[removed] = 1.0
     return (stiffness + sp.diags(pin)).tocsr()
+
+
+def xfem_load_vector(mesh: RectMesh | UnstructuredMesh, nodal_force: FloatArray,
+                     thickness: float, cut: CutCells | None) -> FloatArray:
+    """∫ N f_h t dΩ over the material only (``interpolated_load_vector``): material cells
+    with the usual rule, cut cells on their material part, void cells not at all (zero on
+    the removed dofs, as their rows of ``xfem_stiffness`` ask)."""
+    if cut is None:
+        return interpolated_load_vector(mesh.nodes, mesh.cells, nodal_force, thickness)
+    load = interpolated_load_vector(mesh.nodes, mesh.cells[cut.material], nodal_force,
+                                    thickness)
+    if cut.cut.size:
+        load += interpolated_load_vector(mesh.nodes, mesh.cells[cut.cut], nodal_force,
+                                         thickness, cut.cut_quadrature)
+    return load
 
 
 #: element stiffnesses of whole meshes with the usual rule, by mesh, material and thickness:

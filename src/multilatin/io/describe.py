@@ -1,13 +1,16 @@
 """What a model defines, in words, for ``multilatin show``: its contacts, its boundary
-conditions (the sides, or parts of sides, they act on) and what each quantity of interest
-reads."""
+conditions (the sides, or parts of sides, they act on), its body forces and what each
+quantity of interest reads."""
 
 from __future__ import annotations
 
+import numpy as np
+
 from ..decomposition.assembly import DISPLACEMENT, Assembly, Interface, QuantityOfInterest
 from ..decomposition.qoi import STRESS_COMPONENTS, point_substructure
+from ..fem.xfem import xfem_load_vector
 
-__all__ = ["boundary_lines", "contact_lines", "qoi_reads"]
+__all__ = ["body_force_lines", "boundary_lines", "contact_lines", "qoi_reads"]
 
 
 def _where(assembly: Assembly, interfaces: list[Interface]) -> str:
@@ -74,6 +77,28 @@ def boundary_lines(assembly: Assembly) -> list[str]:
                     for axis, kind, value in zip("xy", condition.kinds, values, strict=True))
         factor = f" × factor {condition.factor!r}" if condition.factor else ""
         lines.append(f"{name}: {what}{factor} on {_where(assembly, interfaces)}")
+    return lines
+
+
+def body_force_lines(assembly: Assembly) -> list[str]:
+    """One line per body force: its value per unit volume (expressions of x and y as
+    written), the load factor, the bodies it acts on and its resultant on them at a unit
+    factor (over the material: holes left out)."""
+    lines = []
+    for force in assembly.body_forces:
+        texts = getattr(force.varying, "expressions", None) or (None, None)
+        shown = ", ".join(text if text is not None else f"{value:g}"
+                          for text, value in zip(texts, force.value, strict=True))
+        total = np.zeros(2)
+        for sub in assembly.substructures:
+            if force.acts_on(sub):
+                load = xfem_load_vector(sub.mesh, force.values_at(sub.mesh.nodes),
+                                        sub.material.thickness, sub.cut)
+                total = total + load.reshape(-1, 2).sum(axis=0)
+        bodies = ", ".join(force.bodies) if force.bodies else "every body"
+        factor = f" × factor {force.factor!r}" if force.factor else ""
+        lines.append(f"{force.name}: ({shown}) per unit volume{factor} on {bodies}; "
+                     f"resultant ({total[0]:.6g}, {total[1]:.6g})")
     return lines
 
 

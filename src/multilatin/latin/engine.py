@@ -195,7 +195,11 @@ class NumpyFields:
         w_hat, f_hat = self.w_hat.reshape(flat), self.f_hat.reshape(flat)
         if not isinstance(rows, slice):
             w_hat, f_hat = np.take(w_hat, rows, 0), np.take(f_hat, rows, 0)
-        w_new, f_new = self.ops.micro_stage(w_hat, f_hat, geometries)
+        body = self.local.body
+        if body is not None:  # body forces' T S⁻¹ f per row (``body_forces``)
+            body = body.reshape(flat) if isinstance(rows, slice) else np.take(
+                body.reshape(flat), rows, 0)
+        w_new, f_new = self.ops.micro_stage(w_hat, f_hat, geometries, body)
         tm = time.perf_counter()
         if self.macro_data is not None:
             self.ops.macro_correction(

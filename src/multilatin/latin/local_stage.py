@@ -14,8 +14,8 @@ import numpy as np
 import numpy.typing as npt
 import scipy.linalg as sla
 
-from ..decomposition.assembly import DISPLACEMENT, Assembly, consistent_densities
-from ..decomposition.interfaces import InterfacePoints, interface_functions
+from ..decomposition.assembly import Assembly
+from ..decomposition.interfaces import InterfacePoints, boundary_data, interface_functions
 from ..errors import ModelError
 from ..fem.elasticity import FloatArray, IntArray
 from . import kernels
@@ -42,9 +42,12 @@ class LocalStage:
 
     def __init__(self, assemblies: Sequence[Assembly], points: Sequence[InterfacePoints],
                  k: FloatArray, compiled: bool | None = None,
-                 macro_only: MacroOnlyMap | None = None) -> None:
+                 macro_only: MacroOnlyMap | None = None, body: FloatArray | None = None
+                 ) -> None:
         """compiled: the Numba kernels (``kernels``); None: when Numba is installed.
-        macro_only: ``macro_only_map(points[0], k)`` when already built."""
+        macro_only: ``macro_only_map(points[0], k)`` when already built. body: per case,
+        what body forces add to the linear stage's W (``body_forces.stacked_offsets``),
+        carried here with the other per-case data; None: no body forces."""
         first = points[0]
         for other in points[1:]:
             if other.n_points != first.n_points or not np.array_equal(other.pairs, first.pairs):
@@ -91,7 +94,7 @@ class LocalStage:
         self.gap_contact = np.stack([p.contact_gap for p in points])
         self.mu_stop = np.stack([p.stop_friction for p in points])
         self.gap_stop = np.stack([p.stop_gap for p in points])
-        self.prescribed = np.stack([_prescribed(assembly, p)
+        self.prescribed = np.stack([boundary_data(assembly, p)
                                     for assembly, p in zip(assemblies, points, strict=True)])
         self.corner_moving = moving_corners(self.prescribed, first.corner_boundaries,
                                             self.n_contact[first.corner])
@@ -100,6 +103,7 @@ class LocalStage:
             first, k, (self.mu_contact, self.gap_contact))
         self.group_sides = (a[self.group_pairs], first.contact_pairs[1][self.group_pairs])
         self.group_k = (k[self.group_sides[0]], k[self.group_sides[1]])
+        self.body = body
 
     @property
     def n_cases(self) -> int:
@@ -110,6 +114,7 @@ class LocalStage:
         out = copy.copy(self)
         for name in _PER_CASE:
             setattr(out, name, getattr(self, name)[cases])
+        out.body = self.body[cases] if self.body is not None else None
         return out
 
     def joined(self, other: LocalStage) -> LocalStage:
@@ -120,6 +125,11 @@ class LocalStage:
         out = copy.copy(self)
         for name in _PER_CASE:
             setattr(out, name, np.concatenate([getattr(self, name), getattr(other, name)]))
+        bodies = [(x.body, x.n_cases) for x in (self, other)]
+        shape = next((b.shape[1:] for b, _ in bodies if b is not None), None)
+        if shape is not None:  # zeros for the cases without body forces
+            out.body = np.concatenate([b if b is not None else np.zeros((n, *shape))
+                                       for b, n in bodies])
         if not np.array_equal(other.group_pairs, self.group_pairs):  # the groups of both
             theirs = other.group_pairs.tolist()
             both = [i for i, row in enumerate(self.group_pairs.tolist()) if row in theirs]
@@ -399,31 +409,6 @@ class LocalStage:
                 prev_a[:, h, d] = np.where(holding & ~on_b, target, prev_a[:, h, d])
             f_hat[:, t, a], f_hat[:, t, b] = fa, -fa
             w_hat[:, t, a], w_hat[:, t, b] = prev_a, prev_b
-
-
-def _prescribed(assembly: Assembly, points: InterfacePoints) -> FloatArray:
-    """W_d on displacement components, F_d on force ones, at the boundary points, per step
-    (F_d per unit length: the traction times the side's thickness)."""
-    prescribed = np.zeros((assembly.n_steps, points.boundary.size, 2))
-    offset = 0
-    for i, itf in enumerate(assembly.interfaces):
-        if itf.kind != "boundary" or itf.is_stop:
-            continue
-        assert itf.condition is not None
-        n = points.side_points[(i, 0)].size
-        factor = assembly.history.factor(itf.condition.factor)
-        thickness = assembly.substructures[itf.sides[0].substructure].material.thickness
-        at = points.side_points[(i, 0)]
-        values = itf.condition.values_at(points.coords[at])  # (n, 2)
-        if itf.condition.pressure:  # traction −p n at each point
-            values = -values[:, :1] * points.normals[at]
-        force = np.array([kind != DISPLACEMENT for kind in itf.condition.kinds])
-        if itf.condition.varying is not None:  # the consistent load of a varying traction
-            values[:, force] = consistent_densities(points.coords[at], values)[:, force]
-        prescribed[:, offset:offset + n] = factor[:, None, None] * values[None]
-        prescribed[:, offset:offset + n, force] *= thickness
-        offset += n
-    return prescribed
 
 
 @dataclass(frozen=True)

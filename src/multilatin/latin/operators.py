@@ -350,7 +350,8 @@ class LatinOperators:
         return [(ops.substructure_operators[s], columns) for ops, columns in geometries]
 
     def micro_stage(self, displacement_hat: FloatArray, force_hat: FloatArray,
-                    geometries: Geometries | None = None) -> tuple[FloatArray, FloatArray]:
+                    geometries: Geometries | None = None, body: FloatArray | None = None
+                    ) -> tuple[FloatArray, FloatArray]:
         """The linear stage (eq. [12]–[15]) is ``micro_stage`` then, with a macro basis,
         ``macro_correction``, for all columns (steps, and cases of a batch) at once; fields
         ``(n_columns, n_points, 2)``. Here, the substructure problems with zero macro
@@ -360,7 +361,8 @@ class LatinOperators:
         geometries: a batch of several geometries sharing these interfaces
         (``same_interfaces``: a hole moved inside a substructure), each one's operators and
         the columns of its cases; the substructures they share act on every column at
-        once, the others geometry by geometry. None: these operators on every column."""
+        once, the others geometry by geometry. None: these operators on every column.
+        body: T S⁻¹ f per column, added to W (body forces, ``body_forces``)."""
         shape = displacement_hat.shape
         rhs = self.direction_update(displacement_hat, base=force_hat).reshape(shape[0], -1)
         flat_displacement = np.empty_like(rhs)
@@ -373,6 +375,8 @@ class LatinOperators:
                     flat_displacement[columns, lo:hi] = (rhs[columns, lo:hi]
                                                          @ block.condensed_transposed)
         displacement: FloatArray = flat_displacement.reshape(shape)
+        if body is not None:
+            displacement += body
         force = self.direction_update(displacement_hat, displacement, base=force_hat)
         return displacement, force
 

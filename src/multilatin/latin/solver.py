@@ -27,6 +27,7 @@ from ..errors import ModelError, NotConvergedError
 from ..fem.elasticity import FloatArray, IntArray
 from ..limits import check_scale
 from .batching import interface_families, operators_per_case
+from .body_forces import BodyResponse, body_response, stacked_offsets, with_body_constants
 from .engine import one_blas_thread
 from .guards import BLOWUP, DRIFT_WINDOW, blows_up
 from .iteration import IterationObserver, IterationState, iterate
@@ -144,12 +145,16 @@ def solve_latin_batch(
             raise ModelError(f"initial: interface fields must have shape {shape}, got "
                              f"{[np.shape(field) for field in start]}")
         w_hat[c], f_hat[c] = start
-    local = LocalStage(assemblies, points, ops.search_direction,
-                       macro_only=ops.macro_only)
+    bodies = [body_response(ops_list[g], assembly) for g, assembly in zip(
+        geometry, assemblies, strict=True)]
+    local = LocalStage(assemblies, points, ops.search_direction, macro_only=ops.macro_only,
+                       body=stacked_offsets(bodies, n_steps, ops.points.n_points))
     check_scale(assemblies, points[0], ops.search_direction, local)
 
     t1 = time.perf_counter()
-    functionals = _functionals(ops_list, geometry, assemblies, points)
+    functionals = [with_body_constants(functional, body, assembly) for functional, body,
+                   assembly in zip(_functionals(ops_list, geometry, assemblies, points),
+                                   bodies, assemblies, strict=True)]
     # one BLAS thread for the iteration (``one_blas_thread``) and for the recovery too (one
     # product per substructure): with two, OpenBLAS's spinning workers slowed the next
     # cases' iterations (B3 5 × 5 study: 2.2 s against 2.0). Overflow and NaN are detected
@@ -164,7 +169,8 @@ def solve_latin_batch(
             out_of_memory = None
             t_iter = time.perf_counter() - t1
             t2 = time.perf_counter()
-            fields_of = (_recovered(state, range(n_cases), ops_list, geometry)
+            fields_of = (_recovered(state, range(n_cases), ops_list, geometry, bodies,
+                                    assemblies)
                          if options.recover_displacements else [{} for _ in range(n_cases)])
     if out_of_memory is not None:
         return _in_halves(assemblies, options, [ops_list[g] for g in geometry], check,
@@ -270,9 +276,11 @@ def log_result(result: SolveResult, batch: int) -> None:
 
 
 def _recovered(state: IterationState, cases: Sequence[int],
-               ops_list: Sequence[LatinOperators], geometry: IntArray
+               ops_list: Sequence[LatinOperators], geometry: IntArray,
+               bodies: Sequence[BodyResponse | None], assemblies: Sequence[Assembly]
                ) -> list[dict[str, FloatArray]]:
-    """Per case of ``cases`` (``geometry``: each one's index into ``ops_list``), the interior
+    """Per case of ``cases`` (``geometry``: each one's index into ``ops_list``; ``bodies``
+    and ``assemblies``: each one's body forces' response and assembly), the interior
     displacements of every substructure from its exit fields, geometry by geometry."""
     fields_of: list[dict[str, FloatArray]] = [{} for _ in cases]
     for g, ops_g in enumerate(ops_list):
@@ -285,6 +293,9 @@ def _recovered(state: IterationState, cases: Sequence[int],
         for i, member in enumerate(members):
             fields_of[member] = {name: u.reshape(len(members), w.shape[1], -1, 2)[i]
                                  for name, u in recovered.items()}
+    for fields, body, assembly in zip(fields_of, bodies, assemblies, strict=True):
+        if body is not None:
+            body.add_interior(fields, assembly)
     return fields_of
 
 

@@ -27,6 +27,7 @@ from ..decomposition.result import SolveResult
 from ..fem.elasticity import FloatArray, IntArray
 from ..limits import check_scale
 from .batching import same_interfaces
+from .body_forces import BodyResponse, body_response, stacked_offsets, with_body_constants
 from .engine import one_blas_thread
 from .iteration import BatchIterations
 from .local_stage import LocalStage
@@ -80,6 +81,7 @@ class _Member:
     points: InterfacePoints
     wall_s: float
     functional: QoiFunctionals
+    body: BodyResponse | None
 
 
 def solve_latin_stream(feed: CaseFeed, options: LatinOptions, width: int = 16) -> int:
@@ -153,7 +155,9 @@ def _join(batch: BatchIterations | None, members: dict[int, _Member],
         for i, c in enumerate(group):
             if c.initial is not None:
                 w_hat[i], f_hat[i] = c.initial
-        local = LocalStage(assemblies, points, ops.search_direction, macro_only=ops.macro_only)
+        bodies = [body_response(ops, assembly) for assembly in assemblies]
+        local = LocalStage(assemblies, points, ops.search_direction, macro_only=ops.macro_only,
+                           body=stacked_offsets(bodies, shape[0], shape[1]))
         check_scale(assemblies, points[0], ops.search_direction, local)
         # built once per operators and set of QoIs: shared functionals are applied to all
         # the cases at once (``NumpyFields.qoi_values``)
@@ -167,15 +171,17 @@ def _join(batch: BatchIterations | None, members: dict[int, _Member],
                     built.popitem(last=False)
             built.move_to_end(key)
             functionals.append(built[key][1])
+        functionals = [with_body_constants(functional, body, assembly) for functional, body,
+                       assembly in zip(functionals, bodies, assemblies, strict=True)]
         if batch is None:
             batch = BatchIterations(ops, local, options, w_hat, f_hat, None, functionals)
             numbers = batch.active.copy()
         else:
             numbers = batch.join(local, w_hat, f_hat, functionals, ops)
         setup = (time.perf_counter() - t0) / len(group)
-        for number, c, pts, functional in zip(numbers.tolist(), group, points, functionals,
-                                              strict=True):
-            members[number] = _Member(c, pts, setup, functional)
+        for number, c, pts, functional, body in zip(numbers.tolist(), group, points,
+                                                    functionals, bodies, strict=True):
+            members[number] = _Member(c, pts, setup, functional, body)
     assert batch is not None
     return batch
 
@@ -187,7 +193,8 @@ def _recover(batch: BatchIterations, leaving: list[_Member], left: IntArray
         return [{} for _ in leaving]
     distinct = list({id(m.case.operators): m.case.operators for m in leaving}.values())
     geometry = np.array([distinct.index(m.case.operators) for m in leaving])
-    return _recovered(batch.state, left.tolist(), distinct, geometry)
+    return _recovered(batch.state, left.tolist(), distinct, geometry,
+                      [m.body for m in leaving], [m.case.assembly for m in leaving])
 
 
 def _leave(batch: BatchIterations, leaving: list[_Member], left: IntArray,

@@ -8,7 +8,6 @@ interface discretisation (B3's hole positions).
 
 from __future__ import annotations
 
-import importlib
 import logging
 import time
 from collections.abc import Sequence
@@ -24,7 +23,7 @@ from .engine import as_run
 from .local_stage import LocalStage
 from .operators import LatinOperators
 from .options import LatinOptions
-from .torch_graph import DeviceGraph
+from .torch_graph import DeviceGraph, load_torch
 from .torch_local import Tensor, TorchLocalStage, contact_kernels_available
 from .torch_operators import DeviceOperators, Rows
 from .tracking import QoiFunctionals
@@ -33,28 +32,6 @@ from .two_scale import coupled_local_stage
 __all__ = ["DeviceOperators", "TorchFields", "cases_per_chunk", "load_torch"]
 
 log = logging.getLogger(__name__)
-
-#: the extra that installs PyTorch
-INSTALL_HINT = "pip install 'multilatin[gpu]'"
-
-
-def load_torch(device: str) -> Any:
-    """PyTorch, checked for ``device``; a ``ModelError`` naming the option otherwise."""
-    try:
-        torch = importlib.import_module("torch")
-    except ImportError:
-        raise ModelError(f"backend: 'torch' needs PyTorch, which is not installed "
-                         f"({INSTALL_HINT})") from None
-    if device.startswith("cuda"):
-        if not torch.cuda.is_available():
-            raise ModelError(f"device: {device!r} asked for, but PyTorch sees no CUDA GPU "
-                             f"(torch {torch.__version__}; use device 'cpu')")
-        index = int(device.split(":")[1]) if ":" in device else 0
-        if index >= torch.cuda.device_count():
-            raise ModelError(f"device: {device!r} asked for, but PyTorch sees "
-                             f"{torch.cuda.device_count()} GPU(s)")
-    return torch
-
 
 #: field-sized arrays (n_steps × n_points × 2 doubles) alive at once per case of a batch: s,
 #: ŝ, the new s, the linear stage's right-hand side and products, the macro correction, the
@@ -123,6 +100,7 @@ class TorchFields:
         self.w: Tensor | None = None
         self.f: Tensor | None = None
         self.macro_data = self._tensor(macro_data) if macro_data is not None else None
+        self.body = self._tensor(local.body) if local.body is not None else None
         self.active = np.arange(w_hat.shape[0])
         self.geometry = np.asarray(geometry, dtype=np.int64)
         self.n_steps = w_hat.shape[1]
@@ -131,6 +109,11 @@ class TorchFields:
         #: per field (W, F, F̂): the columns any case's QoIs read, and each active case's
         #: coefficients on them (n_active, n_columns, n_qoi)
         self.qoi_parts: list[tuple[Tensor, Tensor]] = []
+        #: per row, body forces' share of the QoIs (``QoiFunctionals.constant``) or None
+        self.qoi_constant = (np.stack([np.zeros((self.n_qoi, self.n_steps)) if f.constant is
+                                       None else f.constant for f in functionals])
+                             if functionals and any(f.constant is not None for f in functionals)
+                             else None)
         if functionals:
             distinct = list({id(f): f for f in functionals}.values())
             which = {id(f): i for i, f in enumerate(distinct)}
@@ -234,7 +217,8 @@ class TorchFields:
         where the clock's synchronisation is not allowed)."""
         ops = self.operators
         flat = (-1, ops.n_points, 2)
-        w_new, f_new = ops.micro_stage(w_hat.reshape(flat), f_hat.reshape(flat), self.rows)
+        w_new, f_new = ops.micro_stage(w_hat.reshape(flat), f_hat.reshape(flat), self.rows,
+                                       None if self.body is None else self.body.reshape(flat))
         tm = self._clock() if timed else 0.0
         if self.macro_data is not None:
             w_new, f_new = ops.macro_correction(
@@ -347,6 +331,8 @@ class TorchFields:
         if total is None:
             total = self._qoi_total(self.w, self.f, self.f_hat)
         values = np.asarray(total.transpose(1, 2).cpu().numpy(), dtype=np.float64)
+        if self.qoi_constant is not None:
+            values = values + self.qoi_constant
         return values if self.slots.size == self.w.shape[0] else values[self.slots]
 
     def _norm_squares(self, w: Tensor, f: Tensor, w_hat: Tensor, f_hat: Tensor) -> Tensor:
@@ -441,6 +427,10 @@ class TorchFields:
         self.w_hat, self.f_hat = self.w_hat[chosen], self.f_hat[chosen]
         if self.macro_data is not None:
             self.macro_data = self.macro_data[chosen]
+        if self.body is not None:
+            self.body = self.body[chosen]
+        if self.qoi_constant is not None:
+            self.qoi_constant = self.qoi_constant[rows]
         self.qoi_parts = [(used, coefficients[chosen]) for used, coefficients in self.qoi_parts]
         if self.side_macro is not None:
             self.side_macro = self.side_macro[chosen]

@@ -1,16 +1,41 @@
 """Work on a torch device captured once as a CUDA graph and replayed (issue 19): one
 launch per iteration instead of one per operation, which bound a GPU iteration (profiled on
-an H200: B1's 169 cases, 6 303 kernels per iteration, the device busy 12.5 ms of 62)."""
+an H200: B1's 169 cases, 6 303 kernels per iteration, the device busy 12.5 ms of 62); and
+``load_torch``, PyTorch checked for a device."""
 
 from __future__ import annotations
 
 import gc
+import importlib
 import logging
 from typing import Any
+
+from ..errors import ModelError
 
 log = logging.getLogger(__name__)
 
 Tensor = Any  # torch.Tensor (PyTorch is optional)
+
+#: the extra that installs PyTorch
+INSTALL_HINT = "pip install 'multilatin[gpu]'"
+
+
+def load_torch(device: str) -> Any:
+    """PyTorch, checked for ``device``; a ``ModelError`` naming the option otherwise."""
+    try:
+        torch = importlib.import_module("torch")
+    except ImportError:
+        raise ModelError(f"backend: 'torch' needs PyTorch, which is not installed "
+                         f"({INSTALL_HINT})") from None
+    if device.startswith("cuda"):
+        if not torch.cuda.is_available():
+            raise ModelError(f"device: {device!r} asked for, but PyTorch sees no CUDA GPU "
+                             f"(torch {torch.__version__}; use device 'cpu')")
+        index = int(device.split(":")[1]) if ":" in device else 0
+        if index >= torch.cuda.device_count():
+            raise ModelError(f"device: {device!r} asked for, but PyTorch sees "
+                             f"{torch.cuda.device_count()} GPU(s)")
+    return torch
 
 
 class DeviceGraph:

@@ -99,8 +99,10 @@ class DeviceOperators:
             self.homogenised_inverse = tensor(np.stack([ops.homogenised_inverse
                                                         for ops in operators]))
 
-    def micro_stage(self, w_hat: Tensor, f_hat: Tensor, rows: Rows) -> tuple[Tensor, Tensor]:
-        """W = C (F̂ + H Ŵ), F = F̂ + H (Ŵ − W) (eq. [13]) on fields (n, n_points, 2)."""
+    def micro_stage(self, w_hat: Tensor, f_hat: Tensor, rows: Rows, body: Tensor | None = None
+                    ) -> tuple[Tensor, Tensor]:
+        """W = C (F̂ + H Ŵ) (+ ``body``, T S⁻¹ f per row: body forces), F = F̂ + H (Ŵ − W)
+        (eq. [13]) on fields (n, n_points, 2)."""
         torch = self.torch
         shape = w_hat.shape
         rhs = (f_hat + self.apply_direction(w_hat)).reshape(shape[0], -1)
@@ -114,7 +116,7 @@ class DeviceOperators:
             own = entry["range"]
             for g, columns in rows:
                 flat[columns, own] = rhs[columns, own] @ entry["condensed_t"][g]
-        displacement = flat.reshape(shape)
+        displacement = flat.reshape(shape) if body is None else flat.reshape(shape) + body
         return displacement, f_hat + self.apply_direction(w_hat - displacement)
 
     def apply_direction(self, field: Tensor) -> Tensor:

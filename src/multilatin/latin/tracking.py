@@ -93,8 +93,8 @@ def state_change(history: FloatArray, window: int = WINDOW) -> float:
 @dataclass(frozen=True)
 class QoiFunctionals:
     """q[i, t] = Σ_p (on_w[i, p] · W[t, p] + on_f[i, p] · F[t, p] + on_f_hat[i, p] ·
-    F̂[t, p]) for QoI ``names[i]``, up to a constant (the load's share, which does not change
-    during the iteration). Kept sparse: each QoI reads a few points."""
+    F̂[t, p]) + constant[i, t] for QoI ``names[i]`` (the constant: body forces' share, which
+    does not change during the iteration). Kept sparse: each QoI reads a few points."""
 
     names: tuple[str, ...]
     on_w: FloatArray  # (n_qoi, n_points, 2)
@@ -102,6 +102,9 @@ class QoiFunctionals:
     on_f_hat: FloatArray  # (n_qoi, n_points, 2)
     #: the load step (from 1) each QoI reports, None for every step (``QuantityOfInterest``)
     steps: tuple[int | None, ...] = ()
+    #: (n_qoi, n_steps) added to the values: body forces' share of point QoIs
+    #: (``body_forces.with_body_constants``); None: zero
+    constant: FloatArray | None = None
     #: per field (W, F, F̂): the flat (point, component) columns read and their coefficients
     parts: tuple[tuple[IntArray, FloatArray], ...] = field(init=False, repr=False)
     #: the same columns as a slice where they are a run (a view: no gather per iteration)
@@ -135,8 +138,10 @@ class QoiFunctionals:
                                                         (w, f, f_hat), strict=True):
             if used.size:
                 total += values.reshape(n_cases * n_steps, -1)[:, columns] @ coefficients
-        return np.asarray(total.reshape(n_cases, n_steps, len(self.names)).transpose(0, 2, 1),
-                          dtype=np.float64)
+        out = total.reshape(n_cases, n_steps, len(self.names)).transpose(0, 2, 1)
+        if self.constant is not None:
+            out = out + self.constant[None, :, :n_steps]
+        return np.asarray(out, dtype=np.float64)
 
 
 def _as_slice(used: IntArray) -> IntArray | slice:

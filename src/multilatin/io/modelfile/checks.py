@@ -13,7 +13,8 @@ from ...parameters import Mu
 from ..expressions import evaluate
 
 TOP_LEVEL = {"title", "description", "analysis", "parameters", "materials", "bodies",
-             "substructures", "interfaces", "boundary", "history", "qoi", "holes"}
+             "substructures", "interfaces", "boundary", "history", "qoi", "holes",
+             "body_force"}
 OPPOSITE = {"left": "right", "right": "left", "bottom": "top", "top": "bottom"}
 #: study.nc's variables per case (``study.store.to_dataset``): numbers, flags and texts
 CASE_NUMBERS = ("iterations", "indicator", "wall_s", "setup_s")

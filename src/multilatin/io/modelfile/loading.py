@@ -1,5 +1,6 @@
-"""``[history]`` and ``[[boundary]]`` of a model file: the load history and the
-boundary conditions (prescribed displacements, forces, rigid stops)."""
+"""``[history]``, ``[[boundary]]`` and ``[[body_force]]`` of a model file: the load
+history, the boundary conditions (prescribed displacements, forces, rigid stops) and the
+forces per unit volume."""
 
 from __future__ import annotations
 
@@ -13,6 +14,7 @@ from ...decomposition.assembly import (
     DISPLACEMENT,
     FORCE,
     STOP,
+    BodyForce,
     BoundaryCondition,
     History,
     Interface,
@@ -108,17 +110,7 @@ class LoadingSections(SectionReader):
                     f"{where}.type: unknown boundary type {kind!r} "
                     "(known: displacement, force, pressure, mixed, wall, stop)"
                 )
-            raw = pair(require(table, "value", where), f"{where}.value")
-            varying = CoordinateValues.of(raw, self.lookup, f"{where}.value")
-            vx, vy = (varying.uniform if varying is not None else
-                      (self.num(v, f"{where}.value") for v in raw))
-            factor = table.get("factor")
-            if factor is not None and factor not in history.factors:
-                known = ", ".join(sorted(history.factors)) or "none"
-                raise ModelError(
-                    f"{where}.factor: {factor!r} is not a load factor of [history.factors] "
-                    f"(defined: {known})"
-                )
+            (vx, vy), varying, factor = self._values(table, where, history)
             condition = BoundaryCondition(name, (kinds[0], kinds[1]), (vx, vy), factor,
                                           pressure, varying)
             if varying is not None:  # evaluated at every node of the face, errors now
@@ -134,6 +126,56 @@ class LoadingSections(SectionReader):
                 out.append(Interface(f"{name}@{subs[ref.substructure].name}", "boundary",
                                      (ref,), condition, law))
         return out
+
+    def body_forces(self, subs: list[Substructure], history: History) -> list[BodyForce]:
+        """``[[body_force]]``: forces per unit volume on bodies (gravity, a spinning
+        part's inertia), uniform or expressions of x and y, each with its load factor."""
+        out: list[BodyForce] = []
+        tables = self.data.get("body_force", [])
+        if not isinstance(tables, list):
+            raise ModelError("body_force: expected an array of tables ([[body_force]])")
+        known = list(dict.fromkeys(sub.body for sub in subs))
+        for b, table in enumerate(tables):
+            where = f"body_force[{b}]"
+            if not isinstance(table, Mapping):
+                raise ModelError(f"{where}: expected a table, got {table!r}")
+            check_keys(table, {"name", "bodies", "value", "factor"}, where)
+            name = str(table.get("name", f"body_force{b}"))
+            where = f"body_force[{b}] ({name!r})"
+            if any(force.name == name for force in out):
+                raise ModelError(f"{where}.name: body force {name!r} is defined twice")
+            bodies = table.get("bodies", [])
+            if isinstance(bodies, str):
+                bodies = [bodies]
+            if not isinstance(bodies, list) or not all(isinstance(x, str) for x in bodies):
+                raise ModelError(f"{where}.bodies: expected a list of body names, got "
+                                 f"{bodies!r}")
+            for body in bodies:
+                if body not in known:
+                    raise ModelError(f"{where}.bodies: no body named {body!r} (bodies: "
+                                     f"{', '.join(known)})")
+            value, varying, factor = self._values(table, where, history)
+            force = BodyForce(name, value, tuple(bodies), factor, varying)
+            for sub in subs:  # a varying value evaluated at every node now: errors here
+                if force.acts_on(sub) and varying is not None:
+                    force.values_at(sub.mesh.nodes)
+            out.append(force)
+        return out
+
+    def _values(self, table: Mapping[str, Any], where: str, history: History
+                ) -> tuple[tuple[float, float], CoordinateValues | None, str | None]:
+        """A table's ``value`` pair (uniform, or varying with x and y) and its load
+        ``factor``, checked against the history's factors."""
+        raw = pair(require(table, "value", where), f"{where}.value")
+        varying = CoordinateValues.of(raw, self.lookup, f"{where}.value")
+        vx, vy = (varying.uniform if varying is not None else
+                  (self.num(v, f"{where}.value") for v in raw))
+        factor = table.get("factor")
+        if factor is not None and factor not in history.factors:
+            known = ", ".join(sorted(history.factors)) or "none"
+            raise ModelError(f"{where}.factor: {factor!r} is not a load factor of "
+                             f"[history.factors] (defined: {known})")
+        return (vx, vy), varying, factor
 
     def _segment(self, table: Mapping[str, Any], where: str, subs: list[Substructure],
                  refs: list[SideRef]) -> list[SideRef]:
