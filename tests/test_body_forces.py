@@ -173,6 +173,10 @@ SLIDE = Path(__file__).parents[1] / "src" / "multilatin" / "models" / "slide.tom
 def _weighted_slide() -> ml.Model:
     """The bundled slide with no pressure on the block: its own weight, 0.5 N/mm³ × 400
     mm² = 200 N (what the pressure of 10 MPa gave), presses it on the foundation."""
+    return ml.Model(ml.ModelSpec.from_string(_weighted_slide_text(), name="weighted_slide"))
+
+
+def _weighted_slide_text() -> str:
     text = SLIDE.read_text().replace('name = "pressure"\nface = "block.top"\ntype = "force"\n'
                                      'value = [0.0, "-p"]\nfactor = "press"\n',
                                      'name = "pressure"\nface = "block.top"\ntype = "force"\n'
@@ -180,7 +184,7 @@ def _weighted_slide() -> ml.Model:
     assert 'value = [0.0, "-p"]' not in text
     text += ('\n[[body_force]]\nname = "weight"\nbodies = ["block"]\nvalue = [0.0, -0.5]\n'
              'factor = "press"\n')
-    return ml.Model(ml.ModelSpec.from_string(text, name="weighted_slide"))
+    return text
 
 
 def test_a_block_pressed_by_its_weight_slides_at_mu_times_its_weight() -> None:
@@ -197,6 +201,37 @@ def test_a_block_pressed_by_its_weight_slides_at_mu_times_its_weight() -> None:
                                                                  max_iter=5000))
         assert latin.converged
         assert np.asarray(latin.qoi["R_push"]) == pytest.approx(push, rel=1e-5, abs=1e-6)
+
+
+def _incline(theta: float) -> ml.Model:
+    """The weighted slide without its push: the block rests on the foundation under its
+    weight tilted by θ (a foundation inclined by θ), held by friction alone."""
+    text = _weighted_slide_text().replace('value = [0.0, -0.5]',
+                                          f'value = ["0.5 * sin({theta})", '
+                                          f'"-0.5 * cos({theta})"]')
+    start = text.index('[[boundary]]\nname = "push"')
+    text = text[:start] + text[text.index("[[qoi]]", start):]
+    text = text.replace('name = "R_push"', 'name = "R_clamp"').replace('boundary = "push"',
+                                                                     'boundary = "clamp"')
+    return ml.Model(ml.ModelSpec.from_string(text, name="incline"))
+
+
+def test_a_block_on_an_incline_holds_below_its_friction_angle_only() -> None:
+    """Below the friction angle (tan θ < μ) the block sticks and the foundation's clamp
+    holds its weight's slope component W sin θ (equilibrium); beyond it no equilibrium
+    exists: LATIN says so (never an answer) and the reference does not converge."""
+    weight, mu = 200.0, 0.3
+    for theta in (0.2, 0.4):
+        model = _incline(theta)
+        latin = model.solve({"mu": mu}, check=False)
+        if math.tan(theta) < mu:
+            assert latin.converged
+            assert latin.qoi["R_clamp"][-1] == pytest.approx(-weight * math.sin(theta),
+                                                             rel=1e-6)
+        else:
+            assert not latin.converged and "no equilibrium" in latin.failure
+            with pytest.raises(ml.NotConvergedError):
+                model.reference({"mu": mu})
 
 
 @pytest.mark.parametrize("padded", [False, True])
