@@ -1,9 +1,10 @@
-"""Body forces against closed forms (docs/correctness.md, "Body forces (session 48)"): the
-models of ``tests/test_body_forces.py`` solved by the reference and by LATIN (tight, and
-at the default options), side by side with their closed forms.
+"""Body forces and temperature changes against closed forms (docs/correctness.md, "Body
+forces (session 48)" and "Temperature changes (session 48)"): the models of
+``tests/test_body_forces.py`` and ``tests/test_temperature.py`` solved by the reference and
+by LATIN (tight, and at the default options), side by side with their closed forms.
 
 Run from the repository root: ``python benchmarks/body_forces.py [--sizes 1 0.5 0.25]``
-(the spinning rings need gmsh).
+(the spinning rings and the heated fit need gmsh).
 """
 
 from __future__ import annotations
@@ -22,6 +23,7 @@ TESTS = Path(__file__).resolve().parents[1] / "tests"
 sys.path.insert(0, str(TESTS))
 
 import test_body_forces as cases  # noqa: E402  (the tests' models and closed forms)
+import test_temperature as heated  # noqa: E402
 
 
 def _line(name: str, exact: float, reference: float, latin: float) -> str:
@@ -91,6 +93,44 @@ def spinning_rings(sizes: list[float]) -> None:
                   f"{worst:.1e} |")
 
 
+def temperatures() -> None:
+    e_alpha = heated.E * heated.ALPHA
+    walls = heated._walls()
+    exact = {"R": -e_alpha * 1000.0, "s_xx": -e_alpha * 100.0, "s_yy": 0.0,
+             "v_top": (1.0 + heated.NU) * heated.ALPHA * 1000.0}
+    reference, latin = walls.reference(), walls.solve()
+    print(f"\nbar heated by 100 K between walls (LATIN at the defaults, {latin.iterations} "
+          "iterations)\n")
+    print("| QoI | closed form | reference | LATIN |\n|---|---|---|---|")
+    for name, value in exact.items():
+        print(f"| {name} | {value:.10g} | {reference.qoi[name][1]:.10g} | "
+              f"{latin.qoi[name][1]:.10g} |")
+    for hypothesis, hole in (("plane_strain", False), ("plane_stress", True)):
+        model = heated._free_plate(hypothesis, hole)
+        scale = (1.0 + heated.NU) if hypothesis == "plane_strain" else 1.0
+        for result in (model.reference(mesh="same"), model.solve()):
+            u = result.qoi["u_corner"][1] / (scale * heated.ALPHA * 100.0 * 60.0) - 1.0
+            stress = max(abs(v) for name in ("s_xx", "s_yy") for v in result.qoi[name])
+            print(f"free plate, {hypothesis}{', hole' if hole else ''}, {result.method} "
+                  f"({result.iterations} it.): corner u {u:+.1e} off, largest |stress QoI| "
+                  f"{stress:.1e} MPa (E alpha dT = {e_alpha * 100.0:g})")
+    spin = cases._spinning_annulus()
+    with tempfile.TemporaryDirectory() as folder:
+        spin.load(Path(folder))
+        text = spin.MODEL.read_text() + ('\n[parameters.dT]\ndefault = 0.0\n[[temperature]]'
+                                         '\nname = "heat"\nbodies = ["rim"]\nvalue = "dT"\n')
+        model = ml.Model(ml.ModelSpec.from_string(text, name="heated_fit",
+                                                  folder=Path(folder)))
+        print("\nshrink fit, rim heated by dT (delta = 10 um, alpha = 1.2e-5: opens at "
+              "83.3 K)\n\n| dT (K) | closed form p (MPa) | reference | LATIN (defaults) "
+              "|\n|---|---|---|---|")
+        for heat in (0.0, 40.0, 80.0, 100.0):
+            expected = spin.fit_pressure(0.0, 0.01 - 1.2e-5 * heat * spin.SEAT)
+            reference, latin = model.reference({"dT": heat}), model.solve({"dT": heat})
+            print(f"| {heat:g} | {expected:.3f} | {reference.qoi['p_fit']:.3f} | "
+                  f"{latin.qoi['p_fit']:.3f} ({latin.iterations} it.) |")
+
+
 if __name__ == "__main__":
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument("--sizes", type=float, nargs="+", default=[1.0, 0.5, 0.25])
@@ -99,3 +139,4 @@ if __name__ == "__main__":
     slide()
     holed_plate()
     spinning_rings(args.sizes)
+    temperatures()

@@ -98,6 +98,13 @@ def test_the_force_indicator() -> None:
     # weighted as η's force part, ∫ k⁻¹ F·F: ‖F − F̂‖ = 4, ‖F‖ = 2, ‖F̂‖ = 6
     assert force_indicator(weights, np.array([[[[0.0, 1.0]]]]),
                            np.array([[[[0.0, 3.0]]]]))[0] == pytest.approx(1.0)
+    # against the state's size: forces sized at least FORCE_FLOOR of it, and a gap of at
+    # most FORCE_ROUNDOFF of it (rounding; session 48's free expansion) zero
+    state = np.array([1.0])
+    zero = np.zeros((1, 1, 1, 2))
+    assert force_indicator(weights, np.array([[[[1e-14, 0.0]]]]), zero, state)[0] == 0.0
+    assert force_indicator(weights, np.array([[[[1e-12, 0.0]]]]), zero,
+                           state)[0] == pytest.approx(1e-12 / 1e-8)
 
 
 LIFTED = Path(__file__).parent / "data" / "lifted_block.toml"

@@ -22,7 +22,13 @@ import numpy as np
 from . import __version__
 from .decomposition.result import SolveResult
 from .errors import ModelError, NotConvergedError
-from .io.describe import body_force_lines, boundary_lines, contact_lines, qoi_reads
+from .io.describe import (
+    body_force_lines,
+    boundary_lines,
+    contact_lines,
+    qoi_reads,
+    temperature_lines,
+)
 from .io.files import ensure_writable_folder
 from .latin import LatinOptions
 from .latin.options import ACCELERATIONS, BACKENDS, STUDY_QOI_RTOL
@@ -316,6 +322,10 @@ def _show(model: Model) -> None:
     if assembly.body_forces:
         print("body forces:")
         for line in body_force_lines(assembly):
+            print(f"  {line}")
+    if assembly.temperatures:
+        print("temperature changes:")
+        for line in temperature_lines(assembly):
             print(f"  {line}")
     print("quantities of interest:")
     for q in assembly.qois:

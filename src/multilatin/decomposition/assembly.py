@@ -15,10 +15,10 @@ from functools import cached_property
 import numpy as np
 import scipy.sparse as sp
 
-from ..fem.elasticity import FloatArray, IntArray, hooke_matrix
+from ..fem.elasticity import FloatArray, IntArray, hooke_matrix, thermal_strain
 from ..fem.levelset import CutCells, LevelSet, cut_cells
 from ..fem.mesh import RectMesh, UnstructuredMesh
-from ..fem.xfem import mesh_pattern, xfem_load_vector, xfem_stiffness
+from ..fem.xfem import mesh_pattern, xfem_initial_strain_load, xfem_load_vector, xfem_stiffness
 from ..parameters import Mu
 
 DISPLACEMENT = "displacement"
@@ -33,10 +33,18 @@ class Material:
     poisson: float
     hypothesis: str
     thickness: float
+    #: the thermal expansion coefficient α (1/K); not in the repr: the stiffness, which the
+    #: operators' signatures digest, does not depend on it
+    expansion: float = field(default=0.0, repr=False)
 
     @property
     def hooke(self) -> FloatArray:
         return hooke_matrix(self.young, self.poisson, self.hypothesis)
+
+    @property
+    def thermal_strain(self) -> FloatArray:
+        """The in-plane strain (xx, yy, γ_xy) of a free unit temperature change."""
+        return thermal_strain(self.expansion, self.poisson, self.hypothesis)
 
 
 @dataclass(frozen=True)
@@ -245,6 +253,31 @@ class BodyForce:
 
 
 @dataclass(frozen=True)
+class TemperatureChange:
+    """A temperature change ΔT (K) from the stress-free state on the substructures of
+    ``bodies`` (every body where empty), uniform (``value``) or given at points (n, 2) →
+    (n,) by ``varying``, multiplied at each step by the load factor ``factor``: the
+    initial strain α ΔT of each part's material (``Material.thermal_strain``)."""
+
+    name: str
+    value: float
+    bodies: tuple[str, ...] = ()
+    factor: str | None = None
+    varying: Callable[[FloatArray], FloatArray] | None = None
+
+    def acts_on(self, sub: Substructure) -> bool:
+        return not self.bodies or sub.body in self.bodies
+
+    def values_at(self, points: FloatArray) -> FloatArray:
+        """ΔT (n,) at ``points`` (n, 2), before the load factor."""
+        if self.varying is not None:  # (n,), or a model file's pair of expressions (n, 2)
+            values = np.asarray(self.varying(np.asarray(points, dtype=np.float64)),
+                                dtype=np.float64)
+            return values[:, 0] if values.ndim == 2 else values
+        return np.full(len(points), float(self.value))
+
+
+@dataclass(frozen=True)
 class Assembly:
     name: str
     substructures: tuple[Substructure, ...]
@@ -253,26 +286,49 @@ class Assembly:
     qois: tuple[QuantityOfInterest, ...]
     mu: Mu
     body_forces: tuple[BodyForce, ...] = ()
+    temperatures: tuple[TemperatureChange, ...] = ()
 
-    def body_load(self, s: int) -> FloatArray | None:
-        """Substructure ``s``'s body-force load vectors ∫ N f t dΩ over its material, per
-        step (n_steps, n_dofs), load factors applied; None where no body force acts on it.
-        Computed once per assembly and substructure."""
+    @property
+    def interior_loads(self) -> bool:
+        """Whether anything loads the substructures inside (body forces, temperatures)."""
+        return bool(self.body_forces or self.temperatures)
+
+    def interior_load(self, s: int) -> FloatArray | None:
+        """Substructure ``s``'s load vectors per step (n_steps, n_dofs), load factors
+        applied, over its material: its body forces' ∫ N f t dΩ and its temperature
+        changes' ∫ Bᵀ D ε₀ t dΩ (paper eq. [1]); None where neither acts on it. Computed
+        once per assembly and substructure."""
         sub = self.substructures[s]
-        acting = [force for force in self.body_forces if force.acts_on(sub)]
-        if not acting:
+        forces = [force for force in self.body_forces if force.acts_on(sub)]
+        heated = self.temperature(s)
+        if not forces and heated is None:
             return None
-        if s not in self._body_loads:
+        if s not in self._interior_loads:
             load = np.zeros((self.n_steps, 2 * sub.mesh.n_nodes))
-            for force in acting:
+            for force in forces:
                 unit = xfem_load_vector(sub.mesh, force.values_at(sub.mesh.nodes),
                                         sub.material.thickness, sub.cut)
                 load += self.history.factor(force.factor)[:, None] * unit[None, :]
-            self._body_loads[s] = load
-        return self._body_loads[s]
+            for t, change in enumerate(heated if heated is not None else ()):
+                load[t] += xfem_initial_strain_load(
+                    sub.mesh, sub.material.hooke, sub.material.thermal_strain, change,
+                    sub.material.thickness, sub.cut)
+            self._interior_loads[s] = load
+        return self._interior_loads[s]
+
+    def temperature(self, s: int) -> FloatArray | None:
+        """Substructure ``s``'s temperature change at its nodes per step (n_steps,
+        n_nodes), load factors applied; None where none acts on it."""
+        sub = self.substructures[s]
+        changes = [change for change in self.temperatures if change.acts_on(sub)]
+        if not changes:
+            return None
+        return np.asarray(sum(self.history.factor(change.factor)[:, None]
+                              * change.values_at(sub.mesh.nodes)[None, :]
+                              for change in changes), dtype=np.float64)
 
     @cached_property
-    def _body_loads(self) -> dict[int, FloatArray]:
+    def _interior_loads(self) -> dict[int, FloatArray]:
         return {}
 
     @cached_property

@@ -242,6 +242,23 @@ def point_functional(substructures: Sequence[Substructure], q: QuantityOfInteres
     return s, phi
 
 
+def initial_stress(assembly: Assembly, q: QuantityOfInterest) -> FloatArray | None:
+    """A ``stress`` QoI's share of the initial strain per step (n_steps,), before
+    ``scale``: σ = D (B u − ε₀), so −D ε₀ at the point, ε₀ the thermal strain of the
+    temperature change interpolated there; None where no temperature change acts."""
+    assert q.point is not None
+    s = point_substructure(assembly.substructures, q)
+    change = assembly.temperature(s)
+    if change is None:
+        return None
+    sub = assembly.substructures[s]
+    cell, ref = sub.mesh.locate(q.point)
+    shape, _ = shape_functions(np.asarray(ref, dtype=float)[None], sub.mesh.cells.shape[1])
+    at_point = change[:, sub.mesh.cells[cell]] @ np.ravel(shape)
+    unit = sub.material.hooke @ sub.material.thermal_strain
+    return np.asarray(-unit[q.component] * at_point, dtype=np.float64)
+
+
 def evaluate_qois(
     assembly: Assembly,
     displacements: Mapping[str, FloatArray],
@@ -261,6 +278,9 @@ def evaluate_qois(
             s, phi = point_functional(assembly.substructures, q)
             u = displacements[assembly.substructures[s].name]
             values = u.reshape(u.shape[0], -1) @ phi
+            initial = initial_stress(assembly, q)
+            if initial is not None:
+                values = values + initial
         elif q.kind == "reaction":
             assert q.boundary is not None
             values = reactions[q.boundary][:, q.component]

@@ -256,10 +256,38 @@ def point_stress_matrix(cell_coords: FloatArray, ref: FloatArray, hooke: FloatAr
     return np.asarray(hooke @ strain_matrices(grad)[0, 0], dtype=np.float64)
 
 
-def von_mises(stress: FloatArray, poisson: float, hypothesis: str) -> FloatArray:
-    """Von Mises equivalent stress from (..., 3) in-plane stresses."""
+def thermal_strain(expansion: float, poisson: float, hypothesis: str) -> FloatArray:
+    """The in-plane strain (xx, yy, γ_xy) a unit temperature change gives a free part: α
+    (1, 1, 0) in plane stress, (1 + ν) α (1, 1, 0) in plane strain (the part's ε_zz = 0
+    keeps σ_zz = ν (σ_xx + σ_yy) − E α ΔT, ``von_mises``'s ``out_of_plane``)."""
+    scale = (1.0 + poisson) if hypothesis == PLANE_STRAIN else 1.0
+    return np.array([scale * expansion, scale * expansion, 0.0])
+
+
+def initial_strain_load(nodes: FloatArray, cells: IntArray, hooke: FloatArray,
+                        strain: FloatArray, nodal_scale: FloatArray, thickness: float = 1.0,
+                        quadrature: Quadrature | None = None) -> FloatArray:
+    """Load vector ∫ Bᵀ D ε₀ t dΩ of the initial strain ε₀ = ``strain`` (3,) times a
+    scale interpolated from its nodal values (``nodal_scale`` (n_nodes,): a temperature
+    change), interleaved (2 n_nodes,): exact for a scale linear in x and y."""
+    quadrature = quadrature or Quadrature.for_cells(cells.shape[1], 2)
+    n, grad, wdet = physical_gradients(nodes[cells], quadrature)
+    b = strain_matrices(grad)  # (c, q, 3, 2a)
+    at_points = np.einsum("cqa,ca->cq", n, nodal_scale[cells])
+    fe = thickness * np.einsum("cqjk,j,cq,cq->ck", b, hooke @ strain, at_points, wdet)
+    out = np.zeros(2 * nodes.shape[0])
+    np.add.at(out, element_dofs(cells).ravel(), fe.reshape(-1))
+    return out
+
+
+def von_mises(stress: FloatArray, poisson: float, hypothesis: str,
+              out_of_plane: FloatArray | None = None) -> FloatArray:
+    """Von Mises equivalent stress from (..., 3) in-plane stresses; in plane strain σ_zz =
+    ν (σ_xx + σ_yy) + ``out_of_plane`` (− E α ΔT under a temperature change)."""
     sxx, syy, sxy = stress[..., 0], stress[..., 1], stress[..., 2]
     szz = poisson * (sxx + syy) if hypothesis == PLANE_STRAIN else np.zeros_like(sxx)
+    if hypothesis == PLANE_STRAIN and out_of_plane is not None:
+        szz = szz + out_of_plane
     return np.asarray(
         np.sqrt(0.5 * ((sxx - syy) ** 2 + (syy - szz) ** 2 + (szz - sxx) ** 2) + 3.0 * sxy**2)
     )

@@ -22,6 +22,7 @@ from .elasticity import (
     assemble_cells,
     element_stiffness,
     error_norms,
+    initial_strain_load,
     interpolated_load_vector,
     stiffness_matrix,
 )
@@ -65,6 +66,22 @@ def xfem_load_vector(mesh: RectMesh | UnstructuredMesh, nodal_force: FloatArray,
     if cut.cut.size:
         load += interpolated_load_vector(mesh.nodes, mesh.cells[cut.cut], nodal_force,
                                          thickness, cut.cut_quadrature)
+    return load
+
+
+def xfem_initial_strain_load(mesh: RectMesh | UnstructuredMesh, hooke: FloatArray,
+                             strain: FloatArray, nodal_scale: FloatArray, thickness: float,
+                             cut: CutCells | None) -> FloatArray:
+    """∫ Bᵀ D ε₀ t dΩ over the material only (``initial_strain_load``), as
+    ``xfem_load_vector`` integrates a body force."""
+    if cut is None:
+        return initial_strain_load(mesh.nodes, mesh.cells, hooke, strain, nodal_scale,
+                                   thickness)
+    load = initial_strain_load(mesh.nodes, mesh.cells[cut.material], hooke, strain,
+                               nodal_scale, thickness)
+    if cut.cut.size:
+        load += initial_strain_load(mesh.nodes, mesh.cells[cut.cut], hooke, strain,
+                                    nodal_scale, thickness, cut.cut_quadrature)
     return load
 
 

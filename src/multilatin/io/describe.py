@@ -1,6 +1,6 @@
 """What a model defines, in words, for ``multilatin show``: its contacts, its boundary
-conditions (the sides, or parts of sides, they act on), its body forces and what each
-quantity of interest reads."""
+conditions (the sides, or parts of sides, they act on), its body forces and temperature
+changes, and what each quantity of interest reads."""
 
 from __future__ import annotations
 
@@ -10,7 +10,8 @@ from ..decomposition.assembly import DISPLACEMENT, Assembly, Interface, Quantity
 from ..decomposition.qoi import STRESS_COMPONENTS, point_substructure
 from ..fem.xfem import xfem_load_vector
 
-__all__ = ["body_force_lines", "boundary_lines", "contact_lines", "qoi_reads"]
+__all__ = ["body_force_lines", "boundary_lines", "contact_lines", "qoi_reads",
+           "temperature_lines"]
 
 
 def _where(assembly: Assembly, interfaces: list[Interface]) -> str:
@@ -99,6 +100,19 @@ def body_force_lines(assembly: Assembly) -> list[str]:
         factor = f" × factor {force.factor!r}" if force.factor else ""
         lines.append(f"{force.name}: ({shown}) per unit volume{factor} on {bodies}; "
                      f"resultant ({total[0]:.6g}, {total[1]:.6g})")
+    return lines
+
+
+def temperature_lines(assembly: Assembly) -> list[str]:
+    """One line per temperature change: its value (an expression of x and y as written),
+    the load factor and the bodies it acts on."""
+    lines = []
+    for change in assembly.temperatures:
+        texts = getattr(change.varying, "expressions", None)
+        shown = texts[0] if texts is not None and texts[0] is not None else f"{change.value:g}"
+        bodies = ", ".join(change.bodies) if change.bodies else "every body"
+        factor = f" × factor {change.factor!r}" if change.factor else ""
+        lines.append(f"{change.name}: ΔT = {shown}{factor} on {bodies}")
     return lines
 
 

@@ -49,11 +49,18 @@ def _solid(result: SolveResult) -> tuple[FloatArray, list[tuple[str, IntArray]],
         strain = cell_strains(mesh.nodes, cells, u)
         stress = cell_stresses(mesh.nodes, cells, sub.material.hooke, u)
         n_steps, n_cells = stress.shape[0], cells.shape[0]
+        change = result.assembly.temperature(s)  # σ = D (ε − ε₀), ε₀ at the cells' centres
+        heat = change[:, cells].mean(axis=2) if change is not None else None
+        if heat is not None:
+            material = sub.material
+            stress = stress - heat[..., None] * (material.hooke @ material.thermal_strain)
         columns = {
             "stress_xx": stress[..., 0], "stress_yy": stress[..., 1], "stress_xy": stress[..., 2],
             "strain_xx": strain[..., 0], "strain_yy": strain[..., 1],
             "strain_xy": 0.5 * strain[..., 2],  # tensor component: half the engineering γ_xy
-            "von_mises": von_mises(stress, sub.material.poisson, sub.material.hypothesis),
+            "von_mises": von_mises(stress, sub.material.poisson, sub.material.hypothesis,
+                                   None if heat is None else
+                                   -sub.material.young * sub.material.expansion * heat),
             "substructure": np.full((n_steps, n_cells), float(s)),
             "material_fraction": np.broadcast_to(fraction[kept], (n_steps, n_cells)),
         }

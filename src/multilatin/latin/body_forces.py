@@ -1,4 +1,5 @@
-"""Body forces in the linear stage (paper eq. [1] and [13] with f_d on Ω_E).
+"""Body forces and temperature changes in the linear stage (paper eq. [1] and [13] with
+f_d on Ω_E; a temperature change's initial strain ε₀ loads it as ∫ Bᵀ D ε₀).
 
 A substructure loaded inside by f_E (per step) solves (K_E + T_Eᵀ M0 H T_E) u_E = f_E +
 T_Eᵀ M0 (F̂ + H Ŵ) in the linear stage, so its interface displacement is the unloaded
@@ -6,8 +7,9 @@ one plus a constant of the iteration, W = C_E (F̂ + H Ŵ) + T_E S_E⁻¹ f_E, a
 H (Ŵ − W) follows from that W. The macro problem is unchanged: its constraint is the
 interface forces' macro balance, which body forces do not enter; they reach it through
 the micro stage's F. The interior displacements take S_E⁻¹ f_E too, and so does a point
-QoI read through them (``with_body_constants``). ``body_response`` computes S_E⁻¹ f_E once
-per case and geometry: one solve of n_steps columns per loaded substructure.
+QoI read through them (``with_body_constants``; a stress −D ε₀ too). ``body_response``
+computes S_E⁻¹ f_E once per case and geometry: one solve of n_steps columns per loaded
+substructure.
 """
 
 from __future__ import annotations
@@ -20,7 +22,7 @@ from typing import TYPE_CHECKING
 import numpy as np
 
 from ..decomposition.assembly import Assembly
-from ..decomposition.qoi import point_functional
+from ..decomposition.qoi import initial_stress, point_functional
 from ..fem.elasticity import FloatArray
 
 if TYPE_CHECKING:
@@ -51,13 +53,13 @@ class BodyResponse:
 def body_response(ops: LatinOperators, assembly: Assembly) -> BodyResponse | None:
     """The case's ``BodyResponse`` on its geometry's operators; None without body forces
     (a body force of zero value still gives one, of zeros)."""
-    if not assembly.body_forces:
+    if not assembly.interior_loads:
         return None
     points = ops.points
     interior: dict[int, FloatArray] = {}
     offsets = np.zeros((assembly.n_steps, points.n_points, 2))
     for s in range(len(assembly.substructures)):
-        load = assembly.body_load(s)
+        load = assembly.interior_load(s)
         if load is None:
             continue
         response = np.asarray(ops.factors[s].solve(np.asfortranarray(load.T)).T)
@@ -94,4 +96,7 @@ def with_body_constants(functional: QoiFunctionals, response: BodyResponse | Non
             s, phi = point_functional(assembly.substructures, q)
             if s in response.interior:
                 constant[i] = q.scale * (response.interior[s] @ phi)
+            initial = initial_stress(assembly, q) if q.kind == "stress" else None
+            if initial is not None:  # σ = D (B u − ε₀)
+                constant[i] += q.scale * initial
     return dataclasses.replace(functional, constant=constant)

@@ -15,7 +15,7 @@ from ..fem.elasticity import FloatArray, IntArray
 from .indicator_kernel import weighted_squares
 from .options import LatinOptions
 
-__all__ = ["BLOWUP", "DRIFT_WINDOW", "FORCE_FLOOR", "FORCE_MARGIN", "blows_up",
+__all__ = ["BLOWUP", "DRIFT_WINDOW", "FORCE_FLOOR", "FORCE_MARGIN", "FORCE_ROUNDOFF", "blows_up",
            "damp_stagnating", "drifts", "force_indicator", "forces_unsettled"]
 
 log = logging.getLogger(__name__)
@@ -49,19 +49,27 @@ FORCE_MARGIN = 100.0
 #: ran to ``max_iter`` as "not converged" (session 45). The moved block above has forces
 #: of 2.2e-6 of its state: the floor leaves its guard as it was.
 FORCE_FLOOR = 1e-8
+#: ‖F − F̂‖ below this share of the state's size is rounding: F is a difference of
+#: state-sized terms (F̂ + H (Ŵ − W)). A stress-free answer (a plate expanding freely under a
+#: temperature change) stopped at η = 3e-16 with ‖F − F̂‖ at 2.5e-16 of its state, which
+#: over ``FORCE_FLOOR`` read η_F = 2.5e-8, above the bound 100 tol of tol = 1e-10: the case
+#: ran to ``max_iter`` (session 48). The moved block above stops with 2e-10 of its state.
+FORCE_ROUNDOFF = 1e-13
 
 
 def force_indicator(force_weight: FloatArray, force: FloatArray, force_hat: FloatArray,
-                    floor: FloatArray | None = None) -> FloatArray:
+                    state_size: FloatArray | None = None) -> FloatArray:
     """η_F per case (first axis) of fields ``(n_cases, n_steps, n_points, 2)``: ‖F − F̂‖ /
     ½(‖F‖ + ‖F̂‖), ‖F‖² = Σ_t Σ_points ∫ k⁻¹ F·F dΓ (``force_weight``: ∫ k⁻¹ per flattened
-    point and component); 0 where both are zero. ``floor``: per case, the least size
-    (``FORCE_FLOOR`` × the state's size)."""
+    point and component); 0 where both are zero. ``state_size``: per case, the state's
+    ½(‖s‖ + ‖ŝ‖): the size is at least ``FORCE_FLOOR`` times it, and a gap of at most
+    ``FORCE_ROUNDOFF`` times it is zero."""
     gap = np.sqrt(weighted_squares(force_weight, force - force_hat))
     size = 0.5 * (np.sqrt(weighted_squares(force_weight, force))
                   + np.sqrt(weighted_squares(force_weight, force_hat)))
-    if floor is not None:
-        size = np.maximum(size, floor)
+    if state_size is not None:
+        size = np.maximum(size, FORCE_FLOOR * state_size)
+        gap = np.where(gap <= FORCE_ROUNDOFF * state_size, 0.0, gap)
     out = np.zeros(force.shape[0])
     np.divide(gap, size, out=out, where=size > 0.0)
     out[(size == 0.0) & (gap > 0.0)] = np.inf
@@ -90,7 +98,7 @@ def forces_unsettled(state: Any, cases: IntArray, fields: Sequence[FloatArray],
         state_size = np.array([state.sizes[c][-1] if state.sizes[c] else 0.0
                                for c in cases[checked]])
         eta_force[checked] = force_indicator(force_weight, fields[1][checked],
-                                             fields[3][checked], FORCE_FLOOR * state_size)
+                                             fields[3][checked], state_size)
         # η's own bound: ``tol``, or ``eta_under`` × tol where η that far under it stopped
         # the case before its QoIs' estimates settled (``iteration.ETA_STOP_UNDER``)
         on_eta = options.tol * np.where(eta < eta_under * options.tol, eta_under, 1.0)

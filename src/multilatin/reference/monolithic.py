@@ -245,7 +245,7 @@ def solve_monolithic(assembly: Assembly) -> SolveResult:
                 np.add.at(mine, dofs, contribution)
 
     for s, gmap in enumerate(maps):  # body forces (paper eq. [1])
-        body = assembly.body_load(s)
+        body = assembly.interior_load(s)
         if body is not None:
             np.add.at(load, np.stack([2 * gmap, 2 * gmap + 1], axis=1).ravel(), body.T)
     fixed = ~np.isnan(fixed_value[:, 0]) & ~nodes.constrained

@@ -29,13 +29,13 @@ SUBSTRUCTURE_CACHE_SIZE = 8
 class BodySections(SectionReader):
     """Materials, bodies and substructures."""
 
-    def materials(self) -> dict[str, tuple[float, float]]:
+    def materials(self) -> dict[str, tuple[float, float, float]]:
         out = {}
         for mname, table in dict(self.data.get("materials", {})).items():
             where = f"materials.{mname}"
             if not isinstance(table, Mapping):
                 raise ModelError(f"{where}: expected a table with E and nu")
-            check_keys(table, {"E", "nu"}, where)
+            check_keys(table, {"E", "nu", "alpha"}, where)
             young = self.num(require(table, "E", where), f"{where}.E")
             poisson = self.num(require(table, "nu", where), f"{where}.nu")
             if not young > 0.0:
@@ -46,11 +46,15 @@ class BodySections(SectionReader):
                                  "the units (e.g. MPa with mm and N)")
             if not -1.0 < poisson < 0.5:
                 raise ModelError(f"{where}.nu: Poisson's ratio must lie in (-1, 0.5), got {poisson:g}")
-            out[mname] = (young, poisson)
+            alpha = self.num(table.get("alpha", 0.0), f"{where}.alpha")
+            if alpha < 0.0:
+                raise ModelError(f"{where}.alpha: the thermal expansion coefficient must be "
+                                 f">= 0, got {alpha:g}")
+            out[mname] = (young, poisson, alpha)
         return out
 
     def material(self, table: Mapping[str, Any], where: str,
-                 materials: dict[str, tuple[float, float]]) -> Material:
+                 materials: dict[str, tuple[float, float, float]]) -> Material:
         mname = require(table, "material", where)
         if mname not in materials:
             known = ", ".join(sorted(materials)) or "none"
@@ -72,8 +76,8 @@ class BodySections(SectionReader):
                              f"{owner['thickness']}.thickness")
         if not thickness > 0.0:
             raise ModelError(f"{owner['thickness']}.thickness: must be > 0, got {thickness:g}")
-        young, poisson = materials[mname]
-        return Material(young, poisson, hypothesis, thickness)
+        young, poisson, alpha = materials[mname]
+        return Material(young, poisson, hypothesis, thickness, alpha)
 
     # -------------------------------------------------------------- substructures
     def rectangle(self, table: Mapping[str, Any], where: str) -> tuple[float, float, float, float]:

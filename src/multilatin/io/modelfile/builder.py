@@ -41,7 +41,8 @@ class Builder(BodySections, InterfaceSections, LoadingSections, QoiSections):
         qois = self.qois(subs, {itf.condition.name for itf in boundaries if itf.condition},
                          history, interfaces)
         return Assembly(name, tuple(subs), tuple(interfaces + boundaries), history, tuple(qois),
-                        self.mu, tuple(self.body_forces(subs, history)))
+                        self.mu, tuple(self.body_forces(subs, history)),
+                        tuple(self.temperatures(subs, history)))
 
 
 def _check_held(subs: list[Substructure], interfaces: list[Interface],

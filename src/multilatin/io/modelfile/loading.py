@@ -1,10 +1,10 @@
-"""``[history]``, ``[[boundary]]`` and ``[[body_force]]`` of a model file: the load
-history, the boundary conditions (prescribed displacements, forces, rigid stops) and the
-forces per unit volume."""
+"""``[history]``, ``[[boundary]]``, ``[[body_force]]`` and ``[[temperature]]`` of a
+model file: the load history, the boundary conditions (prescribed displacements, forces,
+rigid stops), the forces per unit volume and the temperature changes."""
 
 from __future__ import annotations
 
-from collections.abc import Callable, Collection, Mapping, Sequence
+from collections.abc import Callable, Collection, Iterator, Mapping, Sequence
 from dataclasses import dataclass
 from typing import Any
 
@@ -20,6 +20,7 @@ from ...decomposition.assembly import (
     Interface,
     SideRef,
     Substructure,
+    TemperatureChange,
 )
 from ...errors import ModelError
 from ...fem.elasticity import FloatArray
@@ -131,35 +132,33 @@ class LoadingSections(SectionReader):
         """``[[body_force]]``: forces per unit volume on bodies (gravity, a spinning
         part's inertia), uniform or expressions of x and y, each with its load factor."""
         out: list[BodyForce] = []
-        tables = self.data.get("body_force", [])
-        if not isinstance(tables, list):
-            raise ModelError("body_force: expected an array of tables ([[body_force]])")
-        known = list(dict.fromkeys(sub.body for sub in subs))
-        for b, table in enumerate(tables):
-            where = f"body_force[{b}]"
-            if not isinstance(table, Mapping):
-                raise ModelError(f"{where}: expected a table, got {table!r}")
-            check_keys(table, {"name", "bodies", "value", "factor"}, where)
-            name = str(table.get("name", f"body_force{b}"))
-            where = f"body_force[{b}] ({name!r})"
-            if any(force.name == name for force in out):
-                raise ModelError(f"{where}.name: body force {name!r} is defined twice")
-            bodies = table.get("bodies", [])
-            if isinstance(bodies, str):
-                bodies = [bodies]
-            if not isinstance(bodies, list) or not all(isinstance(x, str) for x in bodies):
-                raise ModelError(f"{where}.bodies: expected a list of body names, got "
-                                 f"{bodies!r}")
-            for body in bodies:
-                if body not in known:
-                    raise ModelError(f"{where}.bodies: no body named {body!r} (bodies: "
-                                     f"{', '.join(known)})")
+        for table, name, where, bodies in _on_bodies(self.data, "body_force", subs):
             value, varying, factor = self._values(table, where, history)
-            force = BodyForce(name, value, tuple(bodies), factor, varying)
-            for sub in subs:  # a varying value evaluated at every node now: errors here
-                if force.acts_on(sub) and varying is not None:
-                    force.values_at(sub.mesh.nodes)
-            out.append(force)
+            out.append(BodyForce(name, value, bodies, factor, varying))
+            _evaluated(out[-1], varying, subs)
+        return out
+
+    def temperatures(self, subs: list[Substructure], history: History
+                     ) -> list[TemperatureChange]:
+        """``[[temperature]]``: temperature changes ΔT from the stress-free state on
+        bodies, uniform or expressions of x and y, each with its load factor; a body
+        without thermal expansion (``alpha``) is refused: the change would do nothing."""
+        out: list[TemperatureChange] = []
+        for table, name, where, bodies in _on_bodies(self.data, "temperature", subs):
+            raw = require(table, "value", where)
+            if isinstance(raw, list):
+                raise ModelError(f"{where}.value: a temperature change is one number or "
+                                 f"expression (K), got {raw!r}")
+            (value, _), varying, factor = self._values({**table, "value": [raw, 0.0]}, where,
+                                                       history)
+            out.append(TemperatureChange(name, value, bodies, factor, varying))
+            for sub in subs:
+                if out[-1].acts_on(sub) and sub.material.expansion == 0.0:
+                    raise ModelError(
+                        f"{where}.bodies: body {sub.body!r} has no thermal expansion (its "
+                        f"material's alpha is 0): give the material an alpha, or name the "
+                        f"bodies the change acts on")
+            _evaluated(out[-1], varying, subs)
         return out
 
     def _values(self, table: Mapping[str, Any], where: str, history: History
@@ -249,6 +248,51 @@ class LoadingSections(SectionReader):
                 "the reference on the same meshes (mesh = 'same')")
         raise ModelError(f"{where}.substructure: no substructure named {sub_name!r}")
 
+
+
+def _on_bodies(data: Mapping[str, Any], section: str, subs: list[Substructure]
+               ) -> Iterator[tuple[Mapping[str, Any], str, str, tuple[str, ...]]]:
+    """The tables of an array ``[[section]]`` of loads on bodies (``name``, ``bodies``,
+    ``value``, ``factor``), checked: each one's table, name (unique), where (for errors)
+    and bodies."""
+    tables = data.get(section, [])
+    if not isinstance(tables, list):
+        raise ModelError(f"{section}: expected an array of tables ([[{section}]])")
+    known = list(dict.fromkeys(sub.body for sub in subs))
+    names: set[str] = set()
+    for b, table in enumerate(tables):
+        where = f"{section}[{b}]"
+        if not isinstance(table, Mapping):
+            raise ModelError(f"{where}: expected a table, got {table!r}")
+        check_keys(table, {"name", "bodies", "value", "factor"}, where)
+        name = str(table.get("name", f"{section}{b}"))
+        where = f"{section}[{b}] ({name!r})"
+        if name in names:
+            raise ModelError(f"{where}.name: {section} {name!r} is defined twice")
+        names.add(name)
+        yield table, name, where, _bodies(table, where, known)
+
+
+def _evaluated(load: BodyForce | TemperatureChange, varying: CoordinateValues | None,
+               subs: list[Substructure]) -> None:
+    """A value varying with x and y evaluated at every node it acts on: errors now."""
+    for sub in subs:
+        if varying is not None and load.acts_on(sub):
+            load.values_at(sub.mesh.nodes)
+
+
+def _bodies(table: Mapping[str, Any], where: str, known: list[str]) -> tuple[str, ...]:
+    """A table's ``bodies`` (one name or a list; none: every body), each one checked."""
+    bodies = table.get("bodies", [])
+    if isinstance(bodies, str):
+        bodies = [bodies]
+    if not isinstance(bodies, list) or not all(isinstance(x, str) for x in bodies):
+        raise ModelError(f"{where}.bodies: expected a list of body names, got {bodies!r}")
+    for body in bodies:
+        if body not in known:
+            raise ModelError(f"{where}.bodies: no body named {body!r} (bodies: "
+                             f"{', '.join(known)})")
+    return tuple(bodies)
 
 
 def _check_free(sub: Substructure, ref: SideRef, taken: list[tuple[float, float] | None],
