@@ -300,19 +300,22 @@ class Assembly:
         once per assembly and substructure."""
         sub = self.substructures[s]
         forces = [force for force in self.body_forces if force.acts_on(sub)]
-        heated = self.temperature(s)
-        if not forces and heated is None:
+        changes = [change for change in self.temperatures if change.acts_on(sub)]
+        if not forces and not changes:
             return None
         if s not in self._interior_loads:
             load = np.zeros((self.n_steps, 2 * sub.mesh.n_nodes))
-            for force in forces:
-                unit = xfem_load_vector(sub.mesh, force.values_at(sub.mesh.nodes),
-                                        sub.material.thickness, sub.cut)
+            material, nodes = sub.material, sub.mesh.nodes
+            for force in forces:  # each load once, at a unit factor
+                unit = xfem_load_vector(sub.mesh, force.values_at(nodes), material.thickness,
+                                        sub.cut)
                 load += self.history.factor(force.factor)[:, None] * unit[None, :]
-            for t, change in enumerate(heated if heated is not None else ()):
-                load[t] += xfem_initial_strain_load(
-                    sub.mesh, sub.material.hooke, sub.material.thermal_strain, change,
-                    sub.material.thickness, sub.cut)
+            for change in changes:
+                unit = xfem_initial_strain_load(sub.mesh, material.hooke,
+                                                material.thermal_strain,
+                                                change.values_at(nodes), material.thickness,
+                                                sub.cut)
+                load += self.history.factor(change.factor)[:, None] * unit[None, :]
             self._interior_loads[s] = load
         return self._interior_loads[s]
 
