@@ -111,3 +111,12 @@ def write_gmsh_ring(path: Any, inner: float, outer: float, size: float,
     module = importlib.util.module_from_spec(spec)
     spec.loader.exec_module(module)
     return module.ring_mesh(Path(path), inner, outer, size, names)
+
+
+def has_torch() -> bool:
+    """Whether PyTorch is installed (the torch backend's tests run on its CPU build)."""
+    try:
+        import torch  # noqa: F401
+    except ImportError:
+        return False
+    return True

@@ -7,7 +7,7 @@ from typing import Any
 
 import numpy as np
 import pytest
-from conftest import warm_b1_4_batch
+from conftest import has_torch, warm_b1_4_batch
 
 import multilatin as ml
 from multilatin.errors import ModelError
@@ -72,7 +72,7 @@ def test_a_batch_of_several_geometries_gives_each_geometrys_answers() -> None:
 
 def test_cases_of_other_interfaces_are_solved_in_batches_of_their_own() -> None:
     b1, b1_4 = ml.load_model("b1").assemble(), ml.load_model("b1-4").assemble()
-    for backend in ("numpy", "torch") if _has_torch() else ("numpy",):
+    for backend in ("numpy", "torch") if has_torch() else ("numpy",):
         results = solve_latin_batch([b1, b1_4, b1], LatinOptions(backend=backend))
         assert [r.assembly for r in results] == [b1, b1_4, b1]
         assert [r.timings["batch_size"] for r in results] == [2, 1, 2]
@@ -87,14 +87,6 @@ def test_a_batch_refuses_operators_of_another_geometry() -> None:
     with pytest.raises(ModelError, match="initial: expected 2 entries"):
         model = ml.load_model("b1")
         solve_latin_batch([model.assemble(), model.assemble()], initial=[None])
-
-
-def _has_torch() -> bool:
-    try:
-        import torch  # noqa: F401
-    except ImportError:
-        return False
-    return True
 
 
 @pytest.mark.parametrize("name", ["b1", "b3", "slide"])

@@ -14,7 +14,7 @@ from types import ModuleType
 
 import numpy as np
 import pytest
-from conftest import write_gmsh_ring
+from conftest import has_torch, write_gmsh_ring
 
 import multilatin as ml
 from multilatin.errors import ModelError
@@ -135,7 +135,7 @@ def test_a_bar_hanging_under_its_own_weight_is_the_closed_form() -> None:
     model = _bar()
     expected = [_bar_closed_form(0.1, factor) for factor in (0.5, 1.0)]
     _close(model.reference(), expected, 1e-10)
-    backends = ["numpy"] + (["torch"] if _has_torch() else [])
+    backends = ["numpy"] + (["torch"] if has_torch() else [])
     for backend in backends:
         for kappa in (0.5, 2.0):
             for recover in (True, False):
@@ -157,14 +157,6 @@ def test_the_recovered_bar_holds_its_weight_everywhere() -> None:
         field = result.displacements[sub.name][1]
         assert np.abs(field[:, 1] - exact).max() < 1e-9 * 0.05
         assert np.abs(field[:, 0]).max() < 1e-12
-
-
-def _has_torch() -> bool:
-    try:
-        import torch  # noqa: F401
-    except ImportError:
-        return False
-    return True
 
 
 SLIDE = Path(__file__).parents[1] / "src" / "multilatin" / "models" / "slide.toml"

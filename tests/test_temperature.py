@@ -12,6 +12,7 @@ from pathlib import Path
 
 import numpy as np
 import pytest
+from conftest import has_torch
 
 import multilatin as ml
 from multilatin.errors import ModelError
@@ -86,14 +87,6 @@ def _walls(text: str = WALLS) -> ml.Model:
     return ml.Model(ml.ModelSpec.from_string(text, name="walls"))
 
 
-def _has_torch() -> bool:
-    try:
-        import torch  # noqa: F401
-    except ImportError:
-        return False
-    return True
-
-
 def test_a_bar_heated_between_walls_is_compressed_as_the_closed_form() -> None:
     """σ_xx = −E α ΔT, σ_yy = 0, the walls' reaction E α ΔT × 10 mm, the top rising by
     (1 + ν) α ΔT × 10 mm (plane stress), at both steps: the reference exactly, LATIN at
@@ -102,7 +95,7 @@ def test_a_bar_heated_between_walls_is_compressed_as_the_closed_form() -> None:
                  "v_top": (1.0 + NU) * ALPHA * t * 10.0} for t in (50.0, 100.0)]
     model = _walls()
     results = [model.reference()]
-    for backend in ["numpy"] + (["torch"] if _has_torch() else []):
+    for backend in ["numpy"] + (["torch"] if has_torch() else []):
         for kappa in (0.5, 2.0):
             for recover in (True, False):
                 results.append(model.solve(options=ml.LatinOptions(

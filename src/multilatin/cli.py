@@ -26,6 +26,7 @@ from .io.describe import (
     body_force_lines,
     boundary_lines,
     contact_lines,
+    point_load_lines,
     qoi_reads,
     temperature_lines,
 )
@@ -323,10 +324,12 @@ def _show(model: Model) -> None:
         print("body forces:")
         for line in body_force_lines(assembly):
             print(f"  {line}")
-    if assembly.temperatures:
-        print("temperature changes:")
-        for line in temperature_lines(assembly):
-            print(f"  {line}")
+    for title, lines in (("temperature changes", temperature_lines(assembly)),
+                         ("point loads", point_load_lines(assembly))):
+        if lines:
+            print(f"{title}:")
+            for line in lines:
+                print(f"  {line}")
     print("quantities of interest:")
     for q in assembly.qois:
         print(f"  {label(q.name, q.unit)}: {qoi_reads(assembly, q)}")

@@ -15,7 +15,7 @@ from functools import cached_property
 import numpy as np
 import scipy.sparse as sp
 
-from ..fem.elasticity import FloatArray, IntArray, hooke_matrix, thermal_strain
+from ..fem.elasticity import FloatArray, IntArray, hooke_matrix, shape_functions, thermal_strain
 from ..fem.levelset import CutCells, LevelSet, cut_cells
 from ..fem.mesh import RectMesh, UnstructuredMesh
 from ..fem.xfem import mesh_pattern, xfem_initial_strain_load, xfem_load_vector, xfem_stiffness
@@ -278,6 +278,20 @@ class TemperatureChange:
 
 
 @dataclass(frozen=True)
+class PointLoad:
+    """A force ``value`` (N, through the part's whole thickness) at ``point`` of the
+    substructure named ``substructure``, multiplied at each step by the load factor
+    ``factor``: nodal forces N_a(point) × value on the cell that holds the point (the
+    point's own node where it is one)."""
+
+    name: str
+    point: tuple[float, float]
+    value: tuple[float, float]
+    substructure: str
+    factor: str | None = None
+
+
+@dataclass(frozen=True)
 class Assembly:
     name: str
     substructures: tuple[Substructure, ...]
@@ -287,21 +301,24 @@ class Assembly:
     mu: Mu
     body_forces: tuple[BodyForce, ...] = ()
     temperatures: tuple[TemperatureChange, ...] = ()
+    point_loads: tuple[PointLoad, ...] = ()
 
     @property
     def interior_loads(self) -> bool:
-        """Whether anything loads the substructures inside (body forces, temperatures)."""
-        return bool(self.body_forces or self.temperatures)
+        """Whether anything loads the substructures inside (body forces, temperatures,
+        point loads)."""
+        return bool(self.body_forces or self.temperatures or self.point_loads)
 
     def interior_load(self, s: int) -> FloatArray | None:
         """Substructure ``s``'s load vectors per step (n_steps, n_dofs), load factors
-        applied, over its material: its body forces' ∫ N f t dΩ and its temperature
-        changes' ∫ Bᵀ D ε₀ t dΩ (paper eq. [1]); None where neither acts on it. Computed
-        once per assembly and substructure."""
+        applied, over its material: its body forces' ∫ N f t dΩ, its temperature changes'
+        ∫ Bᵀ D ε₀ t dΩ (paper eq. [1]) and its point loads' N(point) F; None where none
+        acts on it. Computed once per assembly and substructure."""
         sub = self.substructures[s]
         forces = [force for force in self.body_forces if force.acts_on(sub)]
         changes = [change for change in self.temperatures if change.acts_on(sub)]
-        if not forces and not changes:
+        points = [load for load in self.point_loads if load.substructure == sub.name]
+        if not forces and not changes and not points:
             return None
         if s not in self._interior_loads:
             load = np.zeros((self.n_steps, 2 * sub.mesh.n_nodes))
@@ -316,6 +333,14 @@ class Assembly:
                                                 change.values_at(nodes), material.thickness,
                                                 sub.cut)
                 load += self.history.factor(change.factor)[:, None] * unit[None, :]
+            for point in points:
+                cell, ref = sub.mesh.locate(point.point)
+                shape, _ = shape_functions(np.asarray(ref, dtype=np.float64)[None],
+                                           sub.mesh.cells.shape[1])
+                for c in range(2):
+                    load[:, 2 * sub.mesh.cells[cell] + c] += (
+                        self.history.factor(point.factor)[:, None]
+                        * (point.value[c] * np.ravel(shape))[None, :])
             self._interior_loads[s] = load
         return self._interior_loads[s]
 

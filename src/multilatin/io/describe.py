@@ -1,6 +1,6 @@
 """What a model defines, in words, for ``multilatin show``: its contacts, its boundary
-conditions (the sides, or parts of sides, they act on), its body forces and temperature
-changes, and what each quantity of interest reads."""
+conditions (the sides, or parts of sides, they act on), its body forces, temperature
+changes and point loads, and what each quantity of interest reads."""
 
 from __future__ import annotations
 
@@ -10,8 +10,8 @@ from ..decomposition.assembly import DISPLACEMENT, Assembly, Interface, Quantity
 from ..decomposition.qoi import STRESS_COMPONENTS, point_substructure
 from ..fem.xfem import xfem_load_vector
 
-__all__ = ["body_force_lines", "boundary_lines", "contact_lines", "qoi_reads",
-           "temperature_lines"]
+__all__ = ["body_force_lines", "boundary_lines", "contact_lines", "point_load_lines",
+           "qoi_reads", "temperature_lines"]
 
 
 def _where(assembly: Assembly, interfaces: list[Interface]) -> str:
@@ -114,6 +114,14 @@ def temperature_lines(assembly: Assembly) -> list[str]:
         factor = f" × factor {change.factor!r}" if change.factor else ""
         lines.append(f"{change.name}: ΔT = {shown}{factor} on {bodies}")
     return lines
+
+
+def point_load_lines(assembly: Assembly) -> list[str]:
+    """One line per point load: its force, the load factor, the point and the part."""
+    return [f"{load.name}: ({load.value[0]:g}, {load.value[1]:g})"
+            + (f" × factor {load.factor!r}" if load.factor else "")
+            + f" at ({load.point[0]:g}, {load.point[1]:g}) of {load.substructure}"
+            for load in assembly.point_loads]
 
 
 def qoi_reads(assembly: Assembly, q: QuantityOfInterest) -> str:

@@ -42,7 +42,8 @@ class Builder(BodySections, InterfaceSections, LoadingSections, QoiSections):
                          history, interfaces)
         return Assembly(name, tuple(subs), tuple(interfaces + boundaries), history, tuple(qois),
                         self.mu, tuple(self.body_forces(subs, history)),
-                        tuple(self.temperatures(subs, history)))
+                        tuple(self.temperatures(subs, history)),
+                        tuple(self.point_loads(subs, history, interfaces)))
 
 
 def _check_held(subs: list[Substructure], interfaces: list[Interface],

@@ -14,7 +14,7 @@ from ..expressions import evaluate
 
 TOP_LEVEL = {"title", "description", "analysis", "parameters", "materials", "bodies",
              "substructures", "interfaces", "boundary", "history", "qoi", "holes",
-             "body_force", "temperature"}
+             "body_force", "temperature", "point_load"}
 OPPOSITE = {"left": "right", "right": "left", "bottom": "top", "top": "bottom"}
 #: study.nc's variables per case (``study.store.to_dataset``): numbers, flags and texts
 CASE_NUMBERS = ("iterations", "indicator", "wall_s", "setup_s")

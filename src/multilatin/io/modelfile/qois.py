@@ -2,15 +2,14 @@
 
 from __future__ import annotations
 
-import numpy as np
-
 from ...decomposition.assembly import History, Interface, QuantityOfInterest, Substructure
 from ...decomposition.qoi import STRESS_COMPONENTS
 from ...errors import ModelError
-from .checks import RESERVED_NAMES, SectionReader, check_keys, pair, require, unit_text
+from .checks import RESERVED_NAMES, check_keys, pair, require, unit_text
+from .points import PointSections
 
 
-class QoiSections(SectionReader):
+class QoiSections(PointSections):
     """Quantities of interest."""
 
     def qois(self, subs: list[Substructure], boundary_names: set[str],
@@ -55,17 +54,8 @@ class QoiSections(SectionReader):
                                  + (" (a stress QoI's component)" if kind == "stress" else "")
                                  + f", got {comp!r}")
             if kind in ("displacement", "stress"):
-                px, py = (self.num(v, f"{where}.point")
-                          for v in pair(require(table, "point", where), f"{where}.point"))
-                holding = [s for s, sub in enumerate(subs) if sub.mesh.holds((px, py))]
-                if not holding:
-                    raise ModelError(f"{where}.point: {[px, py]} lies in no substructure"
-                                     + _extent_note(subs, (px, py)))
-                if any(sub.hole is not None and float(sub.hole(np.array([px, py]))) < 0.0
-                       for sub in (subs[s] for s in holding)):
-                    raise ModelError(f"{where}.point: {[px, py]} lies in a hole")
-                body, sub_name = _chosen_part(table, subs, holding, (px, py), interfaces, where)
-                out.append(QuantityOfInterest(name, kind, components.index(comp), (px, py),
+                point, body, sub_name, _ = self.point_in_part(table, where, subs, interfaces)
+                out.append(QuantityOfInterest(name, kind, components.index(comp), point,
                                               None, scale, step, unit=unit, body=body,
                                               substructure=sub_name))
             elif kind == "reaction":
@@ -102,60 +92,3 @@ def _check_names(qois: list[QuantityOfInterest], parameters: set[str]) -> None:
         if name.endswith("_err") and name[:-4] in names:
             raise ModelError(f"{where}: {name!r} is the name of {name[:-4]!r}'s error "
                              "estimate in the study's outputs: choose another")
-
-
-def _extent_note(subs: list[Substructure], point: tuple[float, float]) -> str:
-    """For a point in a mesh file's extent but in none of its cells, say so."""
-    extents = [sub.name for sub in subs if sub.mesh.contains(point)]
-    return (f" (it lies in the extent of {', '.join(map(repr, extents))} but in none of "
-            "its cells: a hole of the mesh, or outside a curved boundary)" if extents else "")
-
-
-def _chosen_part(table: dict[str, object], subs: list[Substructure], holding: list[int],
-                 point: tuple[float, float], interfaces: list[Interface], where: str
-                 ) -> tuple[str | None, str | None]:
-    """A displacement QoI's ``body`` / ``substructure`` (each None when not given), checked:
-    the named part holds the point, and the point is not shared by parts that are not joined
-    by a perfect interface (a contact that slides or opens, a macro-only interface: their
-    sides' displacements differ there) unless one part is named."""
-    body = table.get("body")
-    sub_name = table.get("substructure")
-    if body is not None and sub_name is not None:
-        raise ModelError(f"{where}: give body or substructure, not both")
-    chosen = holding
-    for key, value in (("body", body), ("substructure", sub_name)):
-        if value is None:
-            continue
-        of = [sub.body if key == "body" else sub.name for sub in subs]
-        if not isinstance(value, str) or value not in of:
-            raise ModelError(f"{where}.{key}: no {key} named {value!r}")
-        chosen = [s for s in holding if of[s] == value]
-        if not chosen:
-            here = sorted({of[s] for s in holding})
-            raise ModelError(f"{where}.{key}: the point {list(point)} does not lie in "
-                             f"{value!r} (it lies in {', '.join(map(repr, here))})")
-    if len(chosen) > 1:
-        parent = {s: s for s in chosen}
-
-        def root(s: int) -> int:
-            while parent[s] != s:
-                s = parent[s]
-            return s
-
-        for itf in interfaces:
-            if itf.kind == "perfect" and len(itf.sides) == 2:
-                a, b = (ref.substructure for ref in itf.sides)
-                if a in parent and b in parent:
-                    parent[root(a)] = root(b)
-        if len({root(s) for s in chosen}) > 1:
-            names = sorted({subs[s].name for s in chosen})
-            bodies = sorted({subs[s].body for s in chosen})
-            hint = (f"add body = {bodies[0]!r} (or {', '.join(map(repr, bodies[1:]))})"
-                    if len(bodies) > 1 else
-                    f"add substructure = {names[0]!r} (or {', '.join(map(repr, names[1:]))})")
-            raise ModelError(
-                f"{where}.point: {list(point)} lies on {', '.join(map(repr, names))}, which "
-                "are not joined by a perfect interface there (a contact, a macro-only "
-                f"interface or no interface: their displacements may differ): {hint}")
-    return (str(body) if body is not None else None,
-            str(sub_name) if sub_name is not None else None)
