@@ -15,7 +15,14 @@ from functools import cached_property
 import numpy as np
 import scipy.sparse as sp
 
-from ..fem.elasticity import FloatArray, IntArray, hooke_matrix, shape_functions, thermal_strain
+from ..fem.elasticity import (
+    AXISYMMETRIC,
+    FloatArray,
+    IntArray,
+    hooke_matrix,
+    shape_functions,
+    thermal_strain,
+)
 from ..fem.levelset import CutCells, LevelSet, cut_cells
 from ..fem.mesh import RectMesh, UnstructuredMesh
 from ..fem.xfem import mesh_pattern, xfem_initial_strain_load, xfem_load_vector, xfem_stiffness
@@ -40,6 +47,19 @@ class Material:
     @property
     def hooke(self) -> FloatArray:
         return hooke_matrix(self.young, self.poisson, self.hypothesis)
+
+    @property
+    def radial(self) -> bool:
+        """Axisymmetric (x = r, y = z): integrals over the whole revolution."""
+        return self.hypothesis == AXISYMMETRIC
+
+    def thickness_at(self, coords: FloatArray) -> FloatArray:
+        """What multiplies a traction into a force per unit length at points (n, 2): the
+        thickness, or 2π r axisymmetric (the revolution's circumference there)."""
+        coords = np.asarray(coords, dtype=np.float64).reshape(-1, 2)
+        if self.radial:
+            return np.asarray(2.0 * np.pi * coords[:, 0], dtype=np.float64)
+        return np.full(coords.shape[0], float(self.thickness))
 
     @property
     def thermal_strain(self) -> FloatArray:
@@ -325,7 +345,7 @@ class Assembly:
             material, nodes = sub.material, sub.mesh.nodes
             for force in forces:  # each load once, at a unit factor
                 unit = xfem_load_vector(sub.mesh, force.values_at(nodes), material.thickness,
-                                        sub.cut)
+                                        sub.cut, material.radial)
                 load += self.history.factor(force.factor)[:, None] * unit[None, :]
             for change in changes:
                 unit = xfem_initial_strain_load(sub.mesh, material.hooke,

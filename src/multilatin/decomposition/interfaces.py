@@ -447,7 +447,7 @@ def free_macro_components(itf: Interface) -> tuple[bool, bool]:
 
 def boundary_data(assembly: Assembly, points: InterfacePoints) -> FloatArray:
     """W_d on displacement components, F_d on force ones, at the boundary points, per step
-    (F_d per unit length: the traction times the side's thickness)."""
+    (F_d per unit length: the traction times the side's thickness, or 2π r)."""
     prescribed = np.zeros((assembly.n_steps, points.boundary.size, 2))
     offset = 0
     for i, itf in enumerate(assembly.interfaces):
@@ -456,8 +456,9 @@ def boundary_data(assembly: Assembly, points: InterfacePoints) -> FloatArray:
         assert itf.condition is not None
         n = points.side_points[(i, 0)].size
         factor = assembly.history.factor(itf.condition.factor)
-        thickness = assembly.substructures[itf.sides[0].substructure].material.thickness
         at = points.side_points[(i, 0)]
+        material = assembly.substructures[itf.sides[0].substructure].material
+        thickness = material.thickness_at(points.coords[at])[:, None]  # 2π r axisymmetric
         values = itf.condition.values_at(points.coords[at])  # (n, 2)
         if itf.condition.pressure:  # traction −p n at each point
             values = -values[:, :1] * points.normals[at]

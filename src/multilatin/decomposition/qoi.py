@@ -14,6 +14,7 @@ import numpy as np
 from ..errors import ModelError
 from ..fem.elasticity import (
     FloatArray,
+    IntArray,
     element_dofs,
     interpolate,
     point_stress_matrix,
@@ -25,7 +26,7 @@ from .interfaces import InterfacePoints
 #: how a mean contact pressure is recovered from the nodal contact forces
 PRESSURE_RECOVERIES = ("consistent", "lumped")
 #: the components of a ``stress`` QoI, in ``QuantityOfInterest.component``'s order
-STRESS_COMPONENTS = ("xx", "yy", "xy")
+STRESS_COMPONENTS = ("xx", "yy", "xy", "tt")  # tt: the hoop stress (axisymmetric)
 
 
 @dataclass(frozen=True)
@@ -196,12 +197,14 @@ def latin_contact_pressures(assembly: Assembly, points: InterfacePoints,
     joined = {j: frozenset(assembly.substructures[ref.substructure].body
                            for ref in assembly.interfaces[j].sides) for j in set(interfaces)}
     bodies = [joined[j] for j in interfaces]
-    of_sub = np.array([sub.material.thickness for sub in assembly.substructures])
-    thickness = np.minimum(of_sub[points.substructure[first]],
-                           of_sub[points.substructure[points.contact_pairs[1]]])
-    return ContactPressures(bodies, points.extents[first], pressure / thickness,
+    thickness = np.minimum(*(point_thickness(assembly, points, side)
+                             for side in points.contact_pairs))
+    def per_area(force: FloatArray) -> FloatArray:  # 0 on the axis (r = 0)
+        return np.divide(force, thickness, out=np.zeros_like(force), where=thickness > 0.0)
+
+    return ContactPressures(bodies, points.extents[first], per_area(pressure),
                             points.coords[first],
-                            (np.zeros_like(pressure) if shear is None else shear) / thickness)
+                            per_area(np.zeros_like(pressure) if shear is None else shear))
 
 
 def point_substructure(substructures: Sequence[Substructure], q: QuantityOfInterest) -> int:
@@ -257,6 +260,18 @@ def initial_stress(assembly: Assembly, q: QuantityOfInterest) -> FloatArray | No
     at_point = change[:, sub.mesh.cells[cell]] @ np.ravel(shape)
     unit = sub.material.hooke @ sub.material.thermal_strain
     return np.asarray(-unit[q.component] * at_point, dtype=np.float64)
+
+
+def point_thickness(assembly: Assembly, points: InterfacePoints, at: IntArray
+                    ) -> FloatArray:
+    """The thickness (2π r axisymmetric) of each interface point ``at``'s substructure,
+    there: what divides LATIN's forces per unit length into tractions."""
+    out = np.empty(at.size)
+    owner = points.substructure[at]
+    for s in np.unique(owner).tolist():
+        mine = owner == s
+        out[mine] = assembly.substructures[s].material.thickness_at(points.coords[at[mine]])
+    return out
 
 
 def evaluate_qois(

@@ -14,7 +14,8 @@ from two places, may return different answers, 1.2 % apart on that B1 case.
 
 ``free_motions`` finds such motions in a converged state: for every load step and every
 *cluster* (substructures joined by perfect or macro-only interfaces, which move together),
-the rigid motions (two translations, one rotation) that the pressed contacts (no motion
+the rigid motions (two translations, one rotation; axisymmetric, the axial translation
+alone) that the pressed contacts (no motion
 along their normal) and the prescribed displacements allow, that push into no contact
 touching with zero force, and whose friction reserve — the share of the friction capacity
 along the motion not yet used — is below ``reserve_tol``. A point slipping during the step
@@ -144,6 +145,8 @@ def _clusters_of(assembly: Assembly, points: InterfacePoints) -> list[_Cluster]:
         rows = rigid_rows(points.coords[fixed], centre, size)[
             points.boundary_is_displacement[inside[points.boundary]]]
         held = rows.T @ rows  # prescribed displacements: the same at every step
+        if assembly.substructures[int(group[0])].material.radial:  # only z translates
+            held = held + np.diag([1.0, 0.0, 1.0]) * max(float(np.trace(held)), 1.0)
         if np.linalg.matrix_rank(held, tol=1e-10 * max(np.abs(held).max(), 1e-300)) == 3:
             continue  # held in every rigid mode (a clamped body)
         own_a, own_b = inside[a] & ~inside[b], inside[b] & ~inside[a]

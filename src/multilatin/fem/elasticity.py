@@ -2,7 +2,10 @@
 quadrature points (paper eq. [1]–[3]).
 
 Degrees of freedom are interleaved: dof ``2 i + c`` is component ``c`` of node ``i``.
-Strains and stresses use Voigt notation ``(xx, yy, xy)`` with engineering shear strain.
+Strains and stresses use Voigt notation ``(xx, yy, xy)`` with engineering shear strain;
+axisymmetric ones (x = r, y = z) add the hoop component: ``(rr, zz, rz, θθ)``, its Hooke
+operator 4 × 4 (which is how the functions here tell it), integrals over the whole
+revolution (2π r in place of the thickness).
 """
 
 from __future__ import annotations
@@ -19,6 +22,8 @@ IntArray = npt.NDArray[np.int64]
 
 PLANE_STRESS = "plane_stress"
 PLANE_STRAIN = "plane_strain"
+AXISYMMETRIC = "axisymmetric"
+HYPOTHESES = (PLANE_STRESS, PLANE_STRAIN, AXISYMMETRIC)
 
 
 def hooke_matrix(young: float, poisson: float, hypothesis: str = PLANE_STRESS) -> FloatArray:
@@ -37,7 +42,13 @@ def hooke_matrix(young: float, poisson: float, hypothesis: str = PLANE_STRESS) -
                 [0.0, 0.0, (1.0 - 2.0 * poisson) / 2.0],
             ]
         )
-    raise ValueError(f"hypothesis must be {PLANE_STRESS!r} or {PLANE_STRAIN!r}, not {hypothesis!r}")
+    if hypothesis == AXISYMMETRIC:  # (rr, zz, rz, θθ)
+        c = young / ((1.0 + poisson) * (1.0 - 2.0 * poisson))
+        return c * np.array([[1.0 - poisson, poisson, 0.0, poisson],
+                             [poisson, 1.0 - poisson, 0.0, poisson],
+                             [0.0, 0.0, (1.0 - 2.0 * poisson) / 2.0, 0.0],
+                             [poisson, poisson, 0.0, 1.0 - poisson]])
+    raise ValueError(f"hypothesis must be one of {HYPOTHESES}, not {hypothesis!r}")
 
 
 @dataclass(frozen=True)
@@ -142,6 +153,21 @@ def strain_matrices(grad: FloatArray) -> FloatArray:
     return b
 
 
+def strains_and_weights(cell_coords: FloatArray, quadrature: Quadrature, radial: bool,
+                        thickness: float) -> tuple[FloatArray, FloatArray, FloatArray]:
+    """Shape functions (c, q, a), B (c, q, 3, 2a) — (c, q, 4, 2a) where ``radial``, its
+    last row the hoop strain u_r / r — and the integration weights (c, q): w·det J times
+    the thickness, or times 2π r (axisymmetric: the whole revolution)."""
+    n, grad, wdet = physical_gradients(cell_coords, quadrature)
+    b = strain_matrices(grad)
+    if not radial:
+        return n, b, thickness * wdet
+    r = np.einsum("cqa,ca->cq", n, cell_coords[..., 0])
+    hoop = np.zeros(b.shape[:2] + (1, b.shape[3]))
+    hoop[..., 0, 0::2] = n / r[..., None]
+    return n, np.concatenate([b, hoop], axis=2), 2.0 * np.pi * r * wdet
+
+
 def element_dofs(cells: IntArray) -> IntArray:
     """Interleaved dofs (c, 2a) of each cell of ``a`` nodes."""
     return np.stack([2 * cells, 2 * cells + 1], axis=-1).reshape(cells.shape[0], -1)
@@ -166,12 +192,13 @@ def element_stiffness(
     thickness: float = 1.0,
     quadrature: Quadrature | None = None,
 ) -> FloatArray:
-    """Element stiffnesses ∫_e Bᵀ D B t dΩ, (c, 2a, 2a) on interleaved element dofs."""
+    """Element stiffnesses ∫_e Bᵀ D B t dΩ, (c, 2a, 2a) on interleaved element dofs (2π r
+    for t with a 4 × 4 ``hooke``: axisymmetric)."""
     quadrature = quadrature or Quadrature.for_cells(cells.shape[1], 2)
-    _, grad, wdet = physical_gradients(nodes[cells], quadrature)
-    b = strain_matrices(grad)
-    return np.asarray(thickness * np.einsum("cqji,jk,cqkl,cq->cil", b, hooke, b, wdet,
-                                            optimize=True), dtype=np.float64)
+    _, b, weight = strains_and_weights(nodes[cells], quadrature, hooke.shape[0] == 4,
+                                       thickness)
+    return np.asarray(np.einsum("cqji,jk,cqkl,cq->cil", b, hooke, b, weight, optimize=True),
+                      dtype=np.float64)
 
 
 def assemble_cells(element_matrices: FloatArray, cells: IntArray, n_nodes: int
@@ -200,16 +227,17 @@ def body_force_vector(
 
 
 def interpolated_load_vector(nodes: FloatArray, cells: IntArray, nodal_force: FloatArray,
-                             thickness: float = 1.0, quadrature: Quadrature | None = None
-                             ) -> FloatArray:
+                             thickness: float = 1.0, quadrature: Quadrature | None = None,
+                             radial: bool = False) -> FloatArray:
     """Load vector ∫ N f_h t dΩ of the body force density interpolated from its values at
     the nodes, f_h = Σ_a N_a f_a (``nodal_force`` (n_nodes, 2)): exact for a density
     linear in x and y (gravity, a spinning part's ρ ω² r), and one evaluation per node
-    instead of per quadrature point. ``quadrature``: per-cell rules too (a cut cell's)."""
+    instead of per quadrature point. ``quadrature``: per-cell rules too (a cut cell's).
+    ``radial``: axisymmetric (2π r for the thickness)."""
     quadrature = quadrature or Quadrature.for_cells(cells.shape[1], 4)
-    n, _, wdet = physical_gradients(nodes[cells], quadrature)
-    return _load_vector(n, np.einsum("cqa,cad->cqd", n, nodal_force[cells]), wdet, cells,
-                        thickness, nodes.shape[0])
+    n, _, weight = strains_and_weights(nodes[cells], quadrature, radial, thickness)
+    return _load_vector(n, np.einsum("cqa,cad->cqd", n, nodal_force[cells]), weight, cells,
+                        1.0, nodes.shape[0])
 
 
 def _load_vector(n: FloatArray, force: FloatArray, wdet: FloatArray, cells: IntArray,
@@ -222,13 +250,13 @@ def _load_vector(n: FloatArray, force: FloatArray, wdet: FloatArray, cells: IntA
     return out
 
 
-def cell_strains(nodes: FloatArray, cells: IntArray, displacement: FloatArray) -> FloatArray:
-    """Strain (xx, yy, engineering γ_xy) at each cell centre, for displacements
-    (..., n_nodes, 2). Returns an array (..., n_cells, 3)."""
+def cell_strains(nodes: FloatArray, cells: IntArray, displacement: FloatArray,
+                 radial: bool = False) -> FloatArray:
+    """Strain (xx, yy, engineering γ_xy; and θθ where ``radial``) at each cell centre, for
+    displacements (..., n_nodes, 2). Returns an array (..., n_cells, 3 or 4)."""
     centre = (Quadrature.triangle(1) if cells.shape[1] == 3 else
               Quadrature(np.zeros((1, 1, 2)), np.full((1, 1), 4.0)))
-    _, grad, _ = physical_gradients(nodes[cells], centre)
-    b = strain_matrices(grad)[:, 0]  # (c, 3, 2a)
+    b = strains_and_weights(nodes[cells], centre, radial, 1.0)[1][:, 0]  # (c, 3 or 4, 2a)
     ue = displacement[..., cells, :].reshape(displacement.shape[:-2] + (cells.shape[0], -1))
     return np.asarray(np.einsum("cjk,...ck->...cj", b, ue), dtype=np.float64)
 
@@ -243,23 +271,27 @@ def cell_stresses(
 
     Returns an array (..., n_cells, 3).
     """
-    strain = cell_strains(nodes, cells, displacement)
+    strain = cell_strains(nodes, cells, displacement, hooke.shape[0] == 4)
     return np.asarray(np.einsum("ij,...cj->...ci", hooke, strain), dtype=np.float64)
 
 
 def point_stress_matrix(cell_coords: FloatArray, ref: FloatArray, hooke: FloatArray
                         ) -> FloatArray:
     """D B at reference point ``ref`` (2,) of one cell (``cell_coords`` (a, 2)): the stress
-    (xx, yy, xy) there is this (3, 2a) matrix times the cell's interleaved displacements."""
+    (xx, yy, xy; θθ axisymmetric) there is this (3 or 4, 2a) matrix times the cell's
+    interleaved displacements."""
     point = Quadrature(np.asarray(ref, dtype=np.float64).reshape(1, 1, 2), np.ones((1, 1)))
-    _, grad, _ = physical_gradients(np.asarray(cell_coords)[None], point)
-    return np.asarray(hooke @ strain_matrices(grad)[0, 0], dtype=np.float64)
+    b = strains_and_weights(np.asarray(cell_coords)[None], point, hooke.shape[0] == 4, 1.0)[1]
+    return np.asarray(hooke @ b[0, 0], dtype=np.float64)
 
 
 def thermal_strain(expansion: float, poisson: float, hypothesis: str) -> FloatArray:
     """The in-plane strain (xx, yy, γ_xy) a unit temperature change gives a free part: α
     (1, 1, 0) in plane stress, (1 + ν) α (1, 1, 0) in plane strain (the part's ε_zz = 0
-    keeps σ_zz = ν (σ_xx + σ_yy) − E α ΔT, ``von_mises``'s ``out_of_plane``)."""
+    keeps σ_zz = ν (σ_xx + σ_yy) − E α ΔT, ``von_mises``'s ``out_of_plane``); α (1, 1, 0,
+    1) axisymmetric (rr, zz, rz, θθ)."""
+    if hypothesis == AXISYMMETRIC:
+        return np.array([expansion, expansion, 0.0, expansion])
     scale = (1.0 + poisson) if hypothesis == PLANE_STRAIN else 1.0
     return np.array([scale * expansion, scale * expansion, 0.0])
 
@@ -271,10 +303,10 @@ def initial_strain_load(nodes: FloatArray, cells: IntArray, hooke: FloatArray,
     scale interpolated from its nodal values (``nodal_scale`` (n_nodes,): a temperature
     change), interleaved (2 n_nodes,): exact for a scale linear in x and y."""
     quadrature = quadrature or Quadrature.for_cells(cells.shape[1], 2)
-    n, grad, wdet = physical_gradients(nodes[cells], quadrature)
-    b = strain_matrices(grad)  # (c, q, 3, 2a)
+    n, b, weight = strains_and_weights(nodes[cells], quadrature, hooke.shape[0] == 4,
+                                       thickness)
     at_points = np.einsum("cqa,ca->cq", n, nodal_scale[cells])
-    fe = thickness * np.einsum("cqjk,j,cq,cq->ck", b, hooke @ strain, at_points, wdet)
+    fe = np.einsum("cqjk,j,cq,cq->ck", b, hooke @ strain, at_points, weight)
     out = np.zeros(2 * nodes.shape[0])
     np.add.at(out, element_dofs(cells).ravel(), fe.reshape(-1))
     return out
@@ -283,9 +315,12 @@ def initial_strain_load(nodes: FloatArray, cells: IntArray, hooke: FloatArray,
 def von_mises(stress: FloatArray, poisson: float, hypothesis: str,
               out_of_plane: FloatArray | None = None) -> FloatArray:
     """Von Mises equivalent stress from (..., 3) in-plane stresses; in plane strain σ_zz =
-    ν (σ_xx + σ_yy) + ``out_of_plane`` (− E α ΔT under a temperature change)."""
+    ν (σ_xx + σ_yy) + ``out_of_plane`` (− E α ΔT under a temperature change); axisymmetric
+    (..., 4), the hoop stress the third normal one."""
     sxx, syy, sxy = stress[..., 0], stress[..., 1], stress[..., 2]
     szz = poisson * (sxx + syy) if hypothesis == PLANE_STRAIN else np.zeros_like(sxx)
+    if hypothesis == AXISYMMETRIC:
+        szz = stress[..., 3]
     if hypothesis == PLANE_STRAIN and out_of_plane is not None:
         szz = szz + out_of_plane
     return np.asarray(

@@ -55,17 +55,19 @@ def xfem_stiffness(mesh: RectMesh | UnstructuredMesh, hooke: FloatArray, thickne
 
 
 def xfem_load_vector(mesh: RectMesh | UnstructuredMesh, nodal_force: FloatArray,
-                     thickness: float, cut: CutCells | None) -> FloatArray:
-    """∫ N f_h t dΩ over the material only (``interpolated_load_vector``): material cells
-    with the usual rule, cut cells on their material part, void cells not at all (zero on
-    the removed dofs, as their rows of ``xfem_stiffness`` ask)."""
+                     thickness: float, cut: CutCells | None, radial: bool = False
+                     ) -> FloatArray:
+    """∫ N f_h t dΩ over the material only (``interpolated_load_vector``; 2π r for t where
+    ``radial``): material cells with the usual rule, cut cells on their material part, void
+    cells not at all (zero on the removed dofs, as their rows of ``xfem_stiffness`` ask)."""
     if cut is None:
-        return interpolated_load_vector(mesh.nodes, mesh.cells, nodal_force, thickness)
+        return interpolated_load_vector(mesh.nodes, mesh.cells, nodal_force, thickness,
+                                        radial=radial)
     load = interpolated_load_vector(mesh.nodes, mesh.cells[cut.material], nodal_force,
-                                    thickness)
+                                    thickness, radial=radial)
     if cut.cut.size:
         load += interpolated_load_vector(mesh.nodes, mesh.cells[cut.cut], nodal_force,
-                                         thickness, cut.cut_quadrature)
+                                         thickness, cut.cut_quadrature, radial)
     return load
 
 

@@ -94,7 +94,7 @@ def body_force_lines(assembly: Assembly) -> list[str]:
         for sub in assembly.substructures:
             if force.acts_on(sub):
                 load = xfem_load_vector(sub.mesh, force.values_at(sub.mesh.nodes),
-                                        sub.material.thickness, sub.cut)
+                                        sub.material.thickness, sub.cut, sub.material.radial)
                 total = total + load.reshape(-1, 2).sum(axis=0)
         bodies = ", ".join(force.bodies) if force.bodies else "every body"
         factor = f" × factor {force.factor!r}" if force.factor else ""

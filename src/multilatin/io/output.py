@@ -46,7 +46,7 @@ def _solid(result: SolveResult) -> tuple[FloatArray, list[tuple[str, IntArray]],
         kept = fraction > 0.0
         cells = mesh.cells[kept]
         used, renumbered = np.unique(cells, return_inverse=True)
-        strain = cell_strains(mesh.nodes, cells, u)
+        strain = cell_strains(mesh.nodes, cells, u, sub.material.radial)
         stress = cell_stresses(mesh.nodes, cells, sub.material.hooke, u)
         n_steps, n_cells = stress.shape[0], cells.shape[0]
         change = result.assembly.temperature(s)  # σ = D (ε − ε₀), ε₀ at the cells' centres
@@ -64,6 +64,8 @@ def _solid(result: SolveResult) -> tuple[FloatArray, list[tuple[str, IntArray]],
             "substructure": np.full((n_steps, n_cells), float(s)),
             "material_fraction": np.broadcast_to(fraction[kept], (n_steps, n_cells)),
         }
+        if stress.shape[-1] == 4:  # axisymmetric: the hoop components
+            columns.update({"stress_tt": stress[..., 3], "strain_tt": strain[..., 3]})
         for name, values in columns.items():
             data.setdefault(name, []).append(values)
         points.append(mesh.nodes[used])
@@ -102,10 +104,11 @@ def _contact(result: SolveResult) -> dict[str, FloatArray] | None:
             .outward_normal(interface.sides[0].side)
         chosen.append(first)
         normals.append(np.tile(normal, (first.size, 1)))
-        # the face that touches: the thinner side's (LATIN's forces are per unit length)
-        thicknesses.append(np.full(first.size, min(
-            result.assembly.substructures[ref.substructure].material.thickness
-            for ref in interface.sides)))
+        # the face that touches: the thinner side's (LATIN's forces are per unit length;
+        # 2π r axisymmetric)
+        thicknesses.append(np.min([
+            result.assembly.substructures[ref.substructure].material.thickness_at(
+                itf.coords[first]) for ref in interface.sides], axis=0))
     if not chosen:
         return None
     index = np.concatenate(chosen)
@@ -116,7 +119,9 @@ def _contact(result: SolveResult) -> dict[str, FloatArray] | None:
         for name, points in status_indices(result, step).items():
             status[step, points] = STATUS_CODES[name]
     thickness = np.concatenate(thicknesses)
-    traction = itf.force_hat[:, index] / thickness[:, None]
+    traction = np.divide(itf.force_hat[:, index], thickness[:, None],  # 0 on the axis
+                         out=np.zeros_like(itf.force_hat[:, index]),
+                         where=thickness[:, None] > 0.0)
     pressure = -np.einsum("tpd,pd->tp", traction, normal)
     tangent = np.column_stack([-normal[:, 1], normal[:, 0]])
     jump = np.concatenate(jumps, axis=1)

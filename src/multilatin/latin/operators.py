@@ -15,7 +15,7 @@ import numpy as np
 import scipy.linalg as sla
 import scipy.sparse as sp
 
-from ..decomposition.assembly import DISPLACEMENT, Assembly
+from ..decomposition.assembly import DISPLACEMENT, Assembly, Substructure
 from ..decomposition.interfaces import (
     InterfacePoints,
     build_points,
@@ -278,12 +278,11 @@ class LatinOperators:
         for i, itf in enumerate(self.assembly.interfaces):
             subs = [self.assembly.substructures[r.substructure] for r in itf.sides]
             if opts.search_modulus == "mean" or len(subs) == 1:
-                young = float(np.mean([s.material.young * s.material.thickness
-                                       for s in subs]))
+                young = float(np.mean([s.material.young * _section(s) for s in subs]))
                 values = [opts.kappa * young / self._smaller_side(subs[0].body)] * len(subs)
             else:  # each side from the substructure on the other side, or its own
                 source = reversed(subs) if opts.search_modulus == "neighbour" else subs
-                values = [opts.kappa * sub.material.young * sub.material.thickness
+                values = [opts.kappa * sub.material.young * _section(sub)
                           / self._smaller_side(sub.body) for sub in source]
             for side_index, value in enumerate(values):
                 k[pts.side_points[(i, side_index)]] = value
@@ -472,6 +471,14 @@ _INTERFACE_TERMS: Kept[str, tuple[sp.csr_matrix, sp.csc_matrix]] = Kept(64)
 #: ``interface_signature``'s digests by what they digest (its text's repr took 0.13 ms a b3
 #: case, 9 s of the whole B3 study on a GPU's host; a hash of the same tuple ~0.05)
 _INTERFACE_DIGESTS: Kept[tuple[object, ...], str] = Kept(64)
+
+
+def _section(sub: Substructure) -> float:
+    """The thickness that scales k (κ E t / L): 2π times the mean radius of the
+    substructure's nodes axisymmetric."""
+    material = sub.material
+    return float(material.thickness_at(sub.mesh.nodes).mean() if material.radial
+                 else material.thickness)
 
 
 def corner_factors(points: InterfacePoints, factor: float, reach: FloatArray) -> FloatArray:

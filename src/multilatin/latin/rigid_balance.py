@@ -42,6 +42,7 @@ from typing import Any
 import numpy as np
 
 from ..decomposition.uniqueness import clusters, rigid_rows
+from ..errors import ModelError
 from ..fem.elasticity import FloatArray, IntArray
 from .engine import NumpyFields
 from .operators import LatinOperators
@@ -144,6 +145,9 @@ class RigidBalance:
     ran."""
 
     def __init__(self, ops: LatinOperators) -> None:
+        if any(sub.material.radial for sub in ops.assembly.substructures):
+            raise ModelError("rigid_balance: its rigid modes are the plane's (two "
+                             "translations, a rotation), not an axisymmetric part's")
         self.clusters = RigidClusters(ops)
         self.moves = 0
         self.trials = 0

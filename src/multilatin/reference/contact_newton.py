@@ -107,10 +107,11 @@ def contact_set(assembly: Assembly, maps: list[IntArray],
                                     along=coupling.slave_along)
             nodes = coupling.slave_nodes
         length = cells.weights
-        thickness = min(assembly.substructures[r.substructure].material.thickness
-                        for r in itf.sides)
         lo, hi = cells.extents[:, 0], cells.extents[:, 1]
         position = cells.coords
+        # the thinner side's thickness, or 2π r axisymmetric, at each point
+        thickness = np.min([assembly.substructures[r.substructure].material.thickness_at(
+            position) for r in itf.sides], axis=0)
         bodies = frozenset(assembly.substructures[r.substructure].body for r in itf.sides)
         boundary = None
         normal = (point_normals(sub.mesh, ref.side, nodes) if coupling is None or coupling.slave == 0
@@ -140,12 +141,12 @@ def contact_set(assembly: Assembly, maps: list[IntArray],
             same = records.setdefault((int(first[p]), int(second[p])), [])
             rec = next((r for r in same if float(np.dot(r[0], normal[p])) > 0.5), None)
             if rec is not None:
-                rec[4] += length[p] * thickness
+                rec[4] += length[p] * thickness[p]
                 rec[8] += length[p]
                 rec[5] = (min(rec[5][0], lo[p]), max(rec[5][1], hi[p]))
             else:
                 same.append([normal[p], itf.contact.friction, itf.contact.gap + offset[p],
-                             bodies, length[p] * thickness, (lo[p], hi[p]), boundary,
+                             bodies, length[p] * thickness[p], (lo[p], hi[p]), boundary,
                              position[p], length[p]])
     keys = [key for key, same in records.items() for _ in same]
     vals = [rec for same in records.values() for rec in same]

@@ -148,8 +148,9 @@ def _merge_cross_points(assembly: Assembly, pieces: list[tuple[int, int, IntArra
         coupling = virtual[index][2]
         ref = itf.sides[coupling.slave]
         sub = assembly.substructures[ref.substructure]
-        weights = discretise_side(sub.mesh.nodes, coupling.slave_nodes, "nodal",
-                                  sub.material.thickness, along=coupling.slave_along).weights
+        weights = (discretise_side(sub.mesh.nodes, coupling.slave_nodes, "nodal", 1.0,
+                                   along=coupling.slave_along).weights
+                   * sub.material.thickness_at(sub.mesh.nodes[coupling.slave_nodes]))
         normals = np.round(point_normals(sub.mesh, ref.side, coupling.slave_nodes), 6)
         body = assembly.substructures[itf.sides[coupling.master].substructure].body
         assert itf.contact is not None
@@ -223,7 +224,8 @@ def solve_monolithic(assembly: Assembly) -> SolveResult:
         factor = assembly.history.factor(cond.factor)
         # consistent loads of a uniform traction: half of each edge to each of its nodes
         # dual-cell length × thickness at each node: the consistent load of a uniform traction
-        nodal_len = discretise_side(sub.mesh.nodes, side, "nodal", sub.material.thickness).weights
+        nodal_len = (discretise_side(sub.mesh.nodes, side, "nodal", 1.0).weights
+                     * sub.material.thickness_at(sub.mesh.nodes[side]))
         mine = own_load.setdefault(cond.name, np.zeros((n_dofs, n_steps)))
         value = cond.values_at(sub.mesh.nodes[side])  # (nodes, 2)
         if cond.pressure:  # traction −p n at each node
@@ -266,7 +268,9 @@ def solve_monolithic(assembly: Assembly) -> SolveResult:
         u[free] = factor_ff.solve(load[free] - stiffness[free][:, fixed] @ u[fixed])
         multipliers = np.zeros((n_steps, 0, 2))
     else:
-        young = max(s.material.young * s.material.thickness for s in assembly.substructures)
+        young = max(s.material.young * (s.material.thickness_at(s.mesh.nodes).mean()
+                                        if s.material.radial else s.material.thickness)
+                    for s in assembly.substructures)
         u, contact_force, multipliers, iterations = solve_contact_history(
             stiffness, load, u, free, contacts, young, constraint=constraint)
 

@@ -13,7 +13,7 @@ import numpy as np
 from ...decomposition.assembly import Material, Substructure
 from ...decomposition.holes import place_holes
 from ...errors import ModelError
-from ...fem.elasticity import PLANE_STRAIN, PLANE_STRESS
+from ...fem.elasticity import AXISYMMETRIC, HYPOTHESES, PLANE_STRESS
 from ...fem.mesh import RectMesh, UnstructuredMesh
 from ...limits import check_meshes
 from ..meshfile import read_mesh
@@ -67,11 +67,13 @@ class BodySections(SectionReader):
         owner = {key: where if key in table else "analysis" for key in ("hypothesis",
                                                                          "thickness")}
         hypothesis = table.get("hypothesis", analysis.get("hypothesis", PLANE_STRESS))
-        if hypothesis not in (PLANE_STRESS, PLANE_STRAIN):
+        if hypothesis not in HYPOTHESES:
             raise ModelError(
-                f"{owner['hypothesis']}.hypothesis: expected {PLANE_STRESS!r} or "
-                f"{PLANE_STRAIN!r}, got {hypothesis!r}"
-            )
+                f"{owner['hypothesis']}.hypothesis: expected one of "
+                f"{', '.join(map(repr, HYPOTHESES))}, got {hypothesis!r}")
+        if hypothesis == AXISYMMETRIC and ("thickness" in table or "thickness" in analysis):
+            raise ModelError(f"{owner['thickness']}.thickness: an axisymmetric part has none "
+                             "(its forces are over the whole revolution, 2π r)")
         thickness = self.num(table.get("thickness", analysis.get("thickness", 1.0)),
                              f"{owner['thickness']}.thickness")
         if not thickness > 0.0:
@@ -189,6 +191,7 @@ class BodySections(SectionReader):
                                      RectMesh(x0, x1, y0, y1, ex, ey), mat))
         if not subs:
             raise ModelError("model: no [[bodies]] or [[substructures]] defined")
+        _check_axisymmetric(subs)
         names = [s.name for s in subs]
         for name in names:
             if names.count(name) > 1:
@@ -297,3 +300,17 @@ def _part_name(value: object, where: str) -> str:
         raise ModelError(f"{where}.name: expected a name without '.', '[' or ']' (faces are "
                          f"'body.side', a split body's parts 'body[i,j]'), got {value!r}")
     return name
+
+
+def _check_axisymmetric(subs: list[Substructure]) -> None:
+    """Axisymmetric parts (x = r, y = z) go with axisymmetric parts only, and lie at r ≥ 0."""
+    radial = [sub for sub in subs if sub.material.radial]
+    if radial and len(radial) < len(subs):
+        plane = next(sub for sub in subs if not sub.material.radial)
+        raise ModelError(f"hypothesis: {radial[0].name!r} is axisymmetric and "
+                         f"{plane.name!r} is {plane.material.hypothesis!r}; an assembly is "
+                         "axisymmetric throughout or not at all")
+    for sub in radial:
+        if sub.mesh.nodes[:, 0].min() < -1e-12 * max(1.0, float(np.ptp(sub.mesh.nodes))):
+            raise ModelError(f"{sub.name!r}: an axisymmetric part lies at x = r >= 0, but "
+                             f"its nodes reach x = {sub.mesh.nodes[:, 0].min():g}")

@@ -54,7 +54,10 @@ class QoiSections(PointSections):
                                  + (" (a stress QoI's component)" if kind == "stress" else "")
                                  + f", got {comp!r}")
             if kind in ("displacement", "stress"):
-                point, body, sub_name, _ = self.point_in_part(table, where, subs, interfaces)
+                point, body, sub_name, s = self.point_in_part(table, where, subs, interfaces)
+                if comp == "tt" and not subs[s].material.radial:
+                    raise ModelError(f"{where}.component: 'tt' (the hoop stress) needs an "
+                                     "axisymmetric part")
                 out.append(QuantityOfInterest(name, kind, components.index(comp), point,
                                               None, scale, step, unit=unit, body=body,
                                               substructure=sub_name))
