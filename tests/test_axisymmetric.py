@@ -8,6 +8,7 @@ a shrink-fitted hub pushed out of its rim (Lamé's fit pressure; once it slides 
 from __future__ import annotations
 
 import math
+from pathlib import Path
 
 import numpy as np
 import pytest
@@ -272,3 +273,12 @@ def test_an_assembly_is_axisymmetric_throughout() -> None:
                    'elements = [2, 1]\nmaterial = "m"\nhypothesis = "plane_stress"\n')
     with pytest.raises(ModelError, match="axisymmetric throughout or not at all"):
         ml.ModelSpec.from_string(text, name="tube")
+
+
+def test_show_says_axisymmetric(tmp_path: Path, capsys: pytest.CaptureFixture[str]) -> None:
+    from multilatin.cli import main
+
+    path = tmp_path / "tube.toml"
+    path.write_text(TUBE)
+    assert main(["show", str(path)]) == 0
+    assert "substructures: 2 (axisymmetric), dofs: 120" in capsys.readouterr().out

@@ -83,7 +83,8 @@ def test_good_model_is_accepted():
         (lambda d: d["substructures"][1].update(thickness=0.0),
          "substructures[1] ('b').thickness: must be > 0, got 0"),
         (lambda d: d.update(analysis={"hypothesis": "plane"}),
-         "analysis.hypothesis: expected one of 'plane_stress', 'plane_strain', 'axisymmetric', got 'plane'"),
+         "analysis.hypothesis: expected one of 'plane_stress', 'plane_strain', "
+         "'axisymmetric', got 'plane'"),
     ],
 )
 def test_model_errors_name_field_and_value(change, expected):

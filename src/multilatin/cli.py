@@ -302,8 +302,9 @@ def _show(model: Model) -> None:
         shown = label(f"{p.default:g}", p.unit)
         print(f"  {p.name} = {shown}  range [{p.minimum:g}, {p.maximum:g}]  {p.description}")
     assembly = model.assemble()
-    print(f"substructures: {len(assembly.substructures)}, dofs: {assembly.n_dofs}, "
-          f"load steps: {assembly.n_steps}")
+    hypotheses = sorted({sub.material.hypothesis for sub in assembly.substructures})
+    print(f"substructures: {len(assembly.substructures)} ({', '.join(hypotheses)}), dofs: "
+          f"{assembly.n_dofs}, load steps: {assembly.n_steps}")
     kinds: dict[str, int] = {}
     for itf in assembly.interfaces:
         kinds[itf.kind] = kinds.get(itf.kind, 0) + 1
