@@ -37,7 +37,7 @@ def main() -> None:
         print(f"| {refine} | {reference.qoi['u_in']:.8f} "
               f"({reference.qoi['u_in'] / exact - 1:+.1e}) | {reference.qoi['R_p']:.4f} | "
               f"{latin.iterations}, {latin.qoi['u_in'] / reference.qoi['u_in'] - 1:+.1e} |")
-    frictionless = (cases.FIT.replace("friction = 0.2", "friction = 0.0")
+    frictionless = (cases.FIT.replace("default = 0.2", "default = 0.0")
                     .replace('type = "mixed"\ncomponents = ["force", "displacement"]\n'
                              'value = [0.0, -1.0]\nfactor = "push"\n',
                              'type = "force"\nvalue = [0.0, 0.0]\n')
@@ -54,7 +54,7 @@ def main() -> None:
             pressure = np.asarray(reference.qoi["p_fit"])
             latin = model.solve(refine=refine)
             grip = 0.2 * pressure * 2 * math.pi * cases.B * cases.H
-            push = -np.asarray(reference.qoi["R_push"])
+            push = np.asarray(reference.qoi["R_push"])
             print(f"| {label} | {refine} | {np.array2string(pressure, precision=4)} | "
                   f"{latin.iterations} it., p_fit within "
                   f"{np.abs(np.asarray(latin.qoi['p_fit']) / pressure - 1).max():.1e} | "

@@ -155,59 +155,9 @@ def test_a_thick_cylinder_converges_to_lame() -> None:
                                                         abs=1e-12), name
 
 
-#: a hub 5 <= r <= 10 shrink-fitted into a rim 10 <= r <= 20, both 10 mm high, the rim on a
-#: smooth floor; the hub's top pushed down by a prescribed displacement from step 2
-FIT = f"""
-[analysis]
-hypothesis = "axisymmetric"
-[parameters.delta]
-default = 0.005
-[materials.m]
-E = {E}
-nu = {NU}
-[[bodies]]
-name = "hub"
-x = [5.0, 10.0]
-y = [0.0, 10.0]
-elements = [10, 20]
-material = "m"
-[[bodies]]
-name = "rim"
-x = [10.0, 20.0]
-y = [0.0, 10.0]
-elements = [20, 20]
-material = "m"
-[[interfaces]]
-between = ["hub", "rim"]
-type = "contact"
-friction = 0.2
-gap = "-delta"
-[history.factors]
-push = [0.0, 0.002, 0.004, 0.006]
-[[boundary]]
-name = "floor"
-face = "rim.bottom"
-type = "mixed"
-components = ["force", "displacement"]
-value = [0.0, 0.0]
-[[boundary]]
-name = "push"
-face = "hub.top"
-type = "mixed"
-components = ["force", "displacement"]
-value = [0.0, -1.0]
-factor = "push"
-[[qoi]]
-name = "p_fit"
-type = "contact_pressure"
-between = ["hub", "rim"]
-segment = [0.0, 10.0]
-[[qoi]]
-name = "R_push"
-type = "reaction"
-boundary = "push"
-component = "y"
-"""
+#: a hub 5 <= r <= 10 shrink-fitted (δ = 5 µm) into a rim 10 <= r <= 20, both 10 mm high,
+#: the rim on a smooth floor; the hub's top pushed down from step 2 (the gallery's push-out)
+FIT = (Path(__file__).parents[1] / "examples" / "push_out.toml").read_text()
 
 
 A, B, C, H = 5.0, 10.0, 20.0, 10.0
@@ -220,12 +170,13 @@ def test_a_frictionless_shrink_fit_presses_as_lame() -> None:
     """Without friction, each part on its own smooth floor, the fit is Lamé's two
     open-ended cylinders: the reference converges to p at order 2 (4.7e-4, 1.2e-4 at
     refinements 1 and 2), LATIN equals it."""
-    text = (FIT.replace("friction = 0.2", "friction = 0.0")
+    text = (FIT.replace('default = 0.2', 'default = 0.0')
             .replace('type = "mixed"\ncomponents = ["force", "displacement"]\n'
                      'value = [0.0, -1.0]\nfactor = "push"\n', 'type = "force"\n'
                      'value = [0.0, 0.0]\n')
             + '\n[[boundary]]\nname = "hub_floor"\nface = "hub.bottom"\ntype = "mixed"\n'
               'components = ["force", "displacement"]\nvalue = [0.0, 0.0]\n')
+    assert 'factor = "push"' not in text and "default = 0.0" in text
     model = ml.Model(ml.ModelSpec.from_string(text, name="fit"))
     errors = [abs(model.reference(refine=n).qoi["p_fit"][0] / LAME - 1.0) for n in (1, 2)]
     assert errors[0] < 1e-3 and errors[1] < errors[0] / 3.0
@@ -248,8 +199,8 @@ def test_a_shrink_fitted_hub_is_pushed_out_at_mu_times_its_grip() -> None:
         pressure, push = np.asarray(result.qoi["p_fit"]), np.asarray(result.qoi["R_push"])
         assert pressure[0] == pytest.approx(LAME, rel=0.03)
         grip = mu * pressure * 2 * math.pi * B * H
-        assert 0.0 < -push[0] < grip[0]  # at rest, held at z = 0: it sticks
-        assert -push[1:] == pytest.approx(grip[1:], rel=1e-6)  # pushed: it slides
+        assert 0.0 < push[0] < grip[0]  # at rest, held at z = 0: it sticks
+        assert push[1:] == pytest.approx(grip[1:], rel=1e-6)  # pushed: it slides
     assert np.asarray(latin.qoi["R_push"]) == pytest.approx(
         np.asarray(reference.qoi["R_push"]), rel=1e-4)
     assert np.asarray(latin.qoi["p_fit"]) == pytest.approx(

@@ -5,6 +5,7 @@ beam theory."""
 from __future__ import annotations
 
 import importlib.util
+import math
 import sys
 from pathlib import Path
 from types import ModuleType
@@ -62,6 +63,23 @@ def test_a_spinning_fit_loses_its_pressure_as_the_closed_form(tmp_path: Path) ->
         elif omega < 0.98 * found["omega_s"]:
             assert value > 0.0
     assert (tmp_path / "spinning_fit.png").exists()
+
+
+def test_an_axisymmetric_fit_is_pushed_out_at_its_grip(tmp_path: Path) -> None:
+    """The study over δ and μ: the push-out force is μ times the fit's own normal
+    resultant p̄ 2π b h within the study's QoI rule, and within 1 % + μ × 10 % of the
+    closed form with Lamé's pressure (the friction holds the parts' different axial
+    strains, which raises the pressure: 1.0 / 1.9 / 2.8 % at μ = 0.1 / 0.2 / 0.3)."""
+    module = _example("push_out")
+    found = module.run(tmp_path, deltas=2, frictions=(0.1, 0.3))
+    for i, delta in enumerate(found["delta"]):
+        for j, mu in enumerate(found["mu"]):
+            push, pressure = found["R_push"][i][j], found["p_fit"][i][j]
+            grip = mu * pressure * 2 * math.pi * module.SEAT * module.HEIGHT
+            assert push == pytest.approx(grip, rel=2e-3)
+            closed = module.push_out_force(delta, mu)
+            assert closed < push < closed * (1.01 + 0.1 * mu)
+    assert (tmp_path / "push_out.png").exists()
 
 
 def test_punch_slides_at_the_closed_form_and_matches_the_reference(tmp_path: Path) -> None:
