@@ -164,7 +164,11 @@ def strains_and_weights(cell_coords: FloatArray, quadrature: Quadrature, radial:
         return n, b, thickness * wdet
     r = np.einsum("cqa,ca->cq", n, cell_coords[..., 0])
     hoop = np.zeros(b.shape[:2] + (1, b.shape[3]))
-    hoop[..., 0, 0::2] = n / r[..., None]
+    on_axis = r[..., None] <= 1e-12 * np.abs(cell_coords[..., 0]).max()
+    # u_r / r, and on the axis (a point asked there; no quadrature point lies on it) its
+    # limit ∂u_r/∂r, u_r being zero there
+    hoop[..., 0, 0::2] = np.where(on_axis, grad[..., 0],
+                                  n / np.where(on_axis, 1.0, r[..., None]))
     return n, np.concatenate([b, hoop], axis=2), 2.0 * np.pi * r * wdet
 
 
