@@ -20,11 +20,10 @@ from ..fem.elasticity import (
     FloatArray,
     IntArray,
     hooke_matrix,
-    shape_functions,
     thermal_strain,
 )
 from ..fem.levelset import CutCells, LevelSet, cut_cells
-from ..fem.mesh import RectMesh, UnstructuredMesh
+from ..fem.mesh import RectMesh, UnstructuredMesh, shape_at
 from ..fem.xfem import mesh_pattern, xfem_initial_strain_load, xfem_load_vector, xfem_stiffness
 from ..parameters import Mu
 
@@ -271,6 +270,13 @@ class BodyForce:
                               dtype=np.float64)
         return np.tile(np.asarray(self.value, dtype=np.float64), (len(points), 1))
 
+    def unit_load(self, sub: Substructure) -> FloatArray:
+        """Its load vector ∫ N f t dΩ on ``sub``'s material (2π r for t axisymmetric), at
+        a unit load factor."""
+        material = sub.material
+        return xfem_load_vector(sub.mesh, self.values_at(sub.mesh.nodes), material.thickness,
+                                sub.cut, material.radial)
+
 
 @dataclass(frozen=True)
 class TemperatureChange:
@@ -344,9 +350,8 @@ class Assembly:
             load = np.zeros((self.n_steps, 2 * sub.mesh.n_nodes))
             material, nodes = sub.material, sub.mesh.nodes
             for force in forces:  # each load once, at a unit factor
-                unit = xfem_load_vector(sub.mesh, force.values_at(nodes), material.thickness,
-                                        sub.cut, material.radial)
-                load += self.history.factor(force.factor)[:, None] * unit[None, :]
+                load += (self.history.factor(force.factor)[:, None]
+                         * force.unit_load(sub)[None, :])
             for change in changes:
                 unit = xfem_initial_strain_load(sub.mesh, material.hooke,
                                                 material.thermal_strain,
@@ -354,13 +359,10 @@ class Assembly:
                                                 sub.cut)
                 load += self.history.factor(change.factor)[:, None] * unit[None, :]
             for point in points:
-                cell, ref = sub.mesh.locate(point.point)
-                shape, _ = shape_functions(np.asarray(ref, dtype=np.float64)[None],
-                                           sub.mesh.cells.shape[1])
+                at, shape = shape_at(sub.mesh, point.point)
                 for c in range(2):
-                    load[:, 2 * sub.mesh.cells[cell] + c] += (
-                        self.history.factor(point.factor)[:, None]
-                        * (point.value[c] * np.ravel(shape))[None, :])
+                    load[:, 2 * at + c] += (self.history.factor(point.factor)[:, None]
+                                            * (point.value[c] * shape)[None, :])
             self._interior_loads[s] = load
         return self._interior_loads[s]
 

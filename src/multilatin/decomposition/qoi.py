@@ -18,8 +18,8 @@ from ..fem.elasticity import (
     element_dofs,
     interpolate,
     point_stress_matrix,
-    shape_functions,
 )
+from ..fem.mesh import shape_at
 from .assembly import Assembly, QuantityOfInterest, Substructure
 from .interfaces import InterfacePoints
 
@@ -208,18 +208,26 @@ def latin_contact_pressures(assembly: Assembly, points: InterfacePoints,
 
 
 def point_substructure(substructures: Sequence[Substructure], q: QuantityOfInterest) -> int:
-    """The substructure whose displacement the ``displacement`` QoI ``q`` reads: the first
-    whose cells hold its point, among those of ``q.substructure`` (else of ``q.body``) where
-    given. (The model reader refuses a point shared by parts that are not joined by a
-    perfect interface unless one is named, ``io.modelfile.qois``.)"""
+    """The substructure whose displacement the ``displacement`` QoI ``q`` reads
+    (``part_holding``). (The model reader refuses a point shared by parts that are not
+    joined by a perfect interface unless one is named, ``io.modelfile.points``.)"""
     assert q.point is not None
-    holding = [s for s, sub in enumerate(substructures) if sub.mesh.holds(q.point)]
-    if not holding:
+    found = part_holding(substructures, q.point, q.substructure, q.body)
+    if found is None:
         raise ValueError(f"qoi {q.name!r}: the point {list(q.point)} lies in no cell")
-    named = [s for s in holding if substructures[s].name == q.substructure]
-    if not named and q.body is not None:
-        named = [s for s in holding if substructures[s].body == q.body]
-    return (named or holding)[0]
+    return found
+
+
+def part_holding(substructures: Sequence[Substructure], point: tuple[float, float],
+                 substructure: str | None = None, body: str | None = None) -> int | None:
+    """The first substructure whose cells hold ``point``, among those named
+    ``substructure`` (else of ``body``) where given; None where no cell holds it."""
+    holding = [s for s, sub in enumerate(substructures) if sub.mesh.holds(point)]
+    named = [s for s in holding if substructures[s].name == substructure]
+    if not named and body is not None:
+        named = [s for s in holding if substructures[s].body == body]
+    chosen = named or holding
+    return chosen[0] if chosen else None
 
 
 def point_functional(substructures: Sequence[Substructure], q: QuantityOfInterest
@@ -234,12 +242,12 @@ def point_functional(substructures: Sequence[Substructure], q: QuantityOfInteres
     s = point_substructure(substructures, q)
     sub = substructures[s]
     mesh = sub.mesh
-    cell, ref = mesh.locate(q.point)
     phi = np.zeros(2 * mesh.n_nodes)
     if q.kind == "displacement":
-        shape, _ = shape_functions(np.asarray(ref, dtype=float)[None], mesh.cells.shape[1])
-        phi[2 * mesh.cells[cell] + q.component] = np.ravel(shape)
+        at, shape = shape_at(mesh, q.point)
+        phi[2 * at + q.component] = shape
     else:
+        cell, ref = mesh.locate(q.point)
         row = point_stress_matrix(mesh.nodes[mesh.cells[cell]], ref, sub.material.hooke)
         phi[element_dofs(mesh.cells[cell][None])[0]] = row[q.component]
     return s, phi
@@ -255,9 +263,8 @@ def initial_stress(assembly: Assembly, q: QuantityOfInterest) -> FloatArray | No
     if change is None:
         return None
     sub = assembly.substructures[s]
-    cell, ref = sub.mesh.locate(q.point)
-    shape, _ = shape_functions(np.asarray(ref, dtype=float)[None], sub.mesh.cells.shape[1])
-    at_point = change[:, sub.mesh.cells[cell]] @ np.ravel(shape)
+    at, shape = shape_at(sub.mesh, q.point)
+    at_point = change[:, at] @ shape
     unit = sub.material.hooke @ sub.material.thermal_strain
     return np.asarray(-unit[q.component] * at_point, dtype=np.float64)
 

@@ -15,6 +15,7 @@ import numpy as np
 import numpy.typing as npt
 
 from ..kept import Kept
+from .elasticity import shape_functions
 
 FloatArray = npt.NDArray[np.float64]
 IntArray = npt.NDArray[np.int64]
@@ -307,3 +308,13 @@ class UnstructuredMesh(RectangleSides):
             if np.all(np.abs(ref) <= 1.0 + 1e-9):
                 return int(cell), ref
         raise ValueError(f"point {x.tolist()} lies in no cell of {self!r}")
+
+
+def shape_at(mesh: RectMesh | UnstructuredMesh, point: npt.ArrayLike
+             ) -> tuple[npt.NDArray[np.int64], npt.NDArray[np.float64]]:
+    """The nodes of the cell that holds ``point`` (``locate``) and their shape functions
+    there: what interpolates a nodal field at the point, or spreads a force at it onto the
+    nodes."""
+    cell, ref = mesh.locate(point)
+    shape, _ = shape_functions(np.asarray(ref, dtype=np.float64)[None], mesh.cells.shape[1])
+    return np.asarray(mesh.cells[cell], dtype=np.int64), np.ravel(shape)

@@ -8,7 +8,6 @@ import numpy as np
 
 from ..decomposition.assembly import DISPLACEMENT, Assembly, Interface, QuantityOfInterest
 from ..decomposition.qoi import STRESS_COMPONENTS, point_substructure
-from ..fem.xfem import xfem_load_vector
 
 __all__ = ["body_force_lines", "boundary_lines", "contact_lines", "point_load_lines",
            "qoi_reads", "temperature_lines"]
@@ -90,12 +89,8 @@ def body_force_lines(assembly: Assembly) -> list[str]:
         texts = getattr(force.varying, "expressions", None) or (None, None)
         shown = ", ".join(text if text is not None else f"{value:g}"
                           for text, value in zip(texts, force.value, strict=True))
-        total = np.zeros(2)
-        for sub in assembly.substructures:
-            if force.acts_on(sub):
-                load = xfem_load_vector(sub.mesh, force.values_at(sub.mesh.nodes),
-                                        sub.material.thickness, sub.cut, sub.material.radial)
-                total = total + load.reshape(-1, 2).sum(axis=0)
+        total = sum((force.unit_load(sub).reshape(-1, 2).sum(axis=0)
+                     for sub in assembly.substructures if force.acts_on(sub)), np.zeros(2))
         bodies = ", ".join(force.bodies) if force.bodies else "every body"
         factor = f" × factor {force.factor!r}" if force.factor else ""
         lines.append(f"{force.name}: ({shown}) per unit volume{factor} on {bodies}; "

@@ -4,7 +4,7 @@ offending field and value, and ``SectionReader`` (one parameter set, numbers eva
 from __future__ import annotations
 
 import threading
-from collections.abc import Iterator, Mapping
+from collections.abc import Collection, Iterator, Mapping
 from typing import Any
 
 from ...decomposition.assembly import ContactLaw
@@ -37,6 +37,39 @@ def check_keys(table: Mapping[str, Any], allowed: set[str], where: str) -> None:
         raise ModelError(
             f"{where}: unknown field {sorted(unknown)[0]!r} (allowed: {', '.join(sorted(allowed))})"
         )
+
+
+def named_tables(data: Mapping[str, Any], section: str, allowed: set[str]
+                 ) -> Iterator[tuple[Mapping[str, Any], str, str]]:
+    """The tables of an array ``[[section]]``, checked (tables, ``allowed`` keys, unique
+    names): each one's table, name (``<section><index>`` where none is given) and where,
+    for errors (``section[index] ('name')``)."""
+    tables = data.get(section, [])
+    if not isinstance(tables, list):
+        raise ModelError(f"{section}: expected an array of tables ([[{section}]])")
+    names: set[str] = set()
+    for index, table in enumerate(tables):
+        where = f"{section}[{index}]"
+        if not isinstance(table, Mapping):
+            raise ModelError(f"{where}: expected a table, got {table!r}")
+        check_keys(table, allowed, where)
+        name = str(table.get("name", f"{section}{index}"))
+        where = f"{section}[{index}] ({name!r})"
+        if name in names:
+            raise ModelError(f"{where}.name: {section} {name!r} is defined twice")
+        names.add(name)
+        yield table, name, where
+
+
+def load_factor(table: Mapping[str, Any], where: str, factors: Collection[str]
+                ) -> str | None:
+    """A table's ``factor``, checked against the history's load factors (None: none)."""
+    factor = table.get("factor")
+    if factor is not None and factor not in factors:
+        known = ", ".join(sorted(factors)) or "none"
+        raise ModelError(f"{where}.factor: {factor!r} is not a load factor of "
+                         f"[history.factors] (defined: {known})")
+    return None if factor is None else str(factor)
 
 
 def pair(value: Any, where: str) -> tuple[Any, Any]:

@@ -26,7 +26,7 @@ from ...errors import ModelError
 from ...fem.elasticity import FloatArray
 from ...fem.mesh import SIDES, normal_axis
 from ..expressions import MAX_EXPRESSION_LENGTH, evaluate, names_in
-from .checks import SectionReader, check_keys, pair, require
+from .checks import SectionReader, check_keys, load_factor, named_tables, pair, require
 
 
 class LoadingSections(SectionReader):
@@ -169,12 +169,7 @@ class LoadingSections(SectionReader):
         varying = CoordinateValues.of(raw, self.lookup, f"{where}.value")
         vx, vy = (varying.uniform if varying is not None else
                   (self.num(v, f"{where}.value") for v in raw))
-        factor = table.get("factor")
-        if factor is not None and factor not in history.factors:
-            known = ", ".join(sorted(history.factors)) or "none"
-            raise ModelError(f"{where}.factor: {factor!r} is not a load factor of "
-                             f"[history.factors] (defined: {known})")
-        return (vx, vy), varying, factor
+        return (vx, vy), varying, load_factor(table, where, history.factors)
 
     def _segment(self, table: Mapping[str, Any], where: str, subs: list[Substructure],
                  refs: list[SideRef]) -> list[SideRef]:
@@ -253,23 +248,10 @@ class LoadingSections(SectionReader):
 def _on_bodies(data: Mapping[str, Any], section: str, subs: list[Substructure]
                ) -> Iterator[tuple[Mapping[str, Any], str, str, tuple[str, ...]]]:
     """The tables of an array ``[[section]]`` of loads on bodies (``name``, ``bodies``,
-    ``value``, ``factor``), checked: each one's table, name (unique), where (for errors)
-    and bodies."""
-    tables = data.get(section, [])
-    if not isinstance(tables, list):
-        raise ModelError(f"{section}: expected an array of tables ([[{section}]])")
+    ``value``, ``factor``; ``checks.named_tables``) with their bodies, checked."""
     known = list(dict.fromkeys(sub.body for sub in subs))
-    names: set[str] = set()
-    for b, table in enumerate(tables):
-        where = f"{section}[{b}]"
-        if not isinstance(table, Mapping):
-            raise ModelError(f"{where}: expected a table, got {table!r}")
-        check_keys(table, {"name", "bodies", "value", "factor"}, where)
-        name = str(table.get("name", f"{section}{b}"))
-        where = f"{section}[{b}] ({name!r})"
-        if name in names:
-            raise ModelError(f"{where}.name: {section} {name!r} is defined twice")
-        names.add(name)
+    for table, name, where in named_tables(data, section, {"name", "bodies", "value",
+                                                           "factor"}):
         yield table, name, where, _bodies(table, where, known)
 
 

@@ -6,8 +6,9 @@ from __future__ import annotations
 import numpy as np
 
 from ...decomposition.assembly import History, Interface, PointLoad, Substructure
+from ...decomposition.qoi import part_holding
 from ...errors import ModelError
-from .checks import SectionReader, check_keys, pair, require
+from .checks import SectionReader, load_factor, named_tables, pair, require
 
 
 class PointSections(SectionReader):
@@ -30,11 +31,9 @@ class PointSections(SectionReader):
                for sub in (subs[s] for s in holding)):
             raise ModelError(f"{where}.point: {[px, py]} lies in a hole")
         body, sub_name = _chosen_part(table, subs, holding, (px, py), interfaces, where)
-        named = [s for s in holding if subs[s].name == sub_name]
-        if not named and body is not None:
-            named = [s for s in holding if subs[s].body == body]
-        return (px, py), body, sub_name, (named or holding)[0]
-
+        s = part_holding(subs, (px, py), sub_name, body)
+        assert s is not None
+        return (px, py), body, sub_name, s
 
     def point_loads(self, subs: list[Substructure], history: History,
                     interfaces: list[Interface]) -> list[PointLoad]:
@@ -42,28 +41,13 @@ class PointSections(SectionReader):
         part that holds it (``body`` / ``substructure`` where parts that are not joined by
         a perfect interface share it), multiplied at each step by its load factor."""
         out: list[PointLoad] = []
-        tables = self.data.get("point_load", [])
-        if not isinstance(tables, list):
-            raise ModelError("point_load: expected an array of tables ([[point_load]])")
-        for b, table in enumerate(tables):
-            where = f"point_load[{b}]"
-            if not isinstance(table, dict):
-                raise ModelError(f"{where}: expected a table, got {table!r}")
-            check_keys(table, {"name", "point", "value", "factor", "body", "substructure"},
-                       where)
-            name = str(table.get("name", f"point_load{b}"))
-            where = f"point_load[{b}] ({name!r})"
-            if any(load.name == name for load in out):
-                raise ModelError(f"{where}.name: point_load {name!r} is defined twice")
-            point, _, _, s = self.point_in_part(table, where, subs, interfaces)
+        for table, name, where in named_tables(self.data, "point_load", {
+                "name", "point", "value", "factor", "body", "substructure"}):
+            point, _, _, s = self.point_in_part(dict(table), where, subs, interfaces)
             fx, fy = (self.num(v, f"{where}.value")
                       for v in pair(require(table, "value", where), f"{where}.value"))
-            factor = table.get("factor")
-            if factor is not None and factor not in history.factors:
-                raise ModelError(f"{where}.factor: {factor!r} is not a load factor of "
-                                 f"[history.factors] (defined: "
-                                 f"{', '.join(sorted(history.factors)) or 'none'})")
-            out.append(PointLoad(name, point, (fx, fy), subs[s].name, factor))
+            out.append(PointLoad(name, point, (fx, fy), subs[s].name,
+                                 load_factor(table, where, history.factors)))
         return out
 
 
