@@ -85,6 +85,20 @@ def test_good_model_is_accepted():
         (lambda d: d.update(analysis={"hypothesis": "plane"}),
          "analysis.hypothesis: expected one of 'plane_stress', 'plane_strain', "
          "'axisymmetric', got 'plane'"),
+        # a field another type reads is refused, not dropped (session 49: a user's
+        # `components` under type = "displacement" held both components)
+        (lambda d: d["boundary"][1].update(type="displacement",
+                                           components=["displacement", "force"]),
+         "boundary[1] ('pull').components: components apply to type = 'mixed' only, got "
+         "type = 'displacement'"),
+        (lambda d: d["boundary"][1].update(type="stop", value=[0, 0]),
+         "boundary[1] ('pull').value: a stop takes no value"),
+        (lambda d: d.update(qoi=[{"name": "R", "type": "reaction", "boundary": "clamp",
+                                   "component": "x", "point": [0, 5]}]),
+         "qoi[0] ('R').point: a reaction QoI takes no point (it reads boundary, component)"),
+        (lambda d: d.update(qoi=[{"name": "u", "type": "displacement", "point": [5, 5],
+                                   "component": "x", "boundary": "clamp"}]),
+         "qoi[0] ('u').boundary: a displacement QoI takes no boundary"),
     ],
 )
 def test_model_errors_name_field_and_value(change, expected):

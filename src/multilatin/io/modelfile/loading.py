@@ -81,6 +81,13 @@ class LoadingSections(SectionReader):
             law = None
             if {"friction", "gap"} & set(table) and kind != STOP:
                 raise ModelError(f"{where}: friction and gap apply to type = 'stop' only")
+            if kind == STOP and {"value", "factor"} & set(table):
+                field = sorted({"value", "factor"} & set(table))[0]
+                raise ModelError(f"{where}.{field}: a stop takes no {field} (its obstacle "
+                                 "is fixed, `gap` away)")
+            if "components" in table and kind != "mixed":
+                raise ModelError(f"{where}.components: components apply to type = 'mixed' "
+                                 f"only, got type = {kind!r}")
             pressure = kind == "pressure"
             if pressure:  # normal traction -p n: one value
                 kinds: tuple[str, ...] = (FORCE, FORCE)

@@ -31,6 +31,7 @@ class QoiSections(PointSections):
                     raise ModelError(f"{where}.step: expected a step in 1..{history.n_steps}, "
                                      f"got {step!r}")
             kind = require(table, "type", where)
+            _check_fields(table, kind, where)
             if kind == "contact_pressure":
                 a, b = (str(v) for v in pair(require(table, "between", where),
                                               f"{where}.between"))
@@ -73,6 +74,25 @@ class QoiSections(PointSections):
         _check_names(out, set(self.data.get("parameters", {})))
         return out
 
+
+
+#: the fields each kind of QoI reads besides name, type, scale, step and unit
+KIND_FIELDS = {"displacement": {"point", "component", "body", "substructure"},
+               "stress": {"point", "component", "body", "substructure"},
+               "reaction": {"boundary", "component"},
+               "contact_pressure": {"between", "segment"}}
+
+
+def _check_fields(table: dict[str, object], kind: object, where: str) -> None:
+    """A field another kind of QoI reads is refused, not ignored (a reaction given a
+    ``point`` is still the whole boundary's resultant)."""
+    if not isinstance(kind, str) or kind not in KIND_FIELDS:
+        return  # an unknown kind: refused below, with the known ones
+    foreign = sorted(set(table) - KIND_FIELDS[kind]
+                     - {"name", "type", "scale", "step", "unit"})
+    if foreign:
+        raise ModelError(f"{where}.{foreign[0]}: a {kind} QoI takes no {foreign[0]} (it reads "
+                         f"{', '.join(sorted(KIND_FIELDS[kind]))})")
 
 
 def _check_names(qois: list[QuantityOfInterest], parameters: set[str]) -> None:
