@@ -206,12 +206,12 @@ def trace() -> None:
 
     def traced_modes(engine: Any, increments: Any, ratios: tuple[float, float]
                      = sliding.GEOMETRIC) -> Any:
-        coefficients, held = modes(engine, increments, ratios)
+        coefficients, held, slowest = modes(engine, increments, ratios)
         _, misfit, _, roots = sliding.SlidingExtrapolation._mode_fit(engine, increments)
         for row in range(len(held)):
             print(f"  {len(increments) - 1} modes: roots {np.round(roots[row], 3)}, misfit "
                   f"{misfit[row]:.3f}{' (jump)' if held[row] else ''}")
-        return coefficients, held
+        return coefficients, held, slowest
 
     sliding.SlidingExtrapolation._geometric = staticmethod(traced)  # type: ignore[method-assign]
     sliding.SlidingExtrapolation._modes = staticmethod(traced_modes)  # type: ignore[method-assign]

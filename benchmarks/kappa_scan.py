@@ -15,7 +15,7 @@ from rigid_balance import largest_difference  # this script's folder
 import multilatin as ml
 from multilatin.latin import LatinOptions, solve_latin
 
-MODELS = ("b0", "b1", "b1-9", "b2", "b3", "punch", "slide", "lug", "roller")
+MODELS = ("b0", "b1", "b1-9", "b2", "b3", "punch", "slide", "lug", "roller", "lap")
 
 
 def main() -> None:

@@ -44,6 +44,7 @@ import numpy as np
 import multilatin as ml
 from multilatin.latin import (
     LatinOptions,
+    case_state,
     iteration,
     sliding,
     solve_latin_batch,
@@ -311,9 +312,11 @@ def windows(name: str, values: list[int]) -> None:
     try:
         for window in values:  # the QoI history's ring buffer follows (RECENT)
             iteration.WINDOW, iteration.RECENT = window, window + 5
+            case_state.RECENT = window + 5  # its buffers, as the iteration's
             _row(str(window), model, grid, reference)
     finally:
         iteration.WINDOW, iteration.RECENT = saved
+        case_state.RECENT = saved[1]
 
 
 if __name__ == "__main__":

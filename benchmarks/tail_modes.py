@@ -17,7 +17,8 @@ normal force N and |F_T| / μ|N| (1: slip). With ``--at X Y``: the first mode's 
 interface point at (X, Y), in its busiest step, beside the converged F there (a cross
 point's forces, point by point); ``--each-pair``: the contact pairs of a cross point each
 on its own (``cross_points.MERGE`` off, the rule before session 35); ``--pairs``: the
-friction pairs (default: three of ``convergence.py``'s).
+friction pairs (default: three of ``convergence.py``'s); ``--defaults``: any model once, at
+its parameters' defaults (``--models lap --defaults --window 26``: session 49).
 Uses only the solver's own iteration (``solve_latin(observer=...)``) and local stage.
 """
 
@@ -103,16 +104,19 @@ def main() -> None:
     parser.add_argument("--pairs", nargs="+", default=None, help="μ1,μ2 pairs")
     parser.add_argument("--rigid-balance", action="store_true",
                         help="LatinOptions(rigid_balance=True): the tail that is left")
+    parser.add_argument("--defaults", action="store_true",
+                        help="each model once, at its parameters' defaults (any model)")
     args = parser.parse_args()
     if args.each_pair:
         cross_points.MERGE = False
-    cases = (CASES if args.pairs is None else
-             [tuple(float(x) for x in pair.split(",")) for pair in args.pairs])
+    cases: list[tuple[float, ...]] = (
+        [()] if args.defaults else list(CASES) if args.pairs is None else
+        [tuple(float(x) for x in pair.split(",")) for pair in args.pairs])
     options = ml.LatinOptions(rigid_balance=args.rigid_balance)
     for name in args.models:
         model = ml.load_model(name)
-        for mu1, mu2 in cases:
-            assembly = model.assemble({"mu1": mu1, "mu2": mu2})
+        for pair in cases:
+            assembly = model.assemble(dict(zip(("mu1", "mu2"), pair, strict=False)))
             operators = LatinOperators(assembly, options)
             points = operators.points
             k = operators.search_direction
@@ -134,7 +138,8 @@ def main() -> None:
             result = solve_latin(assembly, operators=operators, observer=record)
             window = np.array(states[-args.window - 1:])
             values, vectors = dominant_modes(window)
-            print(f"\n{name} at (μ1, μ2) = ({mu1:g}, {mu2:g}): {result.iterations} iterations; "
+            at = f"(μ1, μ2) = ({pair[0]:g}, {pair[1]:g})" if pair else "its defaults"
+            print(f"\n{name} at {at}: {result.iterations} iterations; "
                   f"eigenvalues (largest share of the last change first): "
                   + ", ".join(f"{v.real:.3f}" + (f"{v.imag:+.3f}i" if abs(v.imag) > 1e-3
                                                    else "") for v in values[:6]))

@@ -12,13 +12,13 @@ from __future__ import annotations
 
 import logging
 from collections.abc import Callable, Sequence
-from dataclasses import dataclass, field
 
 import numpy as np
 import numpy.typing as npt
 
 from ..fem.elasticity import FloatArray, IntArray
 from .batching import make_engine
+from .case_state import PER_CASE, RECENT, IterationState
 from .engine import NumpyFields, indicator_weights
 from .extrapolation import ReducedRankExtrapolation
 from .guards import DRIFT_WINDOW, blows_up, damp_stagnating, drifts, forces_unsettled
@@ -32,7 +32,6 @@ from .tracking import (
     WINDOW,
     QoiFunctionals,
     error_estimates,
-    estimates_after,
     indicator_rate,
     remaining_change,
 )
@@ -48,8 +47,6 @@ IterationObserver = Callable[[int, IntArray, FloatArray, FloatArray], None]
 #: or once η is this much below tol: a study honours the accuracy it asked for (session 14:
 #: a B1-9 warm case stopped on η 0.69 % off, its estimate saying so)
 ETA_STOP_UNDER = 0.1
-#: the iterations of tracked QoIs an error estimate reads (``tracking.error_estimates``)
-RECENT = WINDOW + 5
 #: with QoI stopping, no jump (``sliding``) for a case whose QoIs' estimates would fall
 #: below their bounds within ``RECENT`` iterations at the indicator's rate: a jump holds
 #: the case that long (``BatchIterations._stopping_soon``; session 37: b1-9 and b3 at
@@ -65,103 +62,6 @@ ESTIMATE_AFTER_JUMPS = True
 #: with it. Fewer (session 46: 10, 0) stop sooner, but QoI estimates read over fewer
 #: iterates miss their errors more often: not adopted (``benchmarks/eta_hold.py``)
 ETA_JUMP_HOLD = RECENT
-
-
-#: the per-case arrays of ``IterationState`` (first axis: the case)
-PER_CASE = ("qoi_recent", "eta_recent", "qoi_scale", "qoi_reported", "stopped_on_qoi",
-            "drifting", "first_size", "qoi_settled_error", "settled_steps", "force_eta",
-            "jumped_at")
-
-
-@dataclass
-class IterationState:
-    """Per case: s = (W, F), ŝ = (Ŵ, F̂) at exit and the history of η; batch timings."""
-
-    #: per case that left: (W, F, Ŵ, F̂), each (n_steps, n_points, 2)
-    exits: dict[int, tuple[FloatArray, FloatArray, FloatArray, FloatArray]]
-    histories: list[list[float]]
-    #: per case, the tracked QoIs of its last ``RECENT`` iterations (n_cases, RECENT, n_qoi,
-    #: n_steps) and their η, written round the buffer (its iteration i at (i − 1) % RECENT)
-    qoi_recent: FloatArray
-    eta_recent: FloatArray
-    #: per case, of its last ``RECENT`` iterations and QoI: the largest |value| over the
-    #: steps, round the buffer as ``qoi_recent`` (``QOI_FLOOR``)
-    qoi_scale: FloatArray
-    #: per case, QoI and step: whether the QoI reports that step (``QoiFunctionals.reported``)
-    qoi_reported: npt.NDArray[np.bool_]
-    stopped_on_qoi: npt.NDArray[np.bool_]  # per case: stopped by ``qoi_rtol`` before η < tol
-    sizes: list[list[float]]  # per case, ½(‖s‖ + ‖ŝ‖) after each iteration
-    drifting: npt.NDArray[np.bool_]  # per case: stopped as s grows without bound
-    #: per case: ½(‖s‖ + ‖ŝ‖) after its first iteration (``sizes[c][0]``, as an array for
-    #: the blow-up check of every step, ``guards.blows_up``)
-    first_size: FloatArray = field(default_factory=lambda: np.zeros(0))
-    #: per case, QoI and step: the estimate a settled step had when it settled (its QoIs
-    #: move no more, so the estimate from their increments would read zero; ``settled``)
-    qoi_settled_error: FloatArray = field(default_factory=lambda: np.zeros((0, 0, 0)))
-    #: per case: its leading steps settled (``engine.NumpyFields.settle``)
-    settled_steps: IntArray = field(default_factory=lambda: np.zeros(0, dtype=np.int64))
-    #: per case that left at the cap with η < tol: its forces' η_F where above its bound
-    #: (``guards.forces_unsettled``: not converged), else 0
-    force_eta: FloatArray = field(default_factory=lambda: np.zeros(0))
-    #: per case: the iteration after which it last jumped (``sliding``), −1: none
-    jumped_at: IntArray = field(default_factory=lambda: np.zeros(0, dtype=np.int64))
-    t_linear: float = 0.0  # linear stage, macro problem included
-    t_local: float = 0.0
-    t_macro: float = 0.0
-
-    @classmethod
-    def empty(cls, reported: npt.NDArray[np.bool_]) -> IterationState:
-        """Room for the cases of ``reported`` (n_cases, n_qoi, n_steps)."""
-        n_cases, n_qoi, n_steps = reported.shape
-        return cls({}, [[] for _ in range(n_cases)], np.zeros((n_cases, RECENT, n_qoi, n_steps)),
-                   np.zeros((n_cases, RECENT)), np.zeros((n_cases, RECENT, n_qoi)), reported,
-                   np.zeros(n_cases, dtype=bool), [[] for _ in range(n_cases)],
-                   np.zeros(n_cases, dtype=bool), np.zeros(n_cases), np.zeros(reported.shape),
-                   np.zeros(n_cases, dtype=np.int64), np.zeros(n_cases),
-                   np.full(n_cases, -1, dtype=np.int64))
-
-    def extend(self, reported: npt.NDArray[np.bool_]) -> None:
-        """Room for more cases after these (cases joining a rolling batch): the per-case
-        arrays grow by doubling, so that many joins cost linear time."""
-        first, n_new = len(self.histories), reported.shape[0]
-        if first + n_new > self.stopped_on_qoi.size:
-            capacity = max(2 * self.stopped_on_qoi.size, first + n_new)
-            for name in PER_CASE:
-                old = getattr(self, name)
-                grown = np.zeros((capacity, *old.shape[1:]), dtype=old.dtype)
-                grown[:old.shape[0]] = old
-                setattr(self, name, grown)
-        self.qoi_reported[first:first + n_new] = reported
-        self.histories += [[] for _ in range(n_new)]
-        self.sizes += [[] for _ in range(n_new)]
-
-    def recent_qoi(self, case: int, iterations: int) -> FloatArray:
-        """The tracked QoIs of the case's last iterations (at most ``RECENT``), oldest first."""
-        return np.asarray(self.qoi_recent[case, _held(iterations)], dtype=np.float64)
-
-    def settled(self, case: int, iterations: int, steps: slice,
-                since: int | None = None) -> None:
-        """The case's ``steps`` settled after ``iterations``: keep their QoIs' estimate
-        now (``estimates``), which their frozen values would read as zero from here on."""
-        self.settled_steps[case] = steps.stop
-        if self.qoi_recent.shape[2]:
-            self.qoi_settled_error[case][:, steps] = self.estimates(case, iterations,
-                                                                    since)[:, steps]
-
-    def estimates(self, case: int, iterations: int, since: int | None = None) -> FloatArray:
-        """The case's QoIs' error estimates (n_qoi, n_steps) after ``iterations``; those
-        after its jump (``sliding``) alone if it jumped after iteration ``since``, within
-        the iterations held (``tracking.estimates_after``)."""
-        return estimates_after(self.recent_qoi(case, iterations),
-                               self.eta_recent[case, _held(iterations)],
-                               None if since is None else iterations - since)
-
-
-def _held(iterations: int) -> IntArray:
-    """Where the last iterations (at most ``RECENT``) sit in the ring buffers, oldest first
-    (iteration i at (i − 1) % RECENT)."""
-    held = min(iterations, RECENT)
-    return np.roll(np.arange(RECENT), -(iterations % RECENT))[RECENT - held:]
 
 
 def state_settled(state: IterationState, active: IntArray, counts: IntArray,
@@ -219,8 +119,9 @@ def qoi_settled(state: IterationState, active: IntArray, counts: IntArray, rtol:
         chosen = active[candidates]
         recent = state.qoi_recent[chosen[:, None], order].transpose(1, 0, 2, 3)
         eta = state.eta_recent[chosen[:, None], order].T
-        floor = EARLY_RATE if window < WINDOW else 0.0
-        estimates = np.maximum(error_estimates(recent, eta[:, :, None, None], window, floor),
+        floor = np.maximum(EARLY_RATE if window < WINDOW else 0.0, state.jump_rate[chosen])
+        estimates = np.maximum(error_estimates(recent, eta[:, :, None, None], window,
+                                               floor[:, None, None]),
                                state.qoi_settled_error[chosen])
         settled[candidates] = np.all((estimates <= bound[candidates]) | ignored[candidates],
                                      axis=(1, 2))
@@ -405,6 +306,7 @@ class BatchIterations:
         # with QoI stopping, none within ``RECENT`` iterations of a jump: its check one window
         # later runs first, and the QoIs' estimates then read iterates after it alone
         out.jumped_at[active] = -1 if self.sliding is None else self.sliding.jumped_at[active]
+        out.jump_rate[active] = 0.0 if self.sliding is None else self.sliding.jump_rate[active]
         held = RECENT if options.qoi_rtol is not None else ETA_JUMP_HOLD
         after_jumps = (out.jumped_at[active] < 0) | (counts - out.jumped_at[active] > held)
         first = counts == 1

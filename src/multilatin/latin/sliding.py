@@ -122,6 +122,9 @@ class SlidingExtrapolation:
         self.marks: dict[int, list[tuple[tuple[Any, Any], int]]] = {}
         self.jumped_at = np.full(n_cases, -1, dtype=np.int64)
         self.jumps = np.zeros(n_cases, dtype=np.int64)
+        #: per case: the rate per iteration of the slowest mode its last geometric jump
+        #: summed (0: none, or a crawl's jump): the modes left decay no faster
+        self.jump_rate = np.zeros(n_cases)
         self.taken_back = np.zeros(n_cases, dtype=bool)  # then no further jump
         self.geometric_jumps = 0  # of ``jumps``, those of a geometric mode
         #: per case with a jump under check: (η at the jump, its increments dw, df)
@@ -136,6 +139,7 @@ class SlidingExtrapolation:
         self.local = local
         self.jumped_at = np.concatenate([self.jumped_at, np.full(n_new, -1, dtype=np.int64)])
         self.jumps = np.concatenate([self.jumps, np.zeros(n_new, dtype=np.int64)])
+        self.jump_rate = np.concatenate([self.jump_rate, np.zeros(n_new)])
         self.taken_back = np.concatenate([self.taken_back, np.zeros(n_new, dtype=bool)])
 
     def renumber(self, kept: IntArray, local: LocalStage) -> None:
@@ -144,6 +148,7 @@ class SlidingExtrapolation:
         self.marks = {number[c]: v for c, v in self.marks.items() if c in number}
         self.pending = {number[c]: v for c, v in self.pending.items() if c in number}
         self.jumped_at, self.jumps = self.jumped_at[kept], self.jumps[kept]
+        self.jump_rate = self.jump_rate[kept]
         self.taken_back = self.taken_back[kept]
         self.local = local
 
@@ -213,10 +218,13 @@ class SlidingExtrapolation:
                     (a[0] - b[0], a[1] - b[1])
                     for a, b in zip(states[-3::-1], states[-4::-1], strict=False)]
                 several = np.zeros((len(chunk), MODES))
+                slowest = np.zeros(len(chunk))  # per window, the several modes' slowest
                 for order in range(2, len(increments)):  # the fewest modes that fit
-                    fits, held = self._modes(engine, increments[:order + 1], self.ratios)
+                    fits, held, slow = self._modes(engine, increments[:order + 1],
+                                                   self.ratios)
                     held &= ~(aligned | crawls)
                     several[held, :order] = fits[held]
+                    slowest[held] = slow[held]
                     aligned = aligned | held
                 for k in np.flatnonzero(crawls | aligned):
                     i, case, _ = chunk[k]
@@ -228,16 +236,19 @@ class SlidingExtrapolation:
                         if ahead is None:
                             continue
                         jump_w, jump_f = ahead / WINDOW * dw[k], ahead / WINDOW * df[k]
+                        self.jump_rate[case] = 0.0
                     elif several[k].any():  # several modes: Σ cᵢ dᵢ ahead
                         jump_w = sum(float(c) * d[0][k] for c, d in zip(
                             several[k], increments, strict=False) if c)
                         jump_f = sum(float(c) * d[1][k] for c, d in zip(
                             several[k], increments, strict=False) if c)
                         self.geometric_jumps += 1
+                        self.jump_rate[case] = slowest[k] ** (1.0 / WINDOW)
                     else:  # aligned: r < 1, no crawl
                         factor = ratio[k] / (1.0 - ratio[k])
                         jump_w, jump_f = factor * dw[k], factor * df[k]
                         self.geometric_jumps += 1
+                        self.jump_rate[case] = ratio[k] ** (1.0 / WINDOW)
                     positions.append(i)
                     shifts_w.append(jump_w)
                     shifts_f.append(jump_f)
@@ -273,7 +284,8 @@ class SlidingExtrapolation:
 
     @staticmethod
     def _modes(engine: FieldEngine, increments: list[tuple[Any, Any]],
-               ratios: tuple[float, float] = GEOMETRIC) -> tuple[FloatArray, np.ndarray]:
+               ratios: tuple[float, float] = GEOMETRIC
+               ) -> tuple[FloatArray, np.ndarray, FloatArray]:
         """Per row, m + 1 windows' increments (``increments``, newest first: d₀, d₁, …,
         d_m, each (dw, df)) fitted by d₀ = Σⱼ cⱼ dⱼ (least squares in the indicator's inner
         product, from norms of sums): m modes whose ratios per window are the roots of
@@ -282,7 +294,7 @@ class SlidingExtrapolation:
         fit leaves at most ``SEVERAL_ALIGNED`` of ‖d₀‖, the increments still ahead sum to
         T = Σᵢ₌₀^{m−1} (Σ_{j>i} cⱼ) dᵢ / (1 − Σ cⱼ) (a minimal polynomial extrapolation on
         the marks; docs/convergence.md, session 34). Returns those m coefficients per row
-        (zero where it does not hold) and where it holds."""
+        (zero where it does not hold), where it holds, and the slowest root's real part."""
         c, misfit, usable, roots = SlidingExtrapolation._mode_fit(engine, increments)
         slowest = roots[np.arange(len(c)), np.argmax(np.abs(roots), axis=1)]
         held = (usable & (misfit <= SEVERAL_ALIGNED) & (np.abs(slowest.imag) <= 1e-12)
@@ -290,7 +302,7 @@ class SlidingExtrapolation:
                 & (slowest.real < ratios[1]) & (np.abs(roots).max(axis=1) < ratios[1]))
         ahead = np.cumsum(c[:, ::-1], axis=1)[:, ::-1] / np.where(
             held, 1.0 - c.sum(axis=1), 1.0)[:, None]
-        return np.where(held[:, None], ahead, 0.0), held
+        return np.where(held[:, None], ahead, 0.0), held, slowest.real
 
     @staticmethod
     def _mode_fit(engine: FieldEngine, increments: list[tuple[Any, Any]]

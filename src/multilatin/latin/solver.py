@@ -28,9 +28,10 @@ from ..fem.elasticity import FloatArray, IntArray
 from ..limits import check_scale
 from .batching import interface_families, operators_per_case
 from .body_forces import BodyResponse, body_response, stacked_offsets, with_body_constants
+from .case_state import IterationState
 from .engine import one_blas_thread
 from .guards import BLOWUP, DRIFT_WINDOW, blows_up
-from .iteration import IterationObserver, IterationState, iterate
+from .iteration import IterationObserver, iterate
 from .local_stage import LocalStage
 from .operators import LatinOperators
 from .options import LatinOptions
@@ -369,7 +370,8 @@ def _result(c: int, assembly: Assembly, pts: InterfacePoints, state: IterationSt
     jumped = int(state.jumped_at[c])  # after a jump among the held iterates: those after it
     recent = (state.estimates(c, history.size, jumped)
               if 0 <= jumped and history.size - jumped < state.qoi_recent.shape[1]
-              else error_estimates(state.recent_qoi(c, history.size), history))
+              else error_estimates(state.recent_qoi(c, history.size), history,
+                                   rate_floor=float(state.jump_rate[c])))
     estimates = (np.maximum(recent, state.qoi_settled_error[c])  # settled: as they settled
                  if options.acceleration == "relaxation" and not change > SETTLED
                  else np.full(state.qoi_recent.shape[2:], np.nan))

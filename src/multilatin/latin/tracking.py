@@ -191,23 +191,24 @@ def qoi_functionals(ops: LatinOperators, assembly: Assembly,
                           tuple(q.step for q in assembly.qois))
 
 
-def estimates_after(series: FloatArray, eta: FloatArray, after: int | None) -> FloatArray:
+def estimates_after(series: FloatArray, eta: FloatArray, after: int | None,
+                    rate_floor: float = 0.0) -> FloatArray:
     """``error_estimates`` of one case's held QoIs ``series`` (n_iter, n_qoi, n_steps) and
     their η (n_iter,), where NaN (fewer than 6 iterations) how far each QoI moved over them.
     ``after``: how many of them came after a jump (``sliding``; None or not fewer than
     held: none among them): read those alone, how far each moved counted from the iterate
     before the jump (its shift included); across a jump the envelope grows and the
-    estimate takes a rate of 0.999."""
+    estimate takes a rate of 0.999. ``rate_floor``: as in ``error_estimates``."""
     moved_from = series
     if after is not None and 0 < after < series.shape[0]:
         moved_from, series, eta = series[-after - 1:], series[-after:], eta[-after:]
-    estimate = error_estimates(series, eta[:, None, None])
+    estimate = error_estimates(series, eta[:, None, None], rate_floor=rate_floor)
     moved = moved_from.max(axis=0) - moved_from.min(axis=0)
     return np.where(np.isnan(estimate), moved, estimate)
 
 
 def error_estimates(series: FloatArray, eta: FloatArray, window: int = WINDOW,
-                    rate_floor: float = 0.0) -> FloatArray:
+                    rate_floor: float | FloatArray = 0.0) -> FloatArray:
     """Estimated |q_n − q_∞| per QoI and step from the tracked values ``series`` (n_iter,
     n_qoi, n_steps) and the indicator history ``eta`` (n_iter,); NaN with fewer than 6
     iterations. Cases may be stacked after the iteration axis, ``series`` (n_iter, n_cases,
@@ -222,7 +223,8 @@ def error_estimates(series: FloatArray, eta: FloatArray, window: int = WINDOW,
     as if it were monotone. An envelope that grows over the window (increments of two modes
     of opposite signs cancelling in its older half) shows no convergence of the QoI yet: the
     rate is then taken as 0.999, a large estimate rather than a small wrong one.
-    ``rate_floor``: a per-iteration rate the estimate assumes at least (a short window's).
+    ``rate_floor``: a per-iteration rate the estimate assumes at least (a short window's;
+    after a geometric jump, the slowest mode it summed: the modes left decay no faster).
     """
     n = series.shape[0]
     width = min(window, n - 5)
