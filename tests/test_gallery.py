@@ -39,6 +39,22 @@ def test_slide_reaches_the_closed_form_push_force(tmp_path: Path) -> None:
     assert (tmp_path / "slide.png").exists()
 
 
+def test_the_lap_joints_friction_loop_follows_the_reference(tmp_path: Path) -> None:
+    """Pulled, pushed back and pulled again: every step within 0.1 N of the monolithic
+    reference (the default tolerance; tight agreement is ``tests/test_lap_joint.py``'s), the
+    turns at ±μ p A, and an unloading that is not the loading (the path matters)."""
+    module = _example("lap_joint")
+    found = module.run(tmp_path)
+    slip = module.MU * module.PRESSURE * module.AREA
+    assert max(abs(a - b) for a, b in zip(found["F_pull"], found["F_pull_reference"],
+                                          strict=True)) < 0.1
+    assert found["F_pull_reference"][4] == pytest.approx(slip, rel=1e-9)
+    assert found["F_pull_reference"][12] == pytest.approx(-slip, rel=1e-9)
+    # at zero pull on the way back the joint holds a negative force, not the first step's
+    assert found["F_pull_reference"][8] < -0.4 * slip < found["F_pull_reference"][0]
+    assert (tmp_path / "lap.png").exists()
+
+
 def test_press_fit_holds_up_to_its_closed_form_capacity(tmp_path: Path) -> None:
     module = _example("press_fit")
     found = module.run(tmp_path, deltas=2, frictions=(0.1, 0.3))
