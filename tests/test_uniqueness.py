@@ -318,3 +318,71 @@ def test_a_free_motion_with_no_friction_to_resist_it_says_so(tmp_path: Path) -> 
     pressed = ml.load_model("b1").solve({"mu1": 0.15, "mu2": 0.15}).free_motions
     assert pressed and all(m.friction_holds and "100.00 % of its capacity" in m.describe()
                            for m in pressed)
+
+
+BEAM_ON_SLIDING_SUPPORTS = """
+[analysis]
+thickness = 10.0
+[materials.steel]
+E = 2e5
+nu = 0.3
+[[bodies]]
+name = "beam"
+x = [0.0, 100.0]
+y = [0.0, 10.0]
+elements = [50, 5]
+split = [5, 1]
+material = "steel"
+[[boundary]]
+name = "left"
+face = "beam.bottom"
+segment = [0.0, 10.0]
+type = "stop"
+friction = 0.2
+[[boundary]]
+name = "right"
+face = "beam.bottom"
+segment = [90.0, 100.0]
+type = "stop"
+friction = 0.2
+[[boundary]]
+name = "load"
+face = "beam.top"
+segment = [48.0, 52.0]
+type = "force"
+value = [0.0, -25.0]
+[[qoi]]
+name = "v_mid"
+type = "displacement"
+point = [50.0, 5.0]
+component = "y"
+[[qoi]]
+name = "R_left"
+type = "reaction"
+boundary = "left"
+component = "y"
+[[qoi]]
+name = "H_left"
+type = "reaction"
+boundary = "left"
+component = "x"
+"""
+
+
+def test_a_beam_on_two_sliding_supports_is_free_to_translate_its_forces_are_not() -> None:
+    """A beam bent on two frictional supports spreads both ends outward at the friction
+    limit: its x position is free (flagged), its forces are not — each support carries
+    P / 2 and μ P / 2 (symmetry, both slipping), LATIN = the reference — and the report
+    says which (session 49: it said that every answer from that step on was undetermined)."""
+    model = ml.Model(ml.ModelSpec.from_string(BEAM_ON_SLIDING_SUPPORTS))
+    latin = model.solve(options=LatinOptions(tol=1e-9))
+    reference = model.reference()
+    load = 25.0 * 4.0 * 10.0
+    for result in (latin, reference):
+        assert result.qoi["R_left"] == pytest.approx(load / 2, rel=1e-5)
+        assert result.qoi["H_left"] == pytest.approx(0.2 * load / 2, rel=1e-5)
+    assert latin.qoi["v_mid"] == pytest.approx(reference.qoi["v_mid"], rel=1e-5)
+    (motion,) = latin.free_motions
+    assert motion.velocity == pytest.approx((1.0, 0.0)) and motion.rotation == 0.0
+    assert "its position along it is not determined" in motion.describe()
+    assert "(this step's forces are)" in motion.describe()

@@ -70,8 +70,9 @@ class FreeMotion:
                "capacity" if self.friction_holds else
                "nothing resists it (no pressed contact with friction along it)")
         return (f"step {self.step}: {'+'.join(self.bodies)} is free to move ({what}), {why}"
-                + ("; the answers from this step on are not determined by the discrete "
-                   "problem" if self.reaches_last_step else
+                + ("; its position along it is not determined by the discrete problem "
+                   "(this step's forces are), nor are the answers of the steps that "
+                   "friction builds on it" if self.reaches_last_step else
                    "; only this step's displacements are undetermined"))
 
 
