@@ -20,6 +20,7 @@ import time
 from collections.abc import Mapping, Sequence
 from dataclasses import dataclass, field, replace
 
+from ..errors import ModelError
 from ..latin import LatinOptions, solve_latin
 from ..model import Model
 
@@ -118,7 +119,10 @@ def _check_down(model: Model, cases: Sequence[Mapping[str, float]], options: Lat
     ``softer`` capped at as many (None where it needs more); stops at the first None."""
     out: list[tuple[dict[str, float], int, int | None]] = []
     for case in cases:
-        assembly = model.assemble(case)
+        try:
+            assembly = model.assemble(case)
+        except ModelError:  # a corner the study will refuse itself, naming it
+            continue
         at_first = solve_latin(assembly, replace(options, kappa=first), check=False)
         if not at_first.converged:
             continue  # no equilibrium there, or not within max_iter: it tells nothing
