@@ -21,10 +21,9 @@ and estimate at the last step, to see what the estimate reads after a jump.
 from __future__ import annotations
 
 import argparse
-import tempfile
-from pathlib import Path
 
 import numpy as np
+from rule_accuracy import ruled_study  # this script's folder
 
 import multilatin as ml
 from multilatin.latin import LatinOptions
@@ -36,12 +35,7 @@ FLOOR = 1e-6
 def study_table(name: str, kappa: float) -> None:
     model = ml.load_model(name)
     grid = ml.Grid({"mu": list(np.linspace(0.1, 0.4, 7)), "p": list(np.linspace(20, 80, 7))})
-    with tempfile.TemporaryDirectory() as out:
-        study = ml.run_study(model, grid, options=LatinOptions(kappa=kappa,
-                                                               qoi_rtol=STUDY_QOI_RTOL),
-                             modes=("multiresolution", "cold"), out=Path(out),
-                             progress=False)
-        data = study.dataset.load()
+    data = ruled_study(model, grid, kappa)
     rows = []
     references = {(mu, p): np.asarray(model.reference({"mu": mu, "p": p}).qoi["F_pull"])
                   for mu in data.mu.values.tolist() for p in data.p.values.tolist()}

@@ -386,3 +386,15 @@ def test_a_beam_on_two_sliding_supports_is_free_to_translate_its_forces_are_not(
     assert motion.velocity == pytest.approx((1.0, 0.0)) and motion.rotation == 0.0
     assert "its position along it is not determined" in motion.describe()
     assert "(this step's forces are)" in motion.describe()
+
+
+def test_solve_prints_the_steps_whose_displacements_are_undetermined(capsys) -> None:
+    """B1 frictionless: the centre block floats during the preload (steps 1–5), so u_A
+    there is one answer of many (a warm start returned four times the cold one's, session
+    49); the last step is determined and the case is unique. ``solve`` says so."""
+    assert main(["solve", "b1", "--set", "mu1=0", "--set", "mu2=0"]) == 0
+    out = capsys.readouterr().out
+    assert ("UNDETERMINED: step(s) 1, 2, 3, 4, 5: centre is free to move (translation "
+            "(+1, +0)), nothing resists it") in out
+    assert "only those steps' displacements are undetermined" in out
+    assert "NOT UNIQUE" not in out
