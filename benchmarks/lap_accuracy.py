@@ -23,11 +23,10 @@ from __future__ import annotations
 import argparse
 
 import numpy as np
-from rule_accuracy import ruled_study  # this script's folder
+from rule_accuracy import ruled_study, trace  # this script's folder
 
 import multilatin as ml
 from multilatin.latin import LatinOptions
-from multilatin.latin.options import STUDY_QOI_RTOL
 
 FLOOR = 1e-6
 
@@ -87,23 +86,6 @@ def solves_table(name: str) -> None:
             print(f"| {mu:g}, {p:g} | " + " | ".join(cells) + " |")
 
 
-def trace(name: str, kappa: float) -> None:
-    model, mu = ml.load_model(name), {"mu": 0.25, "p": 20.0}
-    reference = float(np.asarray(model.reference(mu).qoi["F_pull"])[-1])
-    result = model.solve(mu, options=LatinOptions(kappa=kappa, qoi_rtol=STUDY_QOI_RTOL))
-    print(f"\ncold (0.25, 20) under the rule: stops after {result.iterations} iterations, "
-          f"F_pull {float(result.qoi['F_pull'][-1]) - reference:+.3f} N off, estimate "  # type: ignore[index]
-          f"{result.qoi_error['F_pull'][-1]:.3f} N")  # type: ignore[index]
-    print("| iteration | η | error (N) | estimate (N) |\n|---|---|---|---|")
-    for n in range(78, 121, 3):
-        stopped = model.solve(mu, options=LatinOptions(kappa=kappa, max_iter=n, tol=1e-12),
-                              check=False)
-        error = float(stopped.qoi["F_pull"][-1]) - reference  # type: ignore[index]
-        estimate = stopped.qoi_error["F_pull"]
-        shown = "—" if estimate is None else f"{estimate[-1]:.3f}"  # type: ignore[index]
-        print(f"| {n} | {stopped.history[-1]:.2e} | {error:.3f} | {shown} |")
-
-
 def main() -> None:
     parser = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
     parser.add_argument("--kappa", type=float, default=0.5)
@@ -112,7 +94,8 @@ def main() -> None:
     parser.add_argument("--model", default="lap", help="the lap joint's name or path")
     args = parser.parse_args()
     if args.trace:
-        trace(args.model, args.kappa)
+        trace(args.model, "F_pull", 9, {"mu": 0.25, "p": 20.0}, range(78, 121, 3),
+              args.kappa)
         return
     study_table(args.model, args.kappa)
     if args.solves:

@@ -114,17 +114,21 @@ def model_row(name: str, kappa: float = 0.5) -> str:
 
 
 def trace(name: str, qoi: str, step: int, mu: dict[str, float],
-          iterations: range) -> None:
+          iterations: range, kappa: float = 0.5) -> None:
+    """One case under the rule, then stopped at ``iterations`` (``max_iter``): the QoI's
+    error at ``step`` against the monolithic reference, its estimate, η, η's rate over
+    10 iterations and the state's remaining change."""
     model = ml.load_model(name)
     exact = float(np.atleast_1d(model.reference(mu).qoi[qoi])[step - 1])
-    ruled = model.solve(mu, options=LatinOptions(qoi_rtol=STUDY_QOI_RTOL))
+    ruled = model.solve(mu, options=LatinOptions(kappa=kappa, qoi_rtol=STUDY_QOI_RTOL))
     print(f"{name} {mu}: under the rule {ruled.iterations} iterations, {qoi} at step {step} "
           f"{float(np.atleast_1d(ruled.qoi[qoi])[step - 1]) - exact:+.4g} off, estimate "
           f"{np.atleast_1d(ruled.qoi_error[qoi])[step - 1]:.3g}\n")
     print("| iteration | η | rate over 10 | error | estimate | state's remaining change |")
     print("|---|---|---|---|---|---|")
     for n in iterations:
-        result = model.solve(mu, options=LatinOptions(max_iter=n, tol=1e-14), check=False)
+        result = model.solve(mu, options=LatinOptions(kappa=kappa, max_iter=n, tol=1e-14),
+                             check=False)
         value = float(np.atleast_1d(result.qoi[qoi])[step - 1])
         estimate = result.qoi_error.get(qoi)
         shown = ("—" if estimate is None or np.atleast_1d(estimate)[step - 1] is None
@@ -149,7 +153,7 @@ def main() -> None:
         first, last, every = args.iterations
         trace(args.trace[0], args.trace[1], int(args.trace[2]),
               {k: float(v) for k, v in (item.split("=") for item in args.set)},
-              range(first, last + 1, every))
+              range(first, last + 1, every), args.kappa)
         return
     global DETAILS
     DETAILS = args.details

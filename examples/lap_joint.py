@@ -11,6 +11,7 @@ import argparse
 from pathlib import Path
 
 import numpy as np
+import tomllib
 
 import multilatin as ml
 
@@ -22,10 +23,9 @@ CYCLE = (0, 2, 4, 6, 8, 6, 4, 2, 0, -2, -4, -6, -8, -6, -4, -2, 0, 2, 4, 6, 8)
 
 def cycled_model(cycle: tuple[int, ...] = CYCLE) -> ml.Model:
     """The bundled lap joint with the pull's history replaced by ``cycle``."""
-    path = Path(ml.__file__).parent / "models" / "lap.toml"
-    text = path.read_text().replace("pull = [0, 1, 2, 3, 4, 5, 6, 7, 8]",
-                                    f"pull = {list(cycle)}")
-    return ml.Model(ml.ModelSpec.from_string(text, name="lap-cycle"))
+    data = tomllib.loads((Path(ml.__file__).parent / "models" / "lap.toml").read_text())
+    data["history"]["factors"]["pull"] = list(cycle)
+    return ml.Model(ml.ModelSpec.from_dict(data, name="lap-cycle"))
 
 
 def run(out: Path | None = None, cycle: tuple[int, ...] = CYCLE) -> dict[str, list[float]]:

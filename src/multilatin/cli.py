@@ -21,6 +21,7 @@ import numpy as np
 
 from . import __version__
 from .decomposition.result import SolveResult
+from .decomposition.uniqueness import FreeMotion
 from .errors import ModelError, NotConvergedError
 from .io.describe import (
     body_force_lines,
@@ -266,15 +267,13 @@ def _report(result: SolveResult, args: argparse.Namespace,
             print(f"  NOT UNIQUE: {motion.describe()}"
                   + (f" (read on a state still changing by ~{result.state_change:.1e}: "
                      "check with a tighter --tol)" if unsettled else ""))
-    groups: dict[tuple[object, ...], list[int]] = {}  # the last step's answer stands
-    for motion in result.free_motions:
+    groups: dict[tuple[object, ...], tuple[FreeMotion, list[int]]] = {}
+    for motion in result.free_motions:  # those that leave the last step's answer standing
         if not motion.reaches_last_step:
             key = (motion.bodies, motion.velocity, motion.rotation, motion.friction_holds)
-            groups.setdefault(key, []).append(motion.step)
-    for steps in groups.values():
-        motion = next(m for m in result.free_motions if m.step == steps[0])
-        print(f"  UNDETERMINED: step(s) {', '.join(map(str, steps))}: "
-              + motion.describe().split(": ", 1)[1].replace("this step's", "those steps'"))
+            groups.setdefault(key, (motion, []))[1].append(motion.step)
+    for first, steps in groups.values():
+        print(f"  UNDETERMINED: {first.describe(steps)}")
     for slip in result.large_slips:
         print(f"  LARGE SLIP: {slip.describe()}")
     units = {q.name: q.unit for q in result.assembly.qois}

@@ -62,18 +62,22 @@ class FreeMotion:
     reaches_last_step: bool
     friction_holds: bool = True
 
-    def describe(self) -> str:
+    def describe(self, steps: Sequence[int] = ()) -> str:
+        """One line; ``steps``: the steps of one motion named together (a motion that
+        does not reach the last step, found at several), in place of its own."""
         what = (f"translation ({self.velocity[0]:+.3g}, {self.velocity[1]:+.3g})"
                 if abs(self.rotation) < 1e-9 else
                 f"rotation about ({self.centre[0]:.4g}, {self.centre[1]:.4g})")
         why = (f"the friction along it used to {100 * (1 - self.reserve):.2f} % of its "
                "capacity" if self.friction_holds else
                "nothing resists it (no pressed contact with friction along it)")
-        return (f"step {self.step}: {'+'.join(self.bodies)} is free to move ({what}), {why}"
+        at = f"step(s) {', '.join(map(str, steps))}" if steps else f"step {self.step}"
+        whose = "those steps'" if steps else "this step's"
+        return (f"{at}: {'+'.join(self.bodies)} is free to move ({what}), {why}"
                 + ("; its position along it is not determined by the discrete problem "
                    "(this step's forces are), nor are the answers of the steps that "
                    "friction builds on it" if self.reaches_last_step else
-                   "; only this step's displacements are undetermined"))
+                   f"; only {whose} displacements are undetermined"))
 
 
 def clusters(assembly: Assembly) -> list[IntArray]:
