@@ -227,6 +227,8 @@ def test_a_hole_is_placed_in_the_cells_that_hold_its_centre(tmp_path) -> None:
     ("converged", "S", r"'converged' is a name the study's outputs use"),
     ("R", "R_err", r"qoi\[1\] \('R_err'\)\.name: 'R_err' is the name of 'R''s error "
      r"estimate"),
+    ("R", "R_determined", r"qoi\[1\] \('R_determined'\)\.name: 'R_determined' is the name "
+     r"of 'R''s determined flag"),
 ])
 def test_qoi_names_that_would_mix_up_the_outputs_are_refused(name: str, other: str,
                                                               message: str) -> None:

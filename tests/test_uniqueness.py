@@ -22,7 +22,9 @@ from multilatin.latin import LatinOptions, solve_latin
 from multilatin.parameters import Grid
 from multilatin.study import starts
 from multilatin.study.plan import clear_operator_cache
+from multilatin.study.report import summary_lines, write_study_outputs
 from multilatin.study.runner import run_study
+from multilatin.study.store import load_study
 
 
 @pytest.fixture(scope="module")
@@ -58,6 +60,14 @@ def test_free_motions_at_the_friction_limit_are_found(b1: ml.Model, mu: tuple[fl
         assert motion.velocity == pytest.approx((1.0, 0.0), abs=1e-9)  # sliding along +x
         assert motion.reserve < 1e-3
     assert result.to_json_dict()["unique"] is unique
+    # which values are determined: a free motion moves u_A (the centre's, along x) at its
+    # step, not the forces; after a motion that friction carries on, nothing is
+    later = {t for s in free_steps if not unique for t in range(s + 1, 16)}
+    determined = result.qoi_determined
+    assert determined["u_A"] == [t not in set(free_steps) | later for t in range(1, 16)]
+    assert determined["p_B"] == [t not in later for t in range(1, 16)]
+    assert determined["R_stop"] is (15 not in later)  # a force, at step 15 only
+    assert result.to_json_dict()["qoi_determined"] == determined
 
 
 def test_a_warm_start_alone_picks_another_solution(b1: ml.Model, tmp_path: Path,
@@ -385,6 +395,8 @@ def test_a_beam_on_two_sliding_supports_is_free_to_translate_its_forces_are_not(
     (motion,) = latin.free_motions
     assert motion.velocity == pytest.approx((1.0, 0.0)) and motion.rotation == 0.0
     assert "its position along it is not determined" in motion.describe()
+    # the vertical deflection and the forces are determined, the x position is not
+    assert latin.qoi_determined == {"v_mid": True, "R_left": True, "H_left": True}
     assert "(this step's forces are)" in motion.describe()
 
 
@@ -398,3 +410,26 @@ def test_solve_prints_the_steps_whose_displacements_are_undetermined(capsys) -> 
             "(+1, +0)), nothing resists it") in out
     assert "only those steps' displacements are undetermined" in out
     assert "NOT UNIQUE" not in out
+    (u_a,) = [line for line in out.splitlines() if line.startswith("  u_A = ")]
+    assert u_a.endswith("(undetermined at step(s) 1, 2, 3, 4, 5)")
+    (r_stop,) = [line for line in out.splitlines() if line.startswith("  R_stop = ")]
+    assert "undetermined" not in r_stop
+
+
+def test_a_study_marks_the_values_it_leaves_undetermined(b1: ml.Model, tmp_path: Path) -> None:
+    """study.nc's ``<QoI>_determined``: false at B1 (0, 0)'s u_A at steps 1–5 (the centre
+    block floats in the frictionless preload), true elsewhere; the summary says so (before
+    session 50 those values were stored unmarked, one answer of many)."""
+    clear_operator_cache()
+    result = run_study(b1, Grid({"mu1": [0.0], "mu2": [0.0, 0.1]}), out=tmp_path,
+                       progress=False)
+    data = load_study(tmp_path).sel(mode="multiresolution", mu1=0.0)
+    assert data["u_A_determined"].sel(mu2=0.0).values.tolist() == [False] * 5 + [True] * 10
+    assert bool(data["u_A_determined"].sel(mu2=0.1).all())
+    assert bool(data["R_stop_determined"].all()) and bool(data["p_B_determined"].all())
+    assert bool(data["unique"].all())
+    assert any(line.startswith("UNDETERMINED: 1 case(s)") and
+               line.endswith("(mu1=0, mu2=0): u_A at step(s) 1, 2, 3, 4, 5")
+               for line in summary_lines(result))
+    written = {path.name for path in write_study_outputs(result, tmp_path)}
+    assert "response_u_A.png" in written and "response_u_A_determined.png" not in written

@@ -294,6 +294,10 @@ def _report(result: SolveResult, args: argparse.Namespace,
                         f"~{res.state_change:.1e}; a tighter --tol gives one)")
             else:
                 note = ""
+            flags = np.atleast_1d(res.qoi_determined.get(name, True))
+            if not flags.all():  # a body free to move (the NOT UNIQUE / UNDETERMINED lines)
+                at = ", ".join(str(t + 1) for t in np.flatnonzero(~flags))
+                note += f"  (undetermined{f' at step(s) {at}' * isinstance(value, list)})"
             if isinstance(value, list):
                 shown = ", ".join(f"{v:.6g}" for v in value)
                 print(f"  {which}{name} = [{shown}]{unit}{note}")

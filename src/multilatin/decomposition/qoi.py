@@ -7,7 +7,7 @@ import threading
 from collections import OrderedDict
 from collections.abc import Mapping, Sequence
 from dataclasses import dataclass, field
-from typing import Any
+from typing import TYPE_CHECKING, Any
 
 import numpy as np
 
@@ -22,6 +22,9 @@ from ..fem.elasticity import (
 from ..fem.mesh import shape_at
 from .assembly import Assembly, QuantityOfInterest, Substructure
 from .interfaces import InterfacePoints
+
+if TYPE_CHECKING:
+    from .uniqueness import FreeMotion
 
 #: how a mean contact pressure is recovered from the nodal contact forces
 PRESSURE_RECOVERIES = ("consistent", "lumped")
@@ -320,3 +323,40 @@ def evaluate_qois(
             values = values[q.step - 1:q.step]
         out[q.name] = float(values[0]) if values.size == 1 else [float(v) for v in values]
     return out
+
+
+def determined_values(assembly: Assembly, motions: Sequence[FreeMotion]
+                      ) -> dict[str, bool | list[bool]]:
+    """Which QoI values the discrete problem determines, shaped as ``evaluate_qois``'s,
+    given the converged state's free motions (``uniqueness.free_motions``). A rigid motion
+    changes no force, stress or pressure: at its step only a displacement QoI of a part it
+    moves, in a component it moves, is undetermined. After a motion that reaches the last
+    step (friction builds on the position, gaps change with it), no value of the later
+    steps is determined."""
+    n_steps = assembly.n_steps
+    out: dict[str, bool | list[bool]] = {}
+    for q in assembly.qois:
+        determined = np.ones(n_steps, dtype=bool)
+        for motion in motions:
+            if motion.reaches_last_step:
+                determined[motion.step:] = False
+            if q.kind == "displacement" and not _still(assembly, q, motion):
+                determined[motion.step - 1] = False
+        if q.step is not None:
+            determined = determined[q.step - 1:q.step]
+        out[q.name] = (bool(determined[0]) if determined.size == 1
+                       else [bool(d) for d in determined])
+    return out
+
+
+def _still(assembly: Assembly, q: QuantityOfInterest, motion: FreeMotion) -> bool:
+    """The displacement QoI ``q`` does not move with ``motion``: another part's, or a
+    component the motion leaves (B1's horizontal slide leaves v; a beam's vertical
+    deflection on sliding supports stays determined)."""
+    assert q.point is not None
+    sub = assembly.substructures[point_substructure(assembly.substructures, q)]
+    if sub.body not in motion.bodies:
+        return True
+    (vx, vy), omega, (cx, cy) = motion.velocity, motion.rotation, motion.centre
+    velocity = (vx - omega * (q.point[1] - cy), vy + omega * (q.point[0] - cx))
+    return abs(velocity[q.component]) <= 1e-9 * max(abs(vx), abs(vy), 1.0)

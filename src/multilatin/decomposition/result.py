@@ -9,7 +9,7 @@ import numpy as np
 
 from ..fem.elasticity import FloatArray
 from .assembly import Assembly
-from .qoi import ContactPressures
+from .qoi import ContactPressures, determined_values
 from .sliding_extent import LargeSlip
 from .uniqueness import FreeMotion
 
@@ -82,6 +82,16 @@ class SolveResult:
         this one from another start, may return another answer."""
         return not any(m.reaches_last_step for m in self.free_motions)
 
+    @property
+    def qoi_determined(self) -> dict[str, bool | list[bool]]:
+        """Per QoI (shaped as ``qoi``): False at the values the discrete problem does not
+        determine (``qoi.determined_values``: a free motion's displacements, and every
+        value after a motion that reaches the last step)."""
+        if not self.free_motions:
+            return {name: (True if not isinstance(value, list) else [True] * len(value))
+                    for name, value in self.qoi.items()}
+        return determined_values(self.assembly, self.free_motions)
+
     def to_json_dict(self) -> dict[str, Any]:
         """The command-line JSON contract: converged, iterations, indicator, wall_s, qoi, …"""
         return {
@@ -92,6 +102,7 @@ class SolveResult:
             "failure": self.failure,
             "unique": self.unique,
             "free_motions": [m.describe() for m in self.free_motions],
+            "qoi_determined": self.qoi_determined,
             "large_slips": [s.describe() for s in self.large_slips],
             "iterations": self.iterations,
             "indicator": _finite_or_none(self.indicator),

@@ -51,6 +51,10 @@ def case_record(grid: Grid, case: Case, mode: str, result: SolveResult, wall_s: 
         "converged": bool(result.converged),
         "unique": bool(result.unique),
         "free_motions": undetermined,
+        # the QoIs with a value the discrete problem does not determine (``SolveResult.
+        # qoi_determined``), each shaped as its value: False there
+        "qoi_determined": {name: value for name, value in result.qoi_determined.items()
+                           if not np.all(value)},
         "large_slips": slips,
         "iterations": iterations,
         "indicator": float(result.indicator),

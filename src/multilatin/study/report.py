@@ -121,6 +121,15 @@ def summary_lines(result: StudyResult) -> list[str]:
             + ", ".join("(" + ", ".join(f"{k}={v:g}" for k, v in r["params"].items()) + ")"
                         for r in not_unique[:8]) + (", ..." if len(not_unique) > 8 else "")
             + _unsettled_note(not_unique))
+    partly = [r for r in records if r.get("unique", True) and r.get("qoi_determined")]
+    if partly:
+        lines.append(
+            f"UNDETERMINED: {len(partly)} case(s), unique at the last step, with QoI values "
+            "at earlier load steps that the discrete problem does not determine (a body free "
+            "to move there; study.nc's <QoI>_determined is false at them), e.g. "
+            + "(" + ", ".join(f"{k}={v:g}" for k, v in partly[0]["params"].items()) + "): "
+            + "; ".join(_undetermined_at(name, flags)
+                        for name, flags in partly[0]["qoi_determined"].items()))
     sliding = [r for r in records if r.get("large_slips")]
     if sliding:
         lines.append(
@@ -132,6 +141,13 @@ def summary_lines(result: StudyResult) -> list[str]:
     for repair in result.repairs:
         lines.append(f"repaired on resume: {repair}")
     return lines
+
+
+def _undetermined_at(name: str, flags: bool | list[bool]) -> str:
+    """A QoI's undetermined values, by step for one over the load steps."""
+    if not isinstance(flags, list):
+        return name
+    return f"{name} at step(s) " + ", ".join(str(t + 1) for t, d in enumerate(flags) if not d)
 
 
 def _unsettled(records: list[dict[str, Any]]) -> int:
@@ -219,7 +235,7 @@ def plot_response(dataset: xr.Dataset, folder: Path, mode: str) -> list[Path]:
     varied = [str(d) for d in data["iterations"].dims if data.sizes[d] > 1]
     qois = [str(name) for name in data.data_vars
             if name not in (*CASE_NUMBERS, *CASE_FLAGS, *CASE_TEXTS)
-            and not str(name).endswith("_err")]
+            and not str(name).endswith(("_err", "_determined"))]
     paths = []
 
     def axis(name: str) -> str:

@@ -342,6 +342,7 @@ def to_dataset(grid: Grid, records: Iterable[dict[str, Any]], attrs: dict[str, A
     flags = {name: np.zeros(shape, dtype=bool) for name in CASE_FLAGS}
     texts = {name: np.full(shape, "", dtype=object) for name in CASE_TEXTS}
     qoi_values: dict[str, np.ndarray] = {}
+    determined_values: dict[str, list[tuple[tuple[int, ...], Any]]] = {}
     for record in records:
         at = (modes.index(record["mode"]), *record["index"])
         for name in scalars:
@@ -357,6 +358,8 @@ def to_dataset(grid: Grid, records: Iterable[dict[str, Any]], attrs: dict[str, A
             if name not in qoi_values:
                 qoi_values[name] = np.full(shape + value.shape, np.nan)
             qoi_values[name][at] = value if record["converged"] else np.nan
+        for name, determined in record.get("qoi_determined", {}).items():
+            determined_values.setdefault(name, []).append((at, determined))
         for name, error in record.get("qoi_error", {}).items():  # tracking.error_estimates
             shape_of = np.shape(record["qoi"].get(name))
             error = np.broadcast_to(np.asarray(error if error is not None else np.nan,
@@ -365,6 +368,13 @@ def to_dataset(grid: Grid, records: Iterable[dict[str, Any]], attrs: dict[str, A
             if key not in qoi_values:
                 qoi_values[key] = np.full(shape + shape_of, np.nan)
             qoi_values[key][at] = error if record["converged"] else np.nan
+    determined = {}  # True but where a case's record says otherwise (``records``)
+    for name, values in list(qoi_values.items()):
+        if not name.endswith("_err") or name[:-4] not in qoi_values:
+            determined[f"{name}_determined"] = np.ones(values.shape, dtype=bool)
+            for at, flag in determined_values.get(name, []):
+                determined[f"{name}_determined"][at] = flag
+    qoi_values.update(determined)
     variables: dict[str, Any] = {name: (dims, values) for name, values in scalars.items()}
     variables.update({name: (dims, values) for name, values in flags.items()})
     variables.update({name: (dims, values) for name, values in texts.items()})
@@ -380,7 +390,11 @@ def to_dataset(grid: Grid, records: Iterable[dict[str, Any]], attrs: dict[str, A
     dataset["iterations"].attrs["long_name"] = "LATIN iterations to the tolerance"
     for name in qoi_values:
         dataset[name].attrs["note"] = "NaN where the case did not converge (see converged)"
-        if name.endswith("_err"):
+        if name.endswith("_determined"):
+            dataset[name].attrs["note"] = (
+                "False where the discrete problem does not determine the value (a body free "
+                "to move at the friction limit: SolveResult.qoi_determined)")
+        elif name.endswith("_err"):
             dataset[name].attrs["long_name"] = (
                 f"estimated |{name[:-4]} - its converged value| (multilatin.latin.tracking)")
     for name in [*qoi_values, *names]:

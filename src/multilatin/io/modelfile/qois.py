@@ -99,7 +99,7 @@ def _check_names(qois: list[QuantityOfInterest], parameters: set[str]) -> None:
     """A QoI's name labels its values in the results, study.nc and table.csv: two QoIs of one
     name (the second replaced the first), or a QoI named as a parameter, a study variable
     (its values written as ``converged`` or ``iterations``) or another QoI's error estimate
-    (``<name>_err``) would mix them up."""
+    (``<name>_err``) or determined flag (``<name>_determined``) would mix them up."""
     names = [q.name for q in qois]
     for i, name in enumerate(names):
         where = f"qoi[{i}] ({name!r}).name"
@@ -112,6 +112,8 @@ def _check_names(qois: list[QuantityOfInterest], parameters: set[str]) -> None:
         if name in RESERVED_NAMES:
             raise ModelError(f"{where}: {name!r} is a name the study's outputs use "
                              f"({', '.join(RESERVED_NAMES)}): choose another")
-        if name.endswith("_err") and name[:-4] in names:
-            raise ModelError(f"{where}: {name!r} is the name of {name[:-4]!r}'s error "
-                             "estimate in the study's outputs: choose another")
+        for suffix, what in (("_err", "error estimate"), ("_determined", "determined flag")):
+            base = name.removesuffix(suffix)
+            if name.endswith(suffix) and base in names:
+                raise ModelError(f"{where}: {name!r} is the name of {base!r}'s {what} in "
+                                 "the study's outputs: choose another")
