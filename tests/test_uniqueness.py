@@ -11,6 +11,7 @@ from __future__ import annotations
 
 import json
 import logging
+from importlib import resources
 from pathlib import Path
 
 import pytest
@@ -433,3 +434,31 @@ def test_a_study_marks_the_values_it_leaves_undetermined(b1: ml.Model, tmp_path:
                for line in summary_lines(result))
     written = {path.name for path in write_study_outputs(result, tmp_path)}
     assert "response_u_A.png" in written and "response_u_A_determined.png" not in written
+
+
+def test_a_body_lifted_off_is_undetermined_there_and_determined_once_pressed_again() -> None:
+    """The sliding block unloaded at steps 5–6 (``press`` 0) floats: its lift there is one
+    answer of many (κ = 0.5 and 2 leave it at different heights), but contact reads the
+    current gap, not its history, so once pressed again (steps 7–10) every answer is
+    determined and both solves agree. Before session 50 any friction in the model made
+    such a motion reach the last step: "NOT UNIQUE", every later value flagged."""
+    text = (resources.files("multilatin") / "models" / "slide.toml").read_text()
+    press = "press = [0.5, 1, 1, 1, 1, 1, 1, 1, 1, 1]"
+    assert press in text
+    model = ml.Model(ml.ModelSpec.from_string(
+        text.replace(press, "press = [0.5, 1, 1, 1, 0, 0, 1, 1, 1, 1]"), name="lift"))
+    results = [model.solve(options=LatinOptions(kappa=kappa, tol=1e-9, max_iter=5000))
+               for kappa in (0.5, 2.0)]
+    lifts = []
+    for result in results:
+        assert [m.step for m in result.free_motions] == [5, 6]
+        assert all(m.velocity == pytest.approx((0.0, 1.0), abs=1e-9)
+                   and not m.reaches_last_step for m in result.free_motions)
+        assert result.unique
+        # the lift is vertical: u_right (x) and the forces stay determined at every step
+        assert result.qoi_determined == {"R_push": [True] * 10, "u_right": [True] * 10}
+        lifts.append(result.displacements["block"][4:6, :, 1].mean(axis=1))
+        assert result.qoi["R_push"][-1] == pytest.approx(0.3 * 10.0 * 20.0, rel=1e-6)
+    assert abs(lifts[0][0] - lifts[1][0]) > 0.1 * abs(lifts[1][0])  # not determined
+    for name in ("R_push", "u_right"):  # determined once pressed again
+        assert results[0].qoi[name][6:] == pytest.approx(results[1].qoi[name][6:], rel=1e-6)

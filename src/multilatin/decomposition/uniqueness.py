@@ -8,9 +8,10 @@ contact point lets it slide (no motion along its normal), no prescribed displace
 component moves, and the friction forces already oppose it at their limit μ|N| (B1 at
 μ1 + μ2 = 0.3, step 10: the push 15 MPa × 50 mm = 750 N equals the capacity
 0.3 × 2500 N, and the centre block's position between its place at step 9 and the stop is
-free). With friction, the later steps inherit that position (Coulomb's law acts on
-increments), so they are not determined either: two correct solvers, or one solver started
-from two places, may return different answers, 1.2 % apart on that B1 case.
+free). Where the motion slides along points with friction, the later steps inherit that
+position (Coulomb's law acts on increments), so they are not determined either: two
+correct solvers, or one solver started from two places, may return different answers,
+1.2 % apart on that B1 case.
 
 ``free_motions`` finds such motions in a converged state: for every load step and every
 *cluster* (substructures joined by perfect or macro-only interfaces, which move together),
@@ -316,13 +317,13 @@ def _motions_of(clusters: list[_Cluster], points: Sequence[InterfacePoints],
             continue
         tangential_force = force - normal_force[..., None] * normal
         limit = friction[:, None, :] * np.abs(normal_force)  # (C, T, n): μ|N|
-        with_friction = np.any(friction > 0, axis=1)
         # every free direction of every case and step at once, each with both signs (the
         # motion −v: the velocities, their normal parts and frictions' work change sign)
         cases, steps, columns = np.nonzero(free)
         directions = vectors[cases, steps, :, columns]  # (P, 3)
         velocity = np.einsum("nck,pk->pnc", modes, directions)  # (P, n, 2)
         into = _along(velocity, normal)  # along n: into the partner
+        carried = _carried(velocity, into, normal, friction[cases])
         near = touching[cases, steps]
         *reserves, capacity = _friction_reserve(
             velocity, into, normal, tangential_force[cases, steps], limit[cases, steps],
@@ -339,7 +340,7 @@ def _motions_of(clusters: list[_Cluster], points: Sequence[InterfacePoints],
                                              (float(mode[0]), float(mode[1])),
                                              float(mode[2] / cluster.size), centre,
                                              max(float(reserve[i]), 0.0),
-                                             t + 1 == n_steps or bool(with_friction[c]),
+                                             t + 1 == n_steps or bool(carried[i]),
                                              bool(capacity[i] > 0.0)))
                     break
     return out
@@ -371,6 +372,17 @@ def _friction_reserve(velocity: FloatArray, into: FloatArray, normal: FloatArray
                  / divisor, 0.0)
         for sign in (1.0, -1.0))
     return forward, backward, capacity
+
+
+def _carried(velocity: FloatArray, into: FloatArray, normal: FloatArray,
+             friction: FloatArray) -> np.ndarray:
+    """Per motion p (``velocity`` (P, n, 2) at the cluster's n points, ``into`` its normal
+    part, ``friction`` (P, n) their μ): friction carries its position into the later steps
+    — it slides along a point with friction, whose later slip increments start from it.
+    A motion along the normals only (a body lifted off its frictional contacts) is not
+    carried: contact and stops read the current gap, not its history (session 50)."""
+    slide = velocity - into[..., None] * normal
+    return np.asarray(np.any((np.hypot(slide[..., 0], slide[..., 1]) > 1e-9) & (friction > 0), axis=1))
 
 
 def rigid_rows(x: FloatArray, centre: FloatArray, size: float) -> FloatArray:
@@ -428,7 +440,6 @@ def _limit_motions_of(clusters: list[_Cluster], points: Sequence[InterfacePoints
         touching = ~pressed & state.shut & between
         vectors, free = _free_directions(cluster, pressed)
         limit = friction[:, None, :] * np.abs(normal_force)  # (C, T, n)
-        with_friction = np.any(friction > 0, axis=1)
         # every free direction of every case and step, with both signs (the motion −v:
         # its velocities and the load along it change sign, its capacity does not)
         all_cases, all_steps, columns = np.nonzero(free)
@@ -436,6 +447,7 @@ def _limit_motions_of(clusters: list[_Cluster], points: Sequence[InterfacePoints
         velocity = np.einsum("nck,pk->pnc", modes, directions)
         along_n = _along(velocity, normal)
         slide = velocity - along_n[..., None] * normal
+        carried = _carried(velocity, along_n, normal, friction[all_cases])
         all_holding = limit[all_cases, all_steps] * np.hypot(slide[..., 0], slide[..., 1])
         capacity = all_holding @ cluster.weights
         along_load = -np.einsum("pnc,pnc,n->p", force[all_cases, all_steps], velocity,
@@ -467,5 +479,5 @@ def _limit_motions_of(clusters: list[_Cluster], points: Sequence[InterfacePoints
                     t + 1, cluster.bodies, (float(mode[0]), float(mode[1])),
                     float(mode[2] / cluster.size),
                     (float(cluster.centre[0]), float(cluster.centre[1])),
-                    float(reserve[n]), t + 1 == n_steps or bool(with_friction[c])))
+                    float(reserve[n]), t + 1 == n_steps or bool(carried[near_limit[n]])))
     return out
