@@ -4,6 +4,7 @@ status 3) where it is not."""
 
 from __future__ import annotations
 
+from importlib import resources
 from pathlib import Path
 
 import numpy as np
@@ -78,3 +79,25 @@ def test_a_study_reaching_past_the_friction_capacity(tmp_path) -> None:
             exact = np.asarray(reference.qoi[name])
             assert record["qoi"][name] == pytest.approx(exact, rel=1e-3,
                                                         abs=1e-5 * np.abs(exact).max())
+
+
+def test_no_equilibrium_names_the_steps_beyond_the_capacity() -> None:
+    """The sliding block pushed by a traction that rises over the steps (factors 0.1 … 0.8
+    of 20 T on its left face) against μ p × 20 = 60 N: at T = 4.5 steps 9 and 10 (63, 72 N)
+    exceed it, steps 1–8 (up to 54 N) do not. The failure names them (before session 50
+    it said "no equilibrium" for the whole history)."""
+    text = (resources.files("multilatin") / "models" / "slide.toml").read_text()
+    push = '''type = "mixed"
+components = ["displacement", "force"]
+value = [1.0, 0.0]               # u_x = push (mm), no vertical traction
+factor = "push"'''
+    factors = "push = [0, 0, 0.0002, 0.0004, 0.0006, 0.0008, 0.001, 0.002, 0.003, 0.004]"
+    assert push in text and factors in text
+    text = (text.replace(push, 'type = "force"\nvalue = [4.5, 0.0]\nfactor = "push"')
+            .replace(factors, "push = [0, 0, 0.1, 0.2, 0.3, 0.4, 0.5, 0.6, 0.7, 0.8]"))
+    text = text[:text.index('[[qoi]]\nname = "R_push"')] + text[
+        text.index('[[qoi]]\nname = "u_right"'):]  # a reaction on a force boundary: none
+    result = ml.Model(ml.ModelSpec.from_string(text, name="pushed")).solve(check=False)
+    assert not result.converged
+    assert result.failure.startswith("no equilibrium at step(s) 9, 10 (the other steps "
+                                     "settled to ")

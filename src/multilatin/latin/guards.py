@@ -15,8 +15,9 @@ from ..fem.elasticity import FloatArray, IntArray
 from .indicator_kernel import weighted_squares
 from .options import LatinOptions
 
-__all__ = ["BLOWUP", "DRIFT_WINDOW", "FORCE_FLOOR", "FORCE_MARGIN", "FORCE_ROUNDOFF", "blows_up",
-           "damp_stagnating", "drifts", "force_indicator", "forces_unsettled"]
+__all__ = ["BLOWUP", "DRIFT_WINDOW", "FORCE_FLOOR", "FORCE_MARGIN", "FORCE_ROUNDOFF",
+           "STEP_SPREAD", "blows_up", "damp_stagnating", "drifting_steps", "drifts",
+           "force_indicator", "forces_unsettled"]
 
 log = logging.getLogger(__name__)
 
@@ -29,6 +30,9 @@ DRIFT_WINDOW = 100
 #: 1.03 × its first value, over every bundled model 2.4 × (lug), and 4.3 × in the tests'
 #: cases with no equilibrium, stopped by ``drifts`` (session 38, ``benchmarks/blowup.py``)
 BLOWUP = 1e3
+#: a drifting case's steps whose s − ŝ (relative to each step's size) is within this factor
+#: of the worst step's are named as those without equilibrium (``drifting_steps``)
+STEP_SPREAD = 1e-2
 
 
 #: a case stops only where its interface forces have converged too: their own indicator
@@ -124,6 +128,28 @@ def drifts(sizes: list[float]) -> bool:
     first = sizes[-1 - half] - sizes[-1 - DRIFT_WINDOW]
     second = sizes[-1] - sizes[-1 - half]
     return bool(first > 0.0 and second >= 0.9 * first and second > 1e-3 * sizes[-1])
+
+
+def drifting_steps(weights: FloatArray, w: FloatArray, f: FloatArray, w_hat: FloatArray,
+                   f_hat: FloatArray) -> tuple[list[int], float]:
+    """The load steps (1-based) of a drifting case whose fields have not settled — s − ŝ
+    at least ``STEP_SPREAD`` of the worst step's, relative to each step's own size (points
+    weighted by their lengths) — and the largest such share among the others: the steps
+    where no equilibrium exists (the block pushed by a rising force of
+    ``tests/test_held_by_contact.py``: steps 9–10 at 8.3e-3 and 3.2e-2, steps 1–8 at most
+    1.8e-7 of their sizes). Fields ``(n_steps, n_points, 2)``."""
+    def relative(x: FloatArray, x_hat: FloatArray) -> FloatArray:
+        gap = np.sqrt(np.einsum("tpc,p->t", np.square(x - x_hat), weights))
+        size = np.sqrt(np.einsum("tpc,p->t", np.square(x_hat), weights))
+        return np.asarray(np.where(size > 0.0, gap / np.where(size > 0.0, size, 1.0),
+                                   np.where(gap > 0.0, np.inf, 0.0)))
+
+    share = np.maximum(relative(w, w_hat), relative(f, f_hat))
+    worst = float(share.max()) if share.size else 0.0
+    unsettled = share >= STEP_SPREAD * worst
+    others = share[~unsettled]
+    return ([int(t) + 1 for t in np.flatnonzero(unsettled)],
+            float(others.max()) if others.size else float("nan"))
 
 
 def blows_up(size: FloatArray, first_size: FloatArray) -> npt.NDArray[np.bool_]:

@@ -30,7 +30,7 @@ from .batching import interface_families, operators_per_case
 from .body_forces import BodyResponse, body_response, stacked_offsets, with_body_constants
 from .case_state import IterationState
 from .engine import one_blas_thread
-from .guards import BLOWUP, DRIFT_WINDOW, blows_up
+from .guards import BLOWUP, DRIFT_WINDOW, blows_up, drifting_steps
 from .iteration import IterationObserver, iterate
 from .local_stage import LocalStage
 from .operators import LatinOperators
@@ -352,11 +352,15 @@ def _result(c: int, assembly: Assembly, pts: InterfacePoints, state: IterationSt
             "(a prescribed or rigid displacement far larger than the deformation weighs "
             "in eta's norm): no equilibrium, or a larger max_iter may converge")
     if state.drifting[c]:
+        steps, others = drifting_steps(pts.weights, w, f, w_hat, f_hat)
+        where = (f"at step(s) {', '.join(map(str, steps))} (the other steps settled to "
+                 f"{others:.1e} of their fields)" if len(steps) < w.shape[0] else "")
         converged, failure = False, (
-            f"no equilibrium: the interface fields grow at a steady rate over the last "
-            f"{DRIFT_WINDOW} iterations (eta = {history[-1]:.2e}, falling only because "
-            "they grow): a body slides without end, the load exceeding what friction, "
-            "contact and stops can hold (or the iteration is too slow to finish)")
+            f"no equilibrium{' ' + where if where else ''}: the interface fields grow at a "
+            f"steady rate over the last {DRIFT_WINDOW} iterations (eta = {history[-1]:.2e}, "
+            "falling only because they grow): a body slides without end, the load "
+            "exceeding what friction, contact and stops can hold (or the iteration is too "
+            "slow to finish)")
     if blows_up(np.asarray(state.sizes[c][-1:]), np.asarray(state.sizes[c][:1])).any():
         converged, failure = False, (
             f"diverged: the interface fields grew to more than {BLOWUP:g} times their size "
