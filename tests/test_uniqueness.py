@@ -14,6 +14,8 @@ import logging
 from importlib import resources
 from pathlib import Path
 
+import meshio
+import numpy as np
 import pytest
 
 import multilatin as ml
@@ -462,3 +464,20 @@ def test_a_body_lifted_off_is_undetermined_there_and_determined_once_pressed_aga
     assert abs(lifts[0][0] - lifts[1][0]) > 0.1 * abs(lifts[1][0])  # not determined
     for name in ("R_push", "u_right"):  # determined once pressed again
         assert results[0].qoi[name][6:] == pytest.approx(results[1].qoi[name][6:], rel=1e-6)
+
+
+def test_the_vtk_marks_the_parts_whose_position_is_undetermined(tmp_path: Path) -> None:
+    """ParaView's ``displacement_determined``: 0 on B1's centre block at (0, 0) steps 1–5
+    (it floats in the frictionless preload), 1 on the other blocks and at steps 6–15."""
+    assert main(["solve", "b1", "--set", "mu1=0", "--set", "mu2=0", "--out",
+                 str(tmp_path)]) == 0
+    for step in (1, 5, 6, 15):
+        mesh = meshio.read(tmp_path / "vtk" / f"b1_step{step:03d}.vtu")
+        flag = np.concatenate(mesh.cell_data["displacement_determined"])
+        sub = np.concatenate(mesh.cell_data["substructure"]).astype(int)
+        centre = np.isin(sub, [s for s, part in enumerate(ml.load_model("b1").assemble()
+                                                         .substructures)
+                               if part.body == "centre"])
+        assert centre.any() and (~centre).any()
+        assert np.all(flag[~centre] == 1.0)
+        assert np.all(flag[centre] == (0.0 if step <= 5 else 1.0))

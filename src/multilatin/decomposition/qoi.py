@@ -10,6 +10,7 @@ from dataclasses import dataclass, field
 from typing import TYPE_CHECKING, Any
 
 import numpy as np
+import numpy.typing as npt
 
 from ..errors import ModelError
 from ..fem.elasticity import (
@@ -330,23 +331,30 @@ def determined_values(assembly: Assembly, motions: Sequence[FreeMotion]
     """Which QoI values the discrete problem determines, shaped as ``evaluate_qois``'s,
     given the converged state's free motions (``uniqueness.free_motions``). A rigid motion
     changes no force, stress or pressure: at its step only a displacement QoI of a part it
-    moves, in a component it moves, is undetermined. After a motion that reaches the last
-    step (friction builds on the position, gaps change with it), no value of the later
-    steps is determined."""
-    n_steps = assembly.n_steps
+    moves, in a component it moves, is undetermined (``determined_steps``)."""
     out: dict[str, bool | list[bool]] = {}
     for q in assembly.qois:
-        determined = np.ones(n_steps, dtype=bool)
-        for motion in motions:
-            if motion.reaches_last_step:
-                determined[motion.step:] = False
-            if q.kind == "displacement" and not _still(assembly, q, motion):
-                determined[motion.step - 1] = False
+        determined = determined_steps(motions, assembly.n_steps, [
+            q.kind == "displacement" and not _still(assembly, q, motion) for motion in motions])
         if q.step is not None:
             determined = determined[q.step - 1:q.step]
         out[q.name] = (bool(determined[0]) if determined.size == 1
                        else [bool(d) for d in determined])
     return out
+
+
+def determined_steps(motions: Sequence[FreeMotion], n_steps: int, moved: Sequence[bool]
+                     ) -> npt.NDArray[np.bool_]:
+    """Per load step, whether a value is determined: not at the step of a free motion that
+    moves it (``moved``, per motion), nor at any step after a motion that reaches the last
+    step (friction builds on the position, gaps change with it)."""
+    determined = np.ones(n_steps, dtype=bool)
+    for motion, moves in zip(motions, moved, strict=True):
+        if motion.reaches_last_step:
+            determined[motion.step:] = False
+        if moves:
+            determined[motion.step - 1] = False
+    return determined
 
 
 def _still(assembly: Assembly, q: QuantityOfInterest, motion: FreeMotion) -> bool:

@@ -12,6 +12,7 @@ from xml.sax.saxutils import quoteattr
 import meshio
 import numpy as np
 
+from ..decomposition.qoi import determined_steps
 from ..decomposition.result import SolveResult
 from ..fem.elasticity import FloatArray, IntArray, cell_strains, cell_stresses, von_mises
 from ..parameters import label
@@ -63,6 +64,10 @@ def _solid(result: SolveResult) -> tuple[FloatArray, list[tuple[str, IntArray]],
                                    -sub.material.young * sub.material.expansion * heat),
             "substructure": np.full((n_steps, n_cells), float(s)),
             "material_fraction": np.broadcast_to(fraction[kept], (n_steps, n_cells)),
+            # 0 where a free rigid motion leaves the part's position undetermined
+            "displacement_determined": np.broadcast_to(determined_steps(
+                result.free_motions, n_steps, [sub.body in m.bodies for m in result.free_motions]
+            )[:, None].astype(float), (n_steps, n_cells)),
         }
         if stress.shape[-1] == 4:  # axisymmetric: the hoop components
             columns.update({"stress_tt": stress[..., 3], "strain_tt": strain[..., 3]})
@@ -139,7 +144,9 @@ def write_vtk(result: SolveResult, folder: Path) -> Path:
     """``<model>.pvd``, one time series that ParaView opens at once (load steps as time 1,
     2, …): per step ``<model>_stepNNN.vtu`` (every substructure; point data displacement;
     cell data stresses, strains (tensor components), von Mises stress, substructure index,
-    material fraction; a hole's void cells and their nodes left out) and, for a LATIN result
+    material fraction, ``displacement_determined`` (0 where a free rigid motion leaves the
+    part's position undetermined, ``qoi.determined_steps``); a hole's void cells and their nodes
+    left out) and, for a LATIN result
     with contact, ``<model>_contact_stepNNN.vtu`` (the contact points with traction,
     pressure, tangential traction, normal, area, status: 0 open, 1 stick, 2 slip, the
     displacement jump across the contact and its tangential part, the slip, along the
