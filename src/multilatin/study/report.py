@@ -118,8 +118,8 @@ def summary_lines(result: StudyResult) -> list[str]:
             f"NOT UNIQUE: {len(not_unique)} case(s) where the discrete problem does not "
             "determine the answer (a body at the friction limit; solved from zero so that "
             "the answer does not depend on the study's order): "
-            + ", ".join("(" + ", ".join(f"{k}={v:g}" for k, v in r["params"].items()) + ")"
-                        for r in not_unique[:8]) + (", ..." if len(not_unique) > 8 else "")
+            + ", ".join(_params(r) for r in not_unique[:8])
+            + (", ..." if len(not_unique) > 8 else "")
             + _unsettled_note(not_unique))
     partly = [r for r in records if r.get("unique", True) and r.get("qoi_determined")]
     if partly:
@@ -127,7 +127,7 @@ def summary_lines(result: StudyResult) -> list[str]:
             f"UNDETERMINED: {len(partly)} case(s), unique at the last step, with QoI values "
             "at earlier load steps that the discrete problem does not determine (a body free "
             "to move there; study.nc's <QoI>_determined is false at them), e.g. "
-            + "(" + ", ".join(f"{k}={v:g}" for k, v in partly[0]["params"].items()) + "): "
+            + _params(partly[0]) + ": "
             + "; ".join(_undetermined_at(name, flags)
                         for name, flags in partly[0]["qoi_determined"].items()))
     sliding = [r for r in records if r.get("large_slips")]
@@ -136,11 +136,16 @@ def summary_lines(result: StudyResult) -> list[str]:
             f"LARGE SLIP: {len(sliding)} case(s) whose contacts slide beyond the "
             "small-sliding range (pairs no longer facing: their answers are those of "
             "contacts that did not slide; study.nc's small_sliding is false there), e.g. "
-            + "(" + ", ".join(f"{k}={v:g}" for k, v in sliding[0]["params"].items()) + "): "
+            + _params(sliding[0]) + ": "
             + sliding[0]["large_slips"][0])
     for repair in result.repairs:
         lines.append(f"repaired on resume: {repair}")
     return lines
+
+
+def _params(record: dict[str, Any]) -> str:
+    """A case's parameters, as the summary names it: (mu1=0, mu2=0.3)."""
+    return "(" + ", ".join(f"{k}={v:g}" for k, v in record["params"].items()) + ")"
 
 
 def _undetermined_at(name: str, flags: bool | list[bool]) -> str:
