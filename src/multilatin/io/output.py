@@ -145,9 +145,9 @@ def write_vtk(result: SolveResult, folder: Path) -> Path:
     2, …): per step ``<model>_stepNNN.vtu`` (every substructure; point data displacement;
     cell data stresses, strains (tensor components), von Mises stress, substructure index,
     material fraction, ``displacement_determined`` (0 where a free rigid motion leaves the
-    part's position undetermined, ``qoi.determined_steps``); a hole's void cells and their nodes
-    left out) and, for a LATIN result
-    with contact, ``<model>_contact_stepNNN.vtu`` (the contact points with traction,
+    part's position undetermined, ``qoi.determined_steps``); a hole's void cells and their
+    nodes left out) and, for a LATIN result with contact, ``<model>_contact_stepNNN.vtu``
+    (the contact points with traction,
     pressure, tangential traction, normal, area, status: 0 open, 1 stick, 2 slip, the
     displacement jump across the contact and its tangential part, the slip, along the
     normal turned by +90°)."""

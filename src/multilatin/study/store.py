@@ -329,7 +329,8 @@ def to_dataset(grid: Grid, records: Iterable[dict[str, Any]], attrs: dict[str, A
     their model-file units (``attrs["units"]``). Cases not computed, and cases that did not
     converge, have NaN quantities of interest (``finished`` and ``converged`` say which);
     ``unique`` is False where the discrete problem did not determine the answer
-    (``multilatin.uniqueness``)."""
+    (``multilatin.uniqueness``), ``<QoI>_determined`` where it did not determine that
+    value (``SolveResult.qoi_determined``; the record's ``qoi_determined``)."""
     records = list(records)
     attrs = dict(attrs)
     units: dict[str, str] = dict(attrs.pop("units", {}))  # netCDF's per-variable "units"
