@@ -17,11 +17,8 @@ import os
 import sys
 from pathlib import Path
 
-import numpy as np
-
 from . import __version__
 from .decomposition.result import SolveResult
-from .decomposition.uniqueness import FreeMotion
 from .errors import ModelError, NotConvergedError
 from .io.describe import (
     body_force_lines,
@@ -251,59 +248,11 @@ def _report(result: SolveResult, args: argparse.Namespace,
             data["reference"] = {"qoi": reference.qoi, "wall_s": reference.wall_s}
         print(json.dumps(data))
         return
-    status = ("converged" + (" on its QoIs' estimated errors (--qoi-rtol)"
-                             if result.stopped_on_qoi else "")
-              if result.converged else f"NOT CONVERGED ({result.failure})")
-    print(f"{result.assembly.name} ({result.method}): {status}, {result.iterations} iterations, "
-          f"indicator {result.indicator:.2e}, {result.wall_s:.3f} s")
-    print("parameters: " + ", ".join(f"{k} = {v:g}" for k, v in result.assembly.mu.items()))
-    if not result.converged:
-        print("  (quantities of interest withheld: the iteration did not converge)")
-        return
+    from .io.result_text import result_lines
     from .latin.tracking import SETTLED  # the solver's modules are loaded by now
 
-    unsettled = result.state_change > SETTLED
-    for motion in result.free_motions:
-        if motion.reaches_last_step:
-            print(f"  NOT UNIQUE: {motion.describe()}"
-                  + (f" (read on a state still changing by ~{result.state_change:.1e}: "
-                     "check with a tighter --tol)" if unsettled else ""))
-    groups: dict[tuple[object, ...], tuple[FreeMotion, list[int]]] = {}
-    for motion in result.free_motions:  # those that leave the last step's answer standing
-        if not motion.reaches_last_step:
-            key = (motion.bodies, motion.velocity, motion.rotation, motion.friction_holds)
-            groups.setdefault(key, (motion, []))[1].append(motion.step)
-    for first, steps in groups.values():
-        print(f"  UNDETERMINED: {first.describe(steps)}")
-    for slip in result.large_slips:
-        print(f"  LARGE SLIP: {slip.describe()}")
-    units = {q.name: q.unit for q in result.assembly.qois}
-    for which, res in [("", result)] + ([("reference ", reference)] if reference else []):
-        for name, value in res.qoi.items():
-            unit = units.get(name, "")
-            unit = "" if unit in ("", "1", "-") else f" {unit}"
-            error = res.qoi_error.get(name)
-            acceleration = res.options.get("acceleration", "relaxation")
-            # the estimated remaining error of the iteration (multilatin.latin.tracking)
-            if error is not None:
-                note = (f"  (estimated error {max(np.atleast_1d(error)):.2g}{unit}"
-                        f"{' at most' if isinstance(error, list) else ''})")
-            elif res.converged and acceleration != "relaxation":  # LATIN, not estimated
-                note = f"  (error not estimated: acceleration {acceleration})"
-            elif res.converged and res.state_change > SETTLED:  # not settled enough
-                note = (f"  (error not estimated: the state still changes by "
-                        f"~{res.state_change:.1e}; a tighter --tol gives one)")
-            else:
-                note = ""
-            flags = np.atleast_1d(res.qoi_determined.get(name, True))
-            if not flags.all():  # a body free to move (the NOT UNIQUE / UNDETERMINED lines)
-                at = ", ".join(str(t + 1) for t in np.flatnonzero(~flags))
-                note += f"  (undetermined{f' at step(s) {at}' * isinstance(value, list)})"
-            if isinstance(value, list):
-                shown = ", ".join(f"{v:.6g}" for v in value)
-                print(f"  {which}{name} = [{shown}]{unit}{note}")
-            else:
-                print(f"  {which}{name} = {value:.9g}{unit}{note}")
+    for line in result_lines(result, reference, SETTLED):
+        print(line)
     if args.out is not None:
         print(f"results written to {args.out}")
 
