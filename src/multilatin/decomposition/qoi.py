@@ -334,8 +334,11 @@ def determined_values(assembly: Assembly, motions: Sequence[FreeMotion]
     moves, in a component it moves, is undetermined (``determined_steps``)."""
     out: dict[str, bool | list[bool]] = {}
     for q in assembly.qois:
-        determined = determined_steps(motions, assembly.n_steps, [
-            q.kind == "displacement" and not _still(assembly, q, motion) for motion in motions])
+        moved = [False] * len(motions)
+        if q.kind == "displacement":  # the part its point reads, located once
+            body = assembly.substructures[point_substructure(assembly.substructures, q)].body
+            moved = [not _still(q, body, motion) for motion in motions]
+        determined = determined_steps(motions, assembly.n_steps, moved)
         if q.step is not None:
             determined = determined[q.step - 1:q.step]
         out[q.name] = (bool(determined[0]) if determined.size == 1
@@ -357,13 +360,12 @@ def determined_steps(motions: Sequence[FreeMotion], n_steps: int, moved: Sequenc
     return determined
 
 
-def _still(assembly: Assembly, q: QuantityOfInterest, motion: FreeMotion) -> bool:
-    """The displacement QoI ``q`` does not move with ``motion``: another part's, or a
-    component the motion leaves (B1's horizontal slide leaves v; a beam's vertical
-    deflection on sliding supports stays determined)."""
+def _still(q: QuantityOfInterest, body: str, motion: FreeMotion) -> bool:
+    """The displacement QoI ``q``, read on a part of ``body``, does not move with
+    ``motion``: another body's, or a component the motion leaves (B1's horizontal slide
+    leaves v; a beam's vertical deflection on sliding supports stays determined)."""
     assert q.point is not None
-    sub = assembly.substructures[point_substructure(assembly.substructures, q)]
-    if sub.body not in motion.bodies:
+    if body not in motion.bodies:
         return True
     (vx, vy), omega, (cx, cy) = motion.velocity, motion.rotation, motion.centre
     velocity = (vx - omega * (q.point[1] - cy), vy + omega * (q.point[0] - cx))

@@ -28,11 +28,12 @@ def result_lines(result: SolveResult, reference: SolveResult | None,
     lines += _motion_lines(result, settled)
     units = {q.name: q.unit for q in result.assembly.qois}
     for which, res in [("", result)] + ([("reference ", reference)] if reference else []):
+        determined = res.qoi_determined  # once per result: it locates the QoIs' points
         for name, value in res.qoi.items():
             unit = units.get(name, "")
             unit = "" if unit in ("", "1", "-") else f" {unit}"
             note = _error_note(res, name, unit, settled)
-            flags = np.atleast_1d(res.qoi_determined.get(name, True))
+            flags = np.atleast_1d(determined.get(name, True))
             if not flags.all():  # a body free to move (the NOT UNIQUE / UNDETERMINED lines)
                 at = ", ".join(str(t + 1) for t in np.flatnonzero(~flags))
                 note += f"  (undetermined{f' at step(s) {at}' * isinstance(value, list)})"
