@@ -143,7 +143,7 @@ def _study(model: Model, grid: ml.Grid, modes: tuple[str, ...] = ("multiresoluti
 
 
 def anatomy(name: str) -> None:
-    model = ml.load_model(name)
+    model = ml.load_model(name.removesuffix("-frictions"))
     grid = ml.Grid.parse(GRIDS[name])
     _study(model, grid)  # loads and compiles everything once
     plan.clear_operator_cache()
@@ -303,7 +303,7 @@ def variants(name: str, title: str, settings: list[tuple[str, Any, str, Any]]) -
 
 
 def windows(name: str, values: list[int]) -> None:
-    model = ml.load_model(name)
+    model = ml.load_model(name.removesuffix("-frictions"))
     grid = ml.Grid.parse(GRIDS[name])
     reference = _tight_r_stop(model, grid)
     saved = iteration.WINDOW, iteration.RECENT

@@ -331,6 +331,10 @@ def test_a_free_motion_with_no_friction_to_resist_it_says_so(tmp_path: Path) -> 
     pressed = ml.load_model("b1").solve({"mu1": 0.15, "mu2": 0.15}).free_motions
     assert pressed and all(m.friction_holds and "100.00 % of its capacity" in m.describe()
                            for m in pressed)
+    # at step 10 of 15, friction carries the position into steps 11–15
+    assert all(m.step == 10 and m.carried_on and m.describe().endswith(
+        "nor are the answers of the later steps that friction builds on it")
+        for m in pressed)
 
 
 BEAM_ON_SLIDING_SUPPORTS = """
@@ -401,6 +405,9 @@ def test_a_beam_on_two_sliding_supports_is_free_to_translate_its_forces_are_not(
     # the vertical deflection and the forces are determined, the x position is not
     assert latin.qoi_determined == {"v_mid": True, "R_left": True, "H_left": True}
     assert "(this step's forces are)" in motion.describe()
+    # one load step: no later step to speak of (before session 51 the text named "the
+    # steps that friction builds on it" at the last step too)
+    assert not motion.carried_on and "later steps" not in motion.describe()
 
 
 def test_solve_prints_the_steps_whose_displacements_are_undetermined(capsys) -> None:

@@ -52,7 +52,8 @@ class FreeMotion:
     (vx, vy) + ω × (x − centre), with ``reserve`` the unused share of friction along it.
     ``reaches_last_step``: the last step's answer depends on it (it is the last step, or
     friction carries the position into the later steps). ``friction_holds``: friction
-    resists the motion at all (false where its contacts are open or frictionless)."""
+    resists the motion at all (false where its contacts are open or frictionless).
+    ``carried_on``: there are later steps and friction carries the position into them."""
 
     step: int
     bodies: tuple[str, ...]
@@ -62,6 +63,7 @@ class FreeMotion:
     reserve: float
     reaches_last_step: bool
     friction_holds: bool = True
+    carried_on: bool = False
 
     def describe(self, steps: Sequence[int] = ()) -> str:
         """One line; ``steps``: the steps of one motion named together (a motion that
@@ -74,10 +76,11 @@ class FreeMotion:
                "nothing resists it (no pressed contact with friction along it)")
         at = f"step(s) {', '.join(map(str, steps))}" if steps else f"step {self.step}"
         whose = "those steps'" if steps else "this step's"
+        later = (", nor are the answers of the later steps that friction builds on it"
+                 if self.carried_on else "")
         return (f"{at}: {'+'.join(self.bodies)} is free to move ({what}), {why}"
                 + ("; its position along it is not determined by the discrete problem "
-                   "(this step's forces are), nor are the answers of the steps that "
-                   "friction builds on it" if self.reaches_last_step else
+                   f"(this step's forces are){later}" if self.reaches_last_step else
                    f"; only {whose} displacements are undetermined"))
 
 
@@ -341,7 +344,8 @@ def _motions_of(clusters: list[_Cluster], points: Sequence[InterfacePoints],
                                              float(mode[2] / cluster.size), centre,
                                              max(float(reserve[i]), 0.0),
                                              t + 1 == n_steps or bool(carried[i]),
-                                             bool(capacity[i] > 0.0)))
+                                             bool(capacity[i] > 0.0),
+                                             t + 1 < n_steps and bool(carried[i])))
                     break
     return out
 
@@ -479,5 +483,6 @@ def _limit_motions_of(clusters: list[_Cluster], points: Sequence[InterfacePoints
                     t + 1, cluster.bodies, (float(mode[0]), float(mode[1])),
                     float(mode[2] / cluster.size),
                     (float(cluster.centre[0]), float(cluster.centre[1])),
-                    float(reserve[n]), t + 1 == n_steps or bool(carried[near_limit[n]])))
+                    float(reserve[n]), t + 1 == n_steps or bool(carried[near_limit[n]]),
+                    carried_on=t + 1 < n_steps and bool(carried[near_limit[n]])))
     return out
