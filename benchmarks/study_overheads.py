@@ -8,7 +8,7 @@ everything as it is and once with each of these switched back, one at a time:
 
 - ``interfaces rebuilt``: a new hole position rebuilds the interface points, the search
   direction and the macro basis (before: only the substructure operators were reused;
-  now the interfaces are taken over when only a hole moved, ``operators.interface_signature``);
+  now the interfaces are taken over when only a hole moved, ``signatures.interface_signature``);
 - ``recovery by factorisation``: the interior displacements from a solve with each
   substructure's sparse factorisation (now one dense product with S⁻¹ Tᵀ M0, kept from the
   operators' construction: ``condensation.RECOVERY_ENTRIES``);
@@ -29,7 +29,7 @@ from contextlib import contextmanager
 from typing import Any
 
 import multilatin as ml
-from multilatin.latin import condensation, operators
+from multilatin.latin import condensation, operators, signatures
 from multilatin.parameters import Grid
 from multilatin.study.plan import clear_operator_cache
 from multilatin.study.runner import run_study
@@ -41,16 +41,19 @@ GRIDS = {"b3": ["xc=23:27:5", "yc=73:77:5", "rc=3"],
 @contextmanager
 def interfaces_rebuilt() -> Iterator[None]:
     """Every geometry its own interfaces: their signature takes the holes in."""
-    original = operators.interface_signature
+    original = signatures.interface_signature
 
     def with_holes(assembly: Any, options: Any) -> str:
         return original(assembly, options) + repr([s.hole for s in assembly.substructures])
 
-    operators.interface_signature = with_holes  # type: ignore[assignment]
+    # where the operators and the study's plan (``operator_signature``) call it
+    for module in (operators, signatures):
+        module.interface_signature = with_holes  # type: ignore[attr-defined]
     try:
         yield
     finally:
-        operators.interface_signature = original  # type: ignore[assignment]
+        for module in (operators, signatures):
+            module.interface_signature = original  # type: ignore[attr-defined]
 
 
 @contextmanager

@@ -297,7 +297,7 @@ def test_a_batch_larger_than_the_memory_is_solved_in_chunks(
     an error naming the device, never an out-of-memory crash."""
     from dataclasses import replace
 
-    from multilatin.latin.torch_engine import FIELDS_PER_CASE, MEMORY_SHARE, cases_per_chunk
+    from multilatin.latin.torch_memory import FIELDS_PER_CASE, MEMORY_SHARE, cases_per_chunk
 
     model = ml.load_model("b1")
     assemblies = [model.assemble({"mu1": mu}) for mu in (0.1, 0.2, 0.3)]

@@ -10,7 +10,7 @@ import multilatin as ml
 from multilatin.errors import ModelError
 from multilatin.io.modelfile import ModelSpec
 from multilatin.latin import LatinOperators, LatinOptions, solve_latin
-from multilatin.latin.operators import operator_signature
+from multilatin.latin.signatures import operator_signature
 from multilatin.parameters import Grid
 
 TIGHT = LatinOptions(tol=1e-9, max_iter=5000)

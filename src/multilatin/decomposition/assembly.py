@@ -90,7 +90,7 @@ class Substructure:
     @cached_property
     def description(self) -> str:
         """What its interfaces' points depend on, as text: name, body, mesh and material
-        (``latin.operators.interface_signature``; once per substructure)."""
+        (``latin.signatures.interface_signature``; once per substructure)."""
         return repr((self.name, self.body, self.mesh, self.material))
 
     @cached_property
@@ -383,7 +383,7 @@ class Assembly:
 
     @cached_property
     def digests(self) -> dict[object, str]:
-        """Digests of this assembly computed once (``latin.operators.interface_signature``),
+        """Digests of this assembly computed once (``latin.signatures.interface_signature``),
         by what else they depend on."""
         return {}
 

@@ -15,12 +15,13 @@ import importlib
 from typing import TYPE_CHECKING, Any
 
 if TYPE_CHECKING:
-    from .operators import LatinOperators, operator_signature
+    from .operators import LatinOperators
     from .options import LatinOptions
+    from .signatures import operator_signature
     from .solver import solve_latin, solve_latin_batch
 
 #: loaded on first use, so that ``LatinOptions`` comes without the solver's imports
-_EXPORTS = {"LatinOperators": "operators", "operator_signature": "operators",
+_EXPORTS = {"LatinOperators": "operators", "operator_signature": "signatures",
             "LatinOptions": "options", "solve_latin": "solver", "solve_latin_batch": "solver"}
 
 __all__ = ["LatinOperators", "LatinOptions", "operator_signature", "solve_latin",

@@ -13,10 +13,12 @@ import numpy as np
 from ..decomposition.assembly import Assembly
 from ..errors import ModelError
 from ..fem.elasticity import FloatArray, IntArray
-from .engine import FieldEngine, NumpyFields
+from .engine import NumpyFields
+from .field_engine import FieldEngine
 from .local_stage import LocalStage
-from .operators import LatinOperators, operator_signature
+from .operators import LatinOperators
 from .options import LatinOptions
+from .signatures import operator_signature
 from .tracking import QoiFunctionals
 
 __all__ = ["interface_families", "make_engine", "operators_per_case", "same_interfaces"]

@@ -3,19 +3,19 @@ the linear stage with the macro problem, relaxation or Anderson mixing, the loca
 tracked quantities of interest and the indicator's norms, on the interface fields of the
 active cases of a batch.
 
-``NumpyFields`` is the reference (NumPy, with the Numba kernels when installed);
-``torch_engine.TorchFields`` does the same work with PyTorch on a CPU or a GPU
-(``LatinOptions.backend``). Both hold s = (W, F) and ŝ = (Ŵ, F̂) of shape ``(n_active,
-n_steps, n_points, 2)``, hand to the solver only what its control needs (η's norms and the
-QoIs per case, host arrays of a few numbers per case) and give the fields back when cases
-leave the batch.
+``NumpyFields`` (a ``field_engine.FieldEngine``) is the reference (NumPy, with the Numba
+kernels when installed); ``torch_engine.TorchFields`` does the same work with PyTorch on a
+CPU or a GPU (``LatinOptions.backend``). Both hold s = (W, F) and ŝ = (Ŵ, F̂) of shape
+``(n_active, n_steps, n_points, 2)``, hand to the solver only what its control needs (η's
+norms and the QoIs per case, host arrays of a few numbers per case) and give the fields
+back when cases leave the batch.
 """
 
 from __future__ import annotations
 
 import time
 from collections.abc import Sequence
-from typing import Any, Protocol
+from typing import Any
 
 import numpy as np
 import numpy.typing as npt
@@ -32,63 +32,12 @@ from .threads import one_blas_thread
 from .tracking import QoiFunctionals
 from .two_scale import compiled_local_stage, coupled_local_stage, keep_settled
 
-__all__ = ["SETTLE_ITERATIONS", "FieldEngine", "NumpyFields", "as_run", "indicator_weights",
+__all__ = ["SETTLE_ITERATIONS", "NumpyFields", "as_run", "indicator_weights",
            "norms", "one_blas_thread"]
 
 #: iterations a leading step's ‖s − ŝ‖ stays under its bound before it settles
 #: (``NumpyFields.settle``)
 SETTLE_ITERATIONS = 3
-
-
-class FieldEngine(Protocol):
-    """What ``solver._iterate`` asks of a backend, iteration after iteration."""
-
-    t_linear: float  # linear stage with the macro problem and relaxation, seconds
-    t_macro: float
-    t_local: float
-
-    def linear_stage(self, relaxation: FloatArray) -> None:
-        """s ← linear(ŝ), relaxed by ω per active case (or mixed, with Anderson)."""
-
-    def local_stage(self) -> None:
-        """ŝ ← local(s)."""
-
-    def qoi_values(self) -> FloatArray:
-        """The tracked QoIs (n_active, n_qoi, n_steps) of the current fields, on the host."""
-
-    def indicator(self) -> tuple[FloatArray, FloatArray]:
-        """Per active case ‖s − ŝ‖ and ½(‖s‖ + ‖ŝ‖) (paper §4.3), on the host."""
-
-    def fields(self, cases: IntArray | None = None
-               ) -> tuple[FloatArray, FloatArray, FloatArray, FloatArray]:
-        """(W, F, Ŵ, F̂) of the active cases at positions ``cases`` (all: None), as NumPy
-        arrays on the host."""
-
-    def keep(self, cases: IntArray) -> None:
-        """Only the active cases at positions ``cases`` go on."""
-
-    def shift(self, cases: IntArray, dw: Sequence[Any], df: Sequence[Any]) -> None:
-        """s ← s + (dw, df) for the active cases at positions ``cases`` (one row
-        ``(n_steps, n_points, 2)`` per case, the engine's arrays; ``sliding``)."""
-
-    def local_stage_of(self, cases: IntArray) -> None:
-        """The local stage again for the active cases at positions ``cases`` (after a
-        ``shift``), the others' ŝ left as it is where the backend can (NumPy: a case's
-        iterates then do not depend on its batch; the coupled local stage's inner passes
-        start from the last ŝ, so another pass would move them a little)."""
-
-    def state(self, cases: IntArray) -> tuple[Any, Any]:
-        """Copies of (W, F) of the active cases at positions ``cases``, kept where the
-        fields live (torch: on its device): the sliding extrapolation's marks."""
-
-    def take(self, rows: Any, index: IntArray) -> Any:
-        """The rows ``index`` of ``state``'s arrays (or of their differences)."""
-
-    def state_norms(self, dw: Any, df: Any) -> FloatArray:
-        """‖(dw, df)‖ per row in the indicator's norm (§4.3), on the host."""
-
-    def host(self, rows: Any) -> FloatArray:
-        """``state``'s arrays (or rows of them) as NumPy arrays on the host."""
 
 
 class NumpyFields:

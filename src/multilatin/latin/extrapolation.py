@@ -31,7 +31,7 @@ from __future__ import annotations
 import numpy as np
 
 from ..fem.elasticity import FloatArray, IntArray
-from .engine import FieldEngine
+from .field_engine import FieldEngine
 
 __all__ = ["SAFEGUARD", "SKETCH", "ReducedRankExtrapolation"]
 

@@ -17,6 +17,10 @@ agree to rounding (tests).
 - ``relax``: s ← ω s_new + (1 − ω) s in place; ``relax_rows`` the same on chosen rows;
 - ``indicator_squares``: ‖s − ŝ‖², ‖s‖², ‖ŝ‖², ‖F‖², ‖F̂‖² per case (paper §4.3), ‖s − ŝ‖²
   and ‖F − F̂‖² per step.
+
+The Python of ``indicator_squares`` is in ``indicator_kernel``, that of the two-scale
+products (``two_scale_correction``, ``direction_update`` and their helpers) in
+``two_scale_kernels``, the cross points' groups in ``cross_points``.
 """
 
 from __future__ import annotations
@@ -31,9 +35,12 @@ import numpy as np
 import numpy.typing as npt
 
 from ..fem.elasticity import FloatArray, IntArray
+from . import two_scale_kernels as _two_scale
 from .cross_points import merge_groups as _merge_groups
 from .cross_points import split_groups as _split_groups
 from .indicator_kernel import indicator_squares as _indicator_squares
+from .two_scale_kernels import coupling_shift as _coupling_shift
+from .two_scale_kernels import project_columns as _project_columns
 
 log = logging.getLogger(__name__)
 
@@ -346,96 +353,6 @@ def _coupled_contact(displacement: FloatArray, force: FloatArray, w_hat: FloatAr
         macro[c, t0:] = x + projected
 
 
-def _project_columns(rows: FloatArray, support: IntArray, slot: IntArray, starts: IntArray,
-                     values: FloatArray, columns: FloatArray, sums: FloatArray,
-                     out: FloatArray) -> None:  # pragma: no cover - compiled
-    """out[t, j] += Σ values[e] rows[t, flat[e]] over function j's entries e (in order), the
-    rows' support gathered first into compact columns (work arrays ``columns`` (n_support,
-    T), ``sums`` (r, T)): the steps then run along contiguous memory."""
-    n_steps = rows.shape[0]
-    for u in range(support.size):
-        for t in range(n_steps):
-            columns[u, t] = rows[t, support[u]]
-    for j in range(starts.size - 1):
-        for t in range(n_steps):
-            sums[j, t] = out[t, j]
-        for e in range(starts[j], starts[j + 1]):
-            u, value = slot[e], values[e]
-            for t in range(n_steps):
-                sums[j, t] += value * columns[u, t]
-        for t in range(n_steps):
-            out[t, j] = sums[j, t]
-
-
-def _coupling_shift(projected: FloatArray, coupling_starts: IntArray,
-                    coupling_columns: IntArray, coupling_values: FloatArray,
-                    shift: FloatArray) -> None:  # pragma: no cover - compiled
-    """shift = G projected over G's nonzeros row by row (G is block diagonal)."""
-    shift[:] = 0.0
-    for i in range(coupling_starts.size - 1):
-        for e in range(coupling_starts[i], coupling_starts[i + 1]):
-            shift[coupling_columns[e]] += projected[i] * coupling_values[e]
-
-
-def _correction_row(out: FloatArray, field: FloatArray, starts: IntArray, flat: IntArray,
-                    basis: FloatArray, weighted: FloatArray, coupling_starts: IntArray,
-                    coupling_columns: IntArray, coupling_values: FloatArray,
-                    projected: FloatArray, shift: FloatArray
-                    ) -> None:  # pragma: no cover - compiled
-    """out += (H − D) x = E G Eᵀ M0 x for one row x = ``field`` (2P,), function after
-    function; ``projected`` and ``shift`` are (r,) work arrays."""
-    for j in range(starts.size - 1):  # Eᵀ M0 x
-        total = 0.0
-        for e in range(starts[j], starts[j + 1]):
-            total += weighted[e] * field[flat[e]]
-        projected[j] = total
-    _coupling_shift(projected, coupling_starts, coupling_columns, coupling_values, shift)
-    for j in range(starts.size - 1):  # += E G (Eᵀ M0 x)
-        for e in range(starts[j], starts[j + 1]):
-            out[flat[e]] += basis[e] * shift[j]
-
-
-def _two_scale_correction(out: FloatArray, field: FloatArray, starts: IntArray,
-                          flat: IntArray, basis: FloatArray, weighted: FloatArray,
-                          coupling_starts: IntArray, coupling_columns: IntArray,
-                          coupling_values: FloatArray) -> None:  # pragma: no cover - compiled
-    r = coupling_starts.size - 1
-    projected, shift = np.empty(r), np.empty(r)
-    for t in range(field.shape[0]):
-        _correction_row(out[t], field[t], starts, flat, basis, weighted, coupling_starts,
-                        coupling_columns, coupling_values, projected, shift)
-
-
-def _direction_update(out: FloatArray, base: FloatArray, a: FloatArray, b: FloatArray,
-                      use_base: bool, use_b: bool, k: FloatArray, starts: IntArray,
-                      flat: IntArray, basis: FloatArray, weighted: FloatArray,
-                      coupling_starts: IntArray, coupling_columns: IntArray,
-                      coupling_values: FloatArray) -> None:  # pragma: no cover - compiled
-    """Rows (n, 2P): out = base + (k d + (H − D) d), d = a − b, with the operations and
-    their order of NumPy's k x then ``two_scale_correction`` (``use_b`` False: d = a;
-    ``use_base`` False: out = H d). ``out`` may be ``base``. Row by row, so that the
-    fields are read once."""
-    r = coupling_starts.size - 1
-    n = a.shape[1]
-    projected, shift = np.empty(r), np.empty(r)
-    difference, row = np.empty(n), np.empty(n)
-    for t in range(a.shape[0]):
-        if use_b:
-            for i in range(n):
-                difference[i] = a[t, i] - b[t, i]
-        else:
-            difference[:] = a[t]
-        for i in range(n):
-            row[i] = k[i] * difference[i]
-        _correction_row(row, difference, starts, flat, basis, weighted, coupling_starts,
-                        coupling_columns, coupling_values, projected, shift)
-        if use_base:
-            for i in range(n):
-                out[t, i] = base[t, i] + row[i]
-        else:
-            out[t] = row
-
-
 def _relax(current: FloatArray, new: FloatArray, omega: float
            ) -> None:  # pragma: no cover - compiled
     flat, flat_new = current.reshape(-1), new.reshape(-1)
@@ -468,7 +385,7 @@ _KERNELS = ("contact_and_stops", "relax", "relax_rows", "indicator_squares", "pe
 
 def _compile() -> None:
     global _in_cone, _series_trial, _contact_and_stops, _project_columns, _coupling_shift
-    global _correction_row, _merge_groups, _split_groups
+    global _merge_groups, _split_groups
     compiled: dict[str, Callable[..., Any] | None] = dict.fromkeys(_KERNELS)
     try:  # pragma: no cover - depends on the installed extras
         numba = importlib.import_module("numba")
@@ -482,14 +399,16 @@ def _compile() -> None:
         _merge_groups, _split_groups = jit(_merge_groups), jit(_split_groups)
         _contact_and_stops, _project_columns = jit(_contact_and_stops), jit(_project_columns)
         _coupling_shift = jit_inline(_coupling_shift)
-        _correction_row = jit_inline(_correction_row)
+        # the two-scale module's callers find its compiled helpers in its own namespace
+        _two_scale.coupling_shift = _coupling_shift
+        _two_scale.correction_row = jit_inline(_two_scale.correction_row)
         compiled = {"contact_and_stops": _contact_and_stops,
                     "perfect_and_boundary": jit(_perfect_and_boundary),
                     "relax": jit(_relax), "relax_rows": jit(_relax_rows),
                     "indicator_squares": jit(_indicator_squares),
                     "coupled_contact": jit(_coupled_contact),
-                    "two_scale_correction": jit(_two_scale_correction),
-                    "direction_update": jit(_direction_update)}
+                    "two_scale_correction": jit(_two_scale.two_scale_correction),
+                    "direction_update": jit(_two_scale.direction_update)}
     globals().update(compiled)
 
 

@@ -7,7 +7,6 @@ geometry and reused across friction coefficients, gaps, loads and unchanged subs
 from __future__ import annotations
 
 import functools
-import hashlib
 from collections.abc import Sequence
 from typing import TYPE_CHECKING
 
@@ -19,7 +18,6 @@ from ..decomposition.assembly import DISPLACEMENT, Assembly, Substructure
 from ..decomposition.interfaces import (
     InterfacePoints,
     build_points,
-    free_macro_components,
     macro_basis,
     with_contact_data,
 )
@@ -30,6 +28,7 @@ from ..kept import Kept
 from . import kernels
 from .condensation import SubstructureOperators, condense
 from .local_stage import MacroOnlyMap, macro_only_map
+from .signatures import digest, interface_signature, with_substructures
 from .threads import one_blas_thread
 from .two_scale import TwoScaleDirection, stiffened_points, two_scale_direction
 
@@ -37,66 +36,9 @@ if TYPE_CHECKING:
     from .options import LatinOptions
 
 
-def interface_signature(assembly: Assembly, options: LatinOptions) -> str:
-    """A digest of everything the interface points, the search direction and the macro
-    basis depend on: the substructures' meshes, bodies and materials, the interface topology
-    and kinds (with the components that carry free macro unknowns: a stop's depend on
-    whether it has friction), and the discretisation choices. Holes (inside the
-    substructures), friction coefficients, gaps and loads are not in it."""
-    choices = (options.kappa, options.macro, options.interface_elements,
-               options.dirichlet_stiffening, options.tangential_ratio, options.search_modulus,
-               options.held_nodes, options.corner_stiffening, options.corner_reach,
-               options.micro_stiffening)
-    key = ("interfaces", choices)
-    if key not in assembly.digests:  # a study asks twice per case
-        interfaces = tuple((itf.kind, itf.sides,
-                            itf.condition.kinds if itf.condition else None,
-                            itf.contact is not None, free_macro_components(itf))
-                           for itf in assembly.interfaces)
-        described = (tuple(s.description for s in assembly.substructures), interfaces, choices)
-
-        def digest() -> str:
-            text = repr((list(described[0]), list(interfaces), choices))
-            return hashlib.sha1(text.encode()).hexdigest()
-
-        # the cases of a study share it: kept by the description itself
-        assembly.digests[key] = _INTERFACE_DIGESTS.get(described, digest)
-    return assembly.digests[key]
-
-
-def operator_signature(assembly: Assembly, options: LatinOptions) -> str:
-    """A digest of everything the linear-stage operators depend on: the interfaces'
-    (``interface_signature``) and the substructures' stiffnesses (holes included).
-    Friction coefficients (but whether a stop has one), gaps and loads are not in it: they
-    change no operator."""
-    return _with_substructures(interface_signature(assembly, options), assembly)
-
-
-def _with_substructures(interfaces: str, assembly: Assembly) -> str:
-    """``operator_signature`` from the ``interface_signature`` already computed."""
-    text = repr((interfaces, [s.signature() for s in assembly.substructures]))
-    return hashlib.sha1(text.encode()).hexdigest()
-
-
 #: a batch of several geometries: per geometry, its operators and the columns (case ×
 #: step) of its cases
 Geometries = Sequence[tuple["LatinOperators", "slice | IntArray"]]
-
-
-def _digest(*parts: object) -> str:
-    hasher = hashlib.sha1()
-    for part in parts:
-        if isinstance(part, np.ndarray):
-            hasher.update(np.ascontiguousarray(part).tobytes())
-            hasher.update(repr(part.shape).encode())
-        elif isinstance(part, sp.spmatrix | sp.sparray):
-            matrix = sp.csr_matrix(part)
-            for array in (matrix.data, matrix.indices, matrix.indptr):
-                hasher.update(np.ascontiguousarray(array).tobytes())
-            hasher.update(repr(matrix.shape).encode())
-        else:
-            hasher.update(repr(part).encode())
-    return hasher.hexdigest()
 
 
 class LatinOperators:
@@ -134,7 +76,7 @@ class LatinOperators:
         self.assembly = assembly
         self.options = options
         self.interface_signature = interface_signature(assembly, options)
-        self.signature = _with_substructures(self.interface_signature, assembly)
+        self.signature = with_substructures(self.interface_signature, assembly)
         if reuse is not None and reuse.interface_signature == self.interface_signature:
             # the same interfaces (paper §6: a hole moved inside a substructure): their
             # points, search direction and macro basis are the same, the contact data apart
@@ -155,7 +97,7 @@ class LatinOperators:
         self.substructure_operators: list[SubstructureOperators] = []
         rebuilt = []
         for s, sub in enumerate(assembly.substructures):
-            key = _digest(sub.signature(), self.interface_keys[s])
+            key = digest(sub.signature(), self.interface_keys[s])
             block = available.get(key) or self.blocks.get(key)
             if block is None:
                 lo, hi = 2 * pts.offsets[s], 2 * pts.offsets[s + 1]
@@ -220,7 +162,7 @@ class LatinOperators:
         keys = []
         for s in range(len(assembly.substructures)):
             lo, hi = 2 * pts.offsets[s], 2 * pts.offsets[s + 1]
-            keys.append(_digest(pts.traces[s], k_flat[lo:hi], self.m0[lo:hi],
+            keys.append(digest(pts.traces[s], k_flat[lo:hi], self.m0[lo:hi],
                                 basis[lo:hi] if basis is not None else None,
                                 self.two_scale.block(lo, hi) if self.two_scale else None))
         #: per substructure, a digest of what its operators take from the interfaces:
@@ -468,9 +410,6 @@ class LatinOperators:
 
 #: Tᵀ M0 H T and Tᵀ M0 per substructure's interface data (``LatinOperators._substructure``)
 _INTERFACE_TERMS: Kept[str, tuple[sp.csr_matrix, sp.csc_matrix]] = Kept(64)
-#: ``interface_signature``'s digests by what they digest (its text's repr took 0.13 ms a b3
-#: case, 9 s of the whole B3 study on a GPU's host; a hash of the same tuple ~0.05)
-_INTERFACE_DIGESTS: Kept[tuple[object, ...], str] = Kept(64)
 
 
 def _section(sub: Substructure) -> float:

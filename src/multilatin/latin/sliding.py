@@ -60,7 +60,7 @@ from typing import Any
 import numpy as np
 
 from ..fem.elasticity import FloatArray, IntArray
-from .engine import FieldEngine
+from .field_engine import FieldEngine
 from .local_stage import LocalStage
 
 __all__ = ["ALIGNED", "GEOMETRIC", "GROUP_ROWS", "LEADING", "MATERIAL", "MAX_JUMP",

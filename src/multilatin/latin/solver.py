@@ -88,7 +88,7 @@ def solve_latin_batch(
     initial: per case, the interface fields to start from (see ``solve_latin``) or None.
     observer: see ``IterationObserver``.
     With the torch backend, a batch larger than the device's memory holds is solved in
-    chunks (``torch_engine.cases_per_chunk``), and one the device runs out of memory for
+    chunks (``torch_memory.cases_per_chunk``), and one the device runs out of memory for
     again in halves (``_in_halves``); the observer then sees each chunk's cases.
     Results carry the batch's timings (``timings["batch_size"]``) and the leading steps
     each case settled (``timings["settled_steps"]``).
@@ -127,7 +127,7 @@ def solve_latin_batch(
         raise ModelError("a batch of cases must share the number of load steps")
     shape = (n_steps, ops.points.n_points, 2)
     if options.backend == "torch" and n_cases > 1:  # a batch that fits the device's memory
-        from .torch_engine import cases_per_chunk
+        from .torch_memory import cases_per_chunk
 
         size = cases_per_chunk(n_steps, ops.points.n_points, options.device)
         if size < n_cases:

@@ -1,5 +1,5 @@
 """The iteration's field work on PyTorch (``LatinOptions(backend="torch", device=...)``),
-on a CPU or a GPU, in fp64 (issue 19): ``TorchFields``, the ``engine.FieldEngine`` of the
+on a CPU or a GPU, in fp64 (issue 19): ``TorchFields``, the ``field_engine.FieldEngine`` of the
 torch backend, with the linear stage of ``torch_operators`` and the local stage of
 ``torch_local``. Only η's norms and the tracked QoIs (a few numbers per case) come back to
 the host each iteration. A batch may hold cases of several geometries that share the
@@ -15,9 +15,7 @@ from typing import Any
 
 import numpy as np
 
-from ..errors import ModelError
 from ..fem.elasticity import FloatArray, IntArray
-from ..limits import batch_memory, memory_limit
 from .acceleration import Anderson, ArrayOps
 from .engine import as_run
 from .local_stage import LocalStage
@@ -25,6 +23,7 @@ from .operators import LatinOperators
 from .options import LatinOptions
 from .torch_graph import DeviceGraph, load_torch
 from .torch_local import Tensor, TorchLocalStage, contact_kernels_available
+from .torch_memory import cases_per_chunk
 from .torch_operators import DeviceOperators, Rows
 from .tracking import QoiFunctionals
 from .two_scale import coupled_local_stage
@@ -33,14 +32,6 @@ __all__ = ["DeviceOperators", "TorchFields", "cases_per_chunk", "load_torch"]
 
 log = logging.getLogger(__name__)
 
-#: field-sized arrays (n_steps × n_points × 2 doubles) alive at once per case of a batch: s,
-#: ŝ, the new s, the linear stage's right-hand side and products, the macro correction, the
-#: local stage's temporaries, host copies; measured 20.6 on the CPU build (peak RSS growth,
-#: 400 b3 cases) and 31.8 on an H100 with the CUDA graphs' memory pools (B3's batches of 4 225
-#: cases: 29.4 GiB), with a margin, + 2 for the jumps' fourth mark (session 34, unmeasured)
-FIELDS_PER_CASE = 36
-#: share of the free device memory a batch may take
-MEMORY_SHARE = 0.7
 #: the devices on which a batch keeps the rows of cases that left it until at most
 #: ``COMPACT_BELOW`` of them remain (then compacts: a new width, new CUDA graphs, as a graph
 #: holds its shapes, ``torch_graph.DeviceGraph``; a smaller fraction, fewer captures for
@@ -57,29 +48,8 @@ FUSED_DEVICES = ("cuda",)
 GRAPH_CHECK_RTOL = 1e-9
 
 
-def cases_per_chunk(n_steps: int, n_points: int, device: str) -> int:
-    """How many cases of this shape a batch may hold on ``device``: the free memory (CUDA's
-    own count on a GPU; the limit of ``multilatin.limits`` on the CPU), at most this
-    process's share where several share it and ``MULTILATIN_MAX_MEMORY_GB`` where set
-    (``limits.batch_memory``), over the fields' footprint. A ``ModelError`` when not even
-    one case fits."""
-    torch = load_torch(device)
-    if device.startswith("cuda"):
-        free, total = torch.cuda.mem_get_info(torch.device(device))
-        free, source = batch_memory(free, total, f"{free / 2**30:.1f} GiB free on {device}")
-    else:
-        limit, source = memory_limit()
-        free, source = batch_memory(limit, limit, source)
-    per_case = FIELDS_PER_CASE * n_steps * n_points * 2 * 8
-    fits = int(MEMORY_SHARE * free // per_case)
-    if fits < 1:
-        raise ModelError(f"device: one case needs about {per_case / 2**20:.0f} MiB of "
-                         f"fields, more than {MEMORY_SHARE:.0%} of what is left ({source})")
-    return fits
-
-
 class TorchFields:
-    """``engine.FieldEngine`` on PyTorch: the NumPy backend's formulas, fp64, on
+    """``field_engine.FieldEngine`` on PyTorch: the NumPy backend's formulas, fp64, on
     ``options.device``."""
 
     def __init__(self, operators: list[LatinOperators], geometry: IntArray,

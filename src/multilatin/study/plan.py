@@ -25,7 +25,8 @@ from ..errors import ModelError
 from ..fem.elasticity import FloatArray
 from ..kept import Kept
 from ..latin import LatinOptions, solve_latin, solve_latin_batch
-from ..latin.operators import LatinOperators, operator_signature
+from ..latin.operators import LatinOperators
+from ..latin.signatures import operator_signature
 from ..model import Model
 from ..parameters import Grid, Mu
 from . import starts
