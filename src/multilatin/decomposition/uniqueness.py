@@ -21,11 +21,16 @@ along their normal) and the prescribed displacements allow, that push into no co
 touching with zero force, and whose friction reserve — the share of the friction capacity
 along the motion not yet used — is below ``reserve_tol``. A point slipping during the step
 keeps its force (at the limit) for a small motion either way; a point at rest only for a
-motion against its force. Motions combining several clusters are not searched.
+motion against its force. Clusters joined through contact interfaces are searched together
+too (``contact_unions``: a stack of blocks sliding as one while friction holds them to each
+other, which no cluster alone shows; until session 51 such a case went unflagged, and a
+warm start could land 4 % away from the cold answer), up to ``MAX_UNIONS`` unions; motions
+in which a union's clusters move differently (slipping on each other too) are not searched.
 """
 
 from __future__ import annotations
 
+import logging
 import threading
 import weakref
 from collections import OrderedDict
@@ -44,6 +49,11 @@ from .interfaces import InterfacePoints
 RESERVE_TOL = 1e-3
 #: cases whose fields ``limit_motions_batch`` stacks at once
 LIMIT_CASES = 256
+#: unions of clusters (joined through contact interfaces) searched for a motion together,
+#: the smallest first; larger unions beyond this count are not searched (logged)
+MAX_UNIONS = 64
+
+log = logging.getLogger(__name__)
 
 
 @dataclass(frozen=True)
@@ -143,38 +153,81 @@ def _clusters_of(assembly: Assembly, points: InterfacePoints) -> list[_Cluster]:
         if found is not None and found[0]() is points.coords:
             _GEOMETRIES.move_to_end(key)
             return found[1]
-    a, b = points.contact_pairs
-    out = []
+    free_groups, out = [], []
     for group in clusters(assembly):
-        inside = np.isin(points.substructure, group)
-        coords = points.coords[inside]
-        centre = coords.mean(axis=0)
-        size = float(np.ptp(coords, axis=0).max()) or 1.0
-        fixed = points.boundary[inside[points.boundary]]
-        rows = rigid_rows(points.coords[fixed], centre, size)[
-            points.boundary_is_displacement[inside[points.boundary]]]
-        held = rows.T @ rows  # prescribed displacements: the same at every step
-        if assembly.substructures[int(group[0])].material.radial:  # only z translates
-            held = held + np.diag([1.0, 0.0, 1.0]) * max(float(np.trace(held)), 1.0)
-        if np.linalg.matrix_rank(held, tol=1e-10 * max(np.abs(held).max(), 1e-300)) == 3:
-            continue  # held in every rigid mode (a clamped body)
-        own_a, own_b = inside[a] & ~inside[b], inside[b] & ~inside[a]
-        own_stops = inside[points.stops]
-        p = np.concatenate([a[own_a], b[own_b], points.stops[own_stops]])
-        partner = np.concatenate([b[own_a], a[own_b], np.full(int(own_stops.sum()), -1)])
-        normal = points.normals[p]
-        modes = rigid_rows(points.coords[p], centre, size)  # (n, 2, 3)
-        out.append(_Cluster(
-            tuple(sorted({assembly.substructures[s].body for s in group})), centre, size,
-            held, p, partner,
-            (np.concatenate([np.flatnonzero(own_a), np.flatnonzero(own_b)]),
-             np.flatnonzero(own_stops)),
-            np.where(partner >= 0, partner, p), partner < 0, normal, modes,
-            np.einsum("nc,nck->nk", normal, modes), points.weights[p]))
+        cluster = _cluster(assembly, points, group)
+        if cluster is not None:  # else held in every rigid mode (a clamped body)
+            free_groups.append(group)
+            out.append(cluster)
+    for union in contact_unions(assembly, free_groups):
+        cluster = _cluster(assembly, points, union)
+        if cluster is not None:
+            out.append(cluster)
     with _GEOMETRIES_LOCK:
         _GEOMETRIES[key] = (weakref.ref(points.coords), out)
         while len(_GEOMETRIES) > _GEOMETRY_CACHE_SIZE:
             _GEOMETRIES.popitem(last=False)
+    return out
+
+
+def _cluster(assembly: Assembly, points: InterfacePoints, group: IntArray) -> _Cluster | None:
+    """``_Cluster`` of the substructures ``group`` (None where its prescribed displacements
+    hold it in every rigid mode): its contact points are its side of the pairs whose other
+    side is outside it, and its stops' (pairs within it move with it)."""
+    a, b = points.contact_pairs
+    inside = np.isin(points.substructure, group)
+    coords = points.coords[inside]
+    centre = coords.mean(axis=0)
+    size = float(np.ptp(coords, axis=0).max()) or 1.0
+    fixed = points.boundary[inside[points.boundary]]
+    rows = rigid_rows(points.coords[fixed], centre, size)[
+        points.boundary_is_displacement[inside[points.boundary]]]
+    held = rows.T @ rows  # prescribed displacements: the same at every step
+    if assembly.substructures[int(group[0])].material.radial:  # only z translates
+        held = held + np.diag([1.0, 0.0, 1.0]) * max(float(np.trace(held)), 1.0)
+    if np.linalg.matrix_rank(held, tol=1e-10 * max(np.abs(held).max(), 1e-300)) == 3:
+        return None
+    own_a, own_b = inside[a] & ~inside[b], inside[b] & ~inside[a]
+    own_stops = inside[points.stops]
+    p = np.concatenate([a[own_a], b[own_b], points.stops[own_stops]])
+    partner = np.concatenate([b[own_a], a[own_b], np.full(int(own_stops.sum()), -1)])
+    normal = points.normals[p]
+    modes = rigid_rows(points.coords[p], centre, size)  # (n, 2, 3)
+    return _Cluster(
+        tuple(sorted({assembly.substructures[s].body for s in group})), centre, size,
+        held, p, partner,
+        (np.concatenate([np.flatnonzero(own_a), np.flatnonzero(own_b)]),
+         np.flatnonzero(own_stops)),
+        np.where(partner >= 0, partner, p), partner < 0, normal, modes,
+        np.einsum("nc,nck->nk", normal, modes), points.weights[p])
+
+
+def contact_unions(assembly: Assembly, groups: Sequence[IntArray]) -> list[IntArray]:
+    """The unions of two or more ``groups`` (clusters, as substructure indices) connected
+    through contact interfaces — bodies that may move as one while friction holds them to
+    each other —, by size and then by their groups' order, at most ``MAX_UNIONS``."""
+    owner = {int(s): g for g, group in enumerate(groups) for s in group}
+    neighbours: list[set[int]] = [set() for _ in groups]
+    for itf in assembly.interfaces:
+        if itf.kind == "contact" and len(itf.sides) == 2:
+            first, second = (owner.get(side.substructure) for side in itf.sides)
+            if first is not None and second is not None and first != second:
+                neighbours[first].add(second)
+                neighbours[second].add(first)
+    out: list[IntArray] = []
+    level = [frozenset((g,)) for g in range(len(groups))]
+    while level:
+        grown = {members | {h} for members in level for g in members
+                 for h in neighbours[g] - members}
+        level = sorted(grown, key=sorted)
+        if len(out) + len(level) > MAX_UNIONS:
+            log.warning("%s: %d unions of bodies joined by contact searched for a common "
+                        "free motion, larger ones not (MAX_UNIONS)", assembly.label,
+                        MAX_UNIONS)
+            level = level[:MAX_UNIONS - len(out)]
+        out += [np.concatenate([groups[g] for g in sorted(members)]) for members in level]
+        if len(out) >= MAX_UNIONS:
+            break
     return out
 
 
