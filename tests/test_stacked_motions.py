@@ -7,7 +7,7 @@ block. At μ1 = 0.3 the push reaches the bottom contact's capacity at step 10 (1
 position at that step is one of many. Neither block alone is free (the top block sticks
 to the centre one), so a search cluster by cluster missed it: the case went unflagged and a
 study's warm start returned u_A at step 10 4 % away from the cold answer (0.0794 against
-0.0761 mm). ``uniqueness.contact_unions`` searches the pair too.
+0.0761 mm). ``rigid_clusters.contact_unions`` searches the pair too.
 """
 
 from __future__ import annotations
@@ -20,7 +20,7 @@ import numpy as np
 import pytest
 
 import multilatin as ml
-from multilatin.decomposition import uniqueness
+from multilatin.decomposition import rigid_clusters
 from multilatin.latin import LatinOptions
 from multilatin.parameters import Grid
 from multilatin.study.plan import clear_operator_cache
@@ -72,12 +72,12 @@ def test_a_study_solves_the_stack_from_zero_and_matches_cold(stack: ml.Model,
     assert not unique.any()
     assert u_a[0] == pytest.approx(u_a[1], rel=1e-4)
     try:
-        uniqueness.MAX_UNIONS = 0
-        uniqueness._GEOMETRIES.clear()
+        rigid_clusters.MAX_UNIONS = 0
+        rigid_clusters._GEOMETRIES.clear()
         before, unique_before = u_a_at_step_10(tmp_path / "clusters")
     finally:
-        uniqueness.MAX_UNIONS = 64
-        uniqueness._GEOMETRIES.clear()
+        rigid_clusters.MAX_UNIONS = 64
+        rigid_clusters._GEOMETRIES.clear()
     assert unique_before.all() and abs(before[0] / before[1] - 1) > 0.01
 
 
@@ -98,17 +98,17 @@ def test_unions_follow_the_contacts_smallest_first_and_are_bounded(
               "value = [0.0, 0.0]", "[[boundary]]", 'name = "press"', 'face = "b5.top"',
               'type = "force"', "value = [0.0, -1.0]"]
     assembly = ml.Model(ml.ModelSpec.from_string("\n".join(lines), name="column")).assemble()
-    groups = [g for g in uniqueness.clusters(assembly)
+    groups = [g for g in rigid_clusters.clusters(assembly)
               if assembly.substructures[int(g[0])].body != "b0"]  # b0 is clamped
     bodies = [sorted({assembly.substructures[s].body for s in union})
-              for union in uniqueness.contact_unions(assembly, groups)]
+              for union in rigid_clusters.contact_unions(assembly, groups)]
     assert [len(b) for b in bodies] == [2] * 4 + [3] * 3 + [4] * 2 + [5]
     assert ["b1", "b2"] in bodies and ["b1", "b2", "b3", "b4", "b5"] in bodies
     assert all(int(b[-1][1:]) - int(b[0][1:]) == len(b) - 1 for b in bodies)  # runs
     try:
-        uniqueness.MAX_UNIONS = 6
-        with caplog.at_level(logging.WARNING, logger="multilatin.decomposition.uniqueness"):
-            bounded = uniqueness.contact_unions(assembly, groups)
+        rigid_clusters.MAX_UNIONS = 6
+        with caplog.at_level(logging.WARNING, logger="multilatin.decomposition.rigid_clusters"):
+            bounded = rigid_clusters.contact_unions(assembly, groups)
     finally:
-        uniqueness.MAX_UNIONS = 64
+        rigid_clusters.MAX_UNIONS = 64
     assert len(bounded) == 6 and "MAX_UNIONS" in caplog.text

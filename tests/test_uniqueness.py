@@ -20,7 +20,7 @@ import pytest
 
 import multilatin as ml
 from multilatin.cli import main
-from multilatin.decomposition.uniqueness import clusters
+from multilatin.decomposition.rigid_clusters import clusters
 from multilatin.latin import LatinOptions, solve_latin
 from multilatin.parameters import Grid
 from multilatin.study import starts

@@ -22,38 +22,30 @@ touching with zero force, and whose friction reserve — the share of the fricti
 along the motion not yet used — is below ``reserve_tol``. A point slipping during the step
 keeps its force (at the limit) for a small motion either way; a point at rest only for a
 motion against its force. Clusters joined through contact interfaces are searched together
-too (``contact_unions``: a stack of blocks sliding as one while friction holds them to each
-other, which no cluster alone shows; until session 51 such a case went unflagged, and a
-warm start could land 4 % away from the cold answer), up to ``MAX_UNIONS`` unions; motions
-in which a union's clusters move differently (slipping on each other too) are not searched.
+too (``rigid_clusters.contact_unions``: a stack of blocks sliding as one while friction
+holds them to each other, which no cluster alone shows; until session 51 such a case went
+unflagged, and a warm start could land 4 % away from the cold answer), up to
+``MAX_UNIONS`` unions; motions in which a union's clusters move differently (slipping on
+each other too) are not searched.
 """
 
 from __future__ import annotations
 
-import logging
-import threading
-import weakref
-from collections import OrderedDict
 from collections.abc import Callable, Sequence
 from dataclasses import dataclass
-from typing import Any
 
 import numpy as np
 
-from ..fem.elasticity import FloatArray, IntArray
+from ..fem.elasticity import FloatArray
 from .assembly import Assembly
 from .interfaces import InterfacePoints
+from .rigid_clusters import Cluster, free_clusters
 
 #: a free motion is reported when less than this share of the friction capacity along it is
 #: left (the load is within 0.1 % of the sliding limit)
 RESERVE_TOL = 1e-3
 #: cases whose fields ``limit_motions_batch`` stacks at once
 LIMIT_CASES = 256
-#: unions of clusters (joined through contact interfaces) searched for a motion together,
-#: the smallest first; larger unions beyond this count are not searched (logged)
-MAX_UNIONS = 64
-
-log = logging.getLogger(__name__)
 
 
 @dataclass(frozen=True)
@@ -94,143 +86,6 @@ class FreeMotion:
                    f"; only {whose} displacements are undetermined"))
 
 
-def clusters(assembly: Assembly) -> list[IntArray]:
-    """Substructures joined by perfect or macro-only interfaces (they move together)."""
-    parent = list(range(len(assembly.substructures)))
-
-    def root(i: int) -> int:
-        while parent[i] != i:
-            parent[i] = parent[parent[i]]
-            i = parent[i]
-        return i
-
-    for itf in assembly.interfaces:
-        if itf.kind in ("perfect", "macro") and len(itf.sides) == 2:
-            a, b = (root(side.substructure) for side in itf.sides)
-            parent[a] = b
-    groups: dict[int, list[int]] = {}
-    for s in range(len(parent)):
-        groups.setdefault(root(s), []).append(s)
-    return [np.array(g, dtype=np.int64) for g in groups.values()]
-
-
-@dataclass(frozen=True)
-class _Cluster:
-    """What ``free_motions`` needs of a cluster that depends on the geometry alone: its
-    points, rigid modes and prescribed displacements (the same for every case of a
-    geometry: friction, gaps and fields are the case's)."""
-
-    bodies: tuple[str, ...]
-    centre: FloatArray
-    size: float
-    held: FloatArray  # (3, 3): the prescribed displacements' Gram matrix on the modes
-    p: IntArray  # the cluster's contact points (its side of contact pairs, then stops)
-    partner: IntArray  # the other side's point, -1 for a stop
-    rows: tuple[IntArray, IntArray]  # its contact pairs' rows (a's side, b's), its stops'
-    partner_or_own: IntArray  # ``partner``, or the point itself on a stop
-    at_stop: np.ndarray  # partner < 0
-    normal: FloatArray
-    modes: FloatArray  # (n, 2, 3)
-    along_normal: FloatArray  # (n, 3)
-    weights: FloatArray
-
-
-#: per interface geometry (``InterfacePoints.coords``'s identity, kept alive by a weak
-#: reference check) and topology, its clusters that some rigid mode is not held in
-_GEOMETRIES: OrderedDict[tuple[Any, ...], tuple[weakref.ref[Any], list[_Cluster]]] = (
-    OrderedDict())
-_GEOMETRY_CACHE_SIZE = 8
-_GEOMETRIES_LOCK = threading.Lock()
-
-
-def _clusters_of(assembly: Assembly, points: InterfacePoints) -> list[_Cluster]:
-    """The free-to-move candidates of ``clusters(assembly)`` with their geometry, cached
-    per interface geometry: the cases of a study share ``points.coords``."""
-    key = (id(points.coords), tuple(itf.kind for itf in assembly.interfaces),
-           tuple(sub.body for sub in assembly.substructures))
-    with _GEOMETRIES_LOCK:
-        found = _GEOMETRIES.get(key)
-        if found is not None and found[0]() is points.coords:
-            _GEOMETRIES.move_to_end(key)
-            return found[1]
-    free_groups, out = [], []
-    for group in clusters(assembly):
-        cluster = _cluster(assembly, points, group)
-        if cluster is not None:  # else held in every rigid mode (a clamped body)
-            free_groups.append(group)
-            out.append(cluster)
-    for union in contact_unions(assembly, free_groups):
-        cluster = _cluster(assembly, points, union)
-        if cluster is not None:
-            out.append(cluster)
-    with _GEOMETRIES_LOCK:
-        _GEOMETRIES[key] = (weakref.ref(points.coords), out)
-        while len(_GEOMETRIES) > _GEOMETRY_CACHE_SIZE:
-            _GEOMETRIES.popitem(last=False)
-    return out
-
-
-def _cluster(assembly: Assembly, points: InterfacePoints, group: IntArray) -> _Cluster | None:
-    """``_Cluster`` of the substructures ``group`` (None where its prescribed displacements
-    hold it in every rigid mode): its contact points are its side of the pairs whose other
-    side is outside it, and its stops' (pairs within it move with it)."""
-    a, b = points.contact_pairs
-    inside = np.isin(points.substructure, group)
-    coords = points.coords[inside]
-    centre = coords.mean(axis=0)
-    size = float(np.ptp(coords, axis=0).max()) or 1.0
-    fixed = points.boundary[inside[points.boundary]]
-    rows = rigid_rows(points.coords[fixed], centre, size)[
-        points.boundary_is_displacement[inside[points.boundary]]]
-    held = rows.T @ rows  # prescribed displacements: the same at every step
-    if assembly.substructures[int(group[0])].material.radial:  # only z translates
-        held = held + np.diag([1.0, 0.0, 1.0]) * max(float(np.trace(held)), 1.0)
-    if np.linalg.matrix_rank(held, tol=1e-10 * max(np.abs(held).max(), 1e-300)) == 3:
-        return None
-    own_a, own_b = inside[a] & ~inside[b], inside[b] & ~inside[a]
-    own_stops = inside[points.stops]
-    p = np.concatenate([a[own_a], b[own_b], points.stops[own_stops]])
-    partner = np.concatenate([b[own_a], a[own_b], np.full(int(own_stops.sum()), -1)])
-    normal = points.normals[p]
-    modes = rigid_rows(points.coords[p], centre, size)  # (n, 2, 3)
-    return _Cluster(
-        tuple(sorted({assembly.substructures[s].body for s in group})), centre, size,
-        held, p, partner,
-        (np.concatenate([np.flatnonzero(own_a), np.flatnonzero(own_b)]),
-         np.flatnonzero(own_stops)),
-        np.where(partner >= 0, partner, p), partner < 0, normal, modes,
-        np.einsum("nc,nck->nk", normal, modes), points.weights[p])
-
-
-def contact_unions(assembly: Assembly, groups: Sequence[IntArray]) -> list[IntArray]:
-    """The unions of two or more ``groups`` (clusters, as substructure indices) connected
-    through contact interfaces — bodies that may move as one while friction holds them to
-    each other —, by size and then by their groups' order, at most ``MAX_UNIONS``."""
-    owner = {int(s): g for g, group in enumerate(groups) for s in group}
-    neighbours: list[set[int]] = [set() for _ in groups]
-    for itf in assembly.interfaces:
-        if itf.kind == "contact" and len(itf.sides) == 2:
-            first, second = (owner.get(side.substructure) for side in itf.sides)
-            if first is not None and second is not None and first != second:
-                neighbours[first].add(second)
-                neighbours[second].add(first)
-    out: list[IntArray] = []
-    level = [frozenset((g,)) for g in range(len(groups))]
-    while level:
-        grown = {members | {h} for members in level for g in members
-                 for h in neighbours[g] - members}
-        level = sorted(grown, key=sorted)
-        if len(out) + len(level) > MAX_UNIONS:
-            log.warning("%s: %d unions of bodies joined by contact searched for a common "
-                        "free motion, larger ones not (MAX_UNIONS)", assembly.label,
-                        MAX_UNIONS)
-            level = level[:MAX_UNIONS - len(out)]
-        out += [np.concatenate([groups[g] for g in sorted(members)]) for members in level]
-        if len(out) >= MAX_UNIONS:
-            break
-    return out
-
-
 def free_motions(assembly: Assembly, points: InterfacePoints, displacement_hat: FloatArray,
                  force_hat: FloatArray, reserve_tol: float = RESERVE_TOL) -> list[FreeMotion]:
     """The free rigid motions of a converged state ŝ = (Ŵ, F̂), shapes ``(n_steps,
@@ -253,16 +108,16 @@ def free_motions_batch(assemblies: Sequence[Assembly], points: Sequence[Interfac
 
 def _by_geometry(assemblies: Sequence[Assembly], points: Sequence[InterfacePoints],
                  displacement_hats: Sequence[FloatArray], force_hats: Sequence[FloatArray],
-                 motions_of: Callable[[list[_Cluster], list[InterfacePoints],
+                 motions_of: Callable[[list[Cluster], list[InterfacePoints],
                                        list[FloatArray], list[FloatArray]],
                                       list[list[FreeMotion]]],
                  chunk: int | None = None) -> list[list[FreeMotion]]:
     """Per case, ``motions_of`` its fields, for the cases that share their clusters (one
     geometry) together, ``chunk`` of them at a time (None: all); motions by step."""
     out: list[list[FreeMotion]] = [[] for _ in assemblies]
-    groups: dict[int, tuple[list[_Cluster], list[int]]] = {}
+    groups: dict[int, tuple[list[Cluster], list[int]]] = {}
     for c, (assembly, pts) in enumerate(zip(assemblies, points, strict=True)):
-        clusters = _clusters_of(assembly, pts)
+        clusters = free_clusters(assembly, pts)
         groups.setdefault(id(clusters), (clusters, []))[1].append(c)
     for clusters, members in groups.values():
         size = chunk or len(members)
@@ -277,7 +132,7 @@ def _by_geometry(assemblies: Sequence[Assembly], points: Sequence[InterfacePoint
 
 
 @dataclass(frozen=True)
-class _ClusterState:
+class ClusterState:
     """What both readings of a cluster take from cases' states ŝ (C cases, T steps, its
     n points): μ per point, forces F̂, their normal part N, and where the contacts are
     pushed (N < 0), shut (opening within ``near``) and slipping during the step."""
@@ -299,10 +154,10 @@ def _scales(displacement_hats: Sequence[FloatArray], force_hats: Sequence[FloatA
     return force_scale[:, None, None], near[:, None, None]
 
 
-def _cluster_state(cluster: _Cluster, points: Sequence[InterfacePoints],
+def _cluster_state(cluster: Cluster, points: Sequence[InterfacePoints],
                    displacement_hats: Sequence[FloatArray], force_hats: Sequence[FloatArray],
-                   scales: tuple[FloatArray, FloatArray]) -> _ClusterState:
-    """``_ClusterState`` of ``cluster`` in these cases (``scales``: ``_scales`` of their
+                   scales: tuple[FloatArray, FloatArray]) -> ClusterState:
+    """``ClusterState`` of ``cluster`` in these cases (``scales``: ``_scales`` of their
     fields); only the cluster's points of the fields are gathered (on b3 108 of 955:
     stacking whole fields was most of the time). A study reads one case at a time, on
     arrays of a few hundred entries: each NumPy call's overhead is most of the cost."""
@@ -327,7 +182,7 @@ def _cluster_state(cluster: _Cluster, points: Sequence[InterfacePoints],
     # |slip|² = |increment|² − (increment · n)², n a unit normal
     slip_squared = (np.einsum("ctnd,ctnd->ctn", increment, increment)
                     - normal_increment * normal_increment)
-    return _ClusterState(friction, force, normal_force, normal_force < -1e-9 * force_scale,
+    return ClusterState(friction, force, normal_force, normal_force < -1e-9 * force_scale,
                          gap[:, None, :] + opening <= near, slip_squared > near * near)
 
 
@@ -342,7 +197,7 @@ def _stacked(per_case: list[FloatArray]) -> FloatArray:
     return per_case[0][None] if len(per_case) == 1 else np.stack(per_case)
 
 
-def _free_directions(cluster: _Cluster, pressed: np.ndarray
+def _free_directions(cluster: Cluster, pressed: np.ndarray
                      ) -> tuple[FloatArray, np.ndarray]:
     """The rigid modes' directions per case and step (``vectors``, (C, T, 3, 3)) and which
     of them the ``pressed`` points (no motion along their normal) and the prescribed
@@ -354,7 +209,7 @@ def _free_directions(cluster: _Cluster, pressed: np.ndarray
     return vectors, values <= 1e-10 * np.maximum(values[..., -1:], 1e-300)
 
 
-def _motions_of(clusters: list[_Cluster], points: Sequence[InterfacePoints],
+def _motions_of(clusters: list[Cluster], points: Sequence[InterfacePoints],
                 displacement_hats: Sequence[FloatArray], force_hats: Sequence[FloatArray],
                 reserve_tol: float) -> list[list[FreeMotion]]:
     """``free_motions_batch`` for cases of the same ``clusters`` (fields (n_steps,
@@ -442,17 +297,6 @@ def _carried(velocity: FloatArray, into: FloatArray, normal: FloatArray,
     return np.asarray(np.any((np.hypot(slide[..., 0], slide[..., 1]) > 1e-9) & (friction > 0), axis=1))
 
 
-def rigid_rows(x: FloatArray, centre: FloatArray, size: float) -> FloatArray:
-    """Velocity components of the three rigid modes at points ``x``: shape (n, 2, 3), the
-    rotation scaled by ``size`` so that the three modes weigh alike."""
-    rows = np.zeros((x.shape[0], 2, 3))
-    rows[:, 0, 0] = 1.0
-    rows[:, 1, 1] = 1.0
-    rows[:, 0, 2] = -(x[:, 1] - centre[1]) / size
-    rows[:, 1, 2] = (x[:, 0] - centre[0]) / size
-    return rows
-
-
 def limit_motions_batch(assemblies: Sequence[Assembly], points: Sequence[InterfacePoints],
                         displacement_hats: Sequence[FloatArray],
                         force_hats: Sequence[FloatArray], reserve_tol: float = RESERVE_TOL
@@ -477,7 +321,7 @@ def limit_motions_batch(assemblies: Sequence[Assembly], points: Sequence[Interfa
                         LIMIT_CASES)  # bounds the stacked fields
 
 
-def _limit_motions_of(clusters: list[_Cluster], points: Sequence[InterfacePoints],
+def _limit_motions_of(clusters: list[Cluster], points: Sequence[InterfacePoints],
                       displacement_hats: Sequence[FloatArray],
                       force_hats: Sequence[FloatArray], reserve_tol: float
                       ) -> list[list[FreeMotion]]:

@@ -41,7 +41,7 @@ from typing import Any
 
 import numpy as np
 
-from ..decomposition.uniqueness import clusters, rigid_rows
+from ..decomposition.rigid_clusters import clusters, rigid_rows
 from ..errors import ModelError
 from ..fem.elasticity import FloatArray, IntArray
 from .engine import NumpyFields
