@@ -24,7 +24,7 @@ keeps its force (at the limit) for a small motion either way; a point at rest on
 motion against its force. Clusters joined through contact interfaces are searched together
 too (``rigid_clusters.contact_unions``: a stack of blocks sliding as one while friction
 holds them to each other, which no cluster alone shows; until session 51 such a case went
-unflagged, and a warm start could land 4 % away from the cold answer), up to
+unflagged, and a warm start returned 2.3 times the cold answer's slide), up to
 ``MAX_UNIONS`` unions; motions in which a union's clusters move differently (slipping on
 each other too) are not searched.
 """
