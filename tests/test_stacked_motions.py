@@ -14,6 +14,7 @@ searches the pair too.
 from __future__ import annotations
 
 import logging
+from collections import OrderedDict
 from importlib import resources
 from pathlib import Path
 
@@ -56,8 +57,8 @@ def test_two_blocks_sliding_as_one_are_flagged(stack: ml.Model) -> None:
     assert result.qoi["R_stop"] == pytest.approx(reference.qoi["R_stop"], rel=1e-6)
 
 
-def test_a_study_solves_the_stack_from_zero_and_matches_cold(stack: ml.Model,
-                                                             tmp_path: Path) -> None:
+def test_a_study_solves_the_stack_from_zero_and_matches_cold(
+        stack: ml.Model, tmp_path: Path, monkeypatch: pytest.MonkeyPatch) -> None:
     """Along μ1 the case at the limit is flagged and solved from zero, so the study's u_A
     equals the cold solve's; with the search cluster by cluster (``MAX_UNIONS`` = 0: the
     behaviour before session 51) the warm answer stands, far off and unflagged."""
@@ -72,18 +73,14 @@ def test_a_study_solves_the_stack_from_zero_and_matches_cold(stack: ml.Model,
     u_a, unique = u_a_at_step_10(tmp_path / "unions")
     assert not unique.any()
     assert u_a[0] == pytest.approx(u_a[1], rel=1e-4)
-    try:
-        rigid_clusters.MAX_UNIONS = 0
-        rigid_clusters._GEOMETRIES.clear()
-        before, unique_before = u_a_at_step_10(tmp_path / "clusters")
-    finally:
-        rigid_clusters.MAX_UNIONS = 64
-        rigid_clusters._GEOMETRIES.clear()
+    monkeypatch.setattr(rigid_clusters, "MAX_UNIONS", 0)
+    monkeypatch.setattr(rigid_clusters, "_GEOMETRIES", OrderedDict())  # clusters found anew
+    before, unique_before = u_a_at_step_10(tmp_path / "clusters")
     assert unique_before.all() and abs(before[0] / before[1] - 1) > 0.01
 
 
 def test_unions_follow_the_contacts_smallest_first_and_are_bounded(
-        caplog: pytest.LogCaptureFixture) -> None:
+        caplog: pytest.LogCaptureFixture, monkeypatch: pytest.MonkeyPatch) -> None:
     """A column of five free blocks, each on the next: the unions are its runs of 2–5
     neighbours (4 + 3 + 2 + 1), none of blocks that do not touch; at most ``MAX_UNIONS``,
     with a warning naming the bound."""
@@ -106,10 +103,7 @@ def test_unions_follow_the_contacts_smallest_first_and_are_bounded(
     assert [len(b) for b in bodies] == [2] * 4 + [3] * 3 + [4] * 2 + [5]
     assert ["b1", "b2"] in bodies and ["b1", "b2", "b3", "b4", "b5"] in bodies
     assert all(int(b[-1][1:]) - int(b[0][1:]) == len(b) - 1 for b in bodies)  # runs
-    try:
-        rigid_clusters.MAX_UNIONS = 6
-        with caplog.at_level(logging.WARNING, logger="multilatin.decomposition.rigid_clusters"):
-            bounded = rigid_clusters.contact_unions(assembly, groups)
-    finally:
-        rigid_clusters.MAX_UNIONS = 64
+    monkeypatch.setattr(rigid_clusters, "MAX_UNIONS", 6)
+    with caplog.at_level(logging.WARNING, logger="multilatin.decomposition.rigid_clusters"):
+        bounded = rigid_clusters.contact_unions(assembly, groups)
     assert len(bounded) == 6 and "MAX_UNIONS" in caplog.text

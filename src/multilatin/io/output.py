@@ -147,10 +147,9 @@ def write_vtk(result: SolveResult, folder: Path) -> Path:
     material fraction, ``displacement_determined`` (0 where a free rigid motion leaves the
     part's position undetermined, ``qoi.determined_steps``); a hole's void cells and their
     nodes left out) and, for a LATIN result with contact, ``<model>_contact_stepNNN.vtu``
-    (the contact points with traction,
-    pressure, tangential traction, normal, area, status: 0 open, 1 stick, 2 slip, the
-    displacement jump across the contact and its tangential part, the slip, along the
-    normal turned by +90°)."""
+    (the contact points with traction, pressure, tangential traction, normal, area, status:
+    0 open, 1 stick, 2 slip, the displacement jump across the contact and its tangential
+    part, the slip, along the normal turned by +90°)."""
     folder.mkdir(parents=True, exist_ok=True)
     points, blocks, displacement, cell_data = _solid(result)
     contact = _contact(result)

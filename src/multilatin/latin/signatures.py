@@ -39,12 +39,12 @@ def interface_signature(assembly: Assembly, options: LatinOptions) -> str:
                            for itf in assembly.interfaces)
         described = (tuple(s.description for s in assembly.substructures), interfaces, choices)
 
-        def digest() -> str:
+        def computed() -> str:
             text = repr((list(described[0]), list(interfaces), choices))
             return hashlib.sha1(text.encode()).hexdigest()
 
         # the cases of a study share it: kept by the description itself
-        assembly.digests[key] = _INTERFACE_DIGESTS.get(described, digest)
+        assembly.digests[key] = _INTERFACE_DIGESTS.get(described, computed)
     return assembly.digests[key]
 
 
@@ -63,6 +63,8 @@ def with_substructures(interfaces: str, assembly: Assembly) -> str:
 
 
 def digest(*parts: object) -> str:
+    """SHA-1 of ``parts``: arrays and sparse matrices by their bytes and shapes, anything
+    else by its repr (``LatinOperators``' keys of kept interface terms)."""
     hasher = hashlib.sha1()
     for part in parts:
         if isinstance(part, np.ndarray):

@@ -23,12 +23,11 @@ from .operators import LatinOperators
 from .options import LatinOptions
 from .torch_graph import DeviceGraph, load_torch
 from .torch_local import Tensor, TorchLocalStage, contact_kernels_available
-from .torch_memory import cases_per_chunk
 from .torch_operators import DeviceOperators, Rows
 from .tracking import QoiFunctionals
 from .two_scale import coupled_local_stage
 
-__all__ = ["DeviceOperators", "TorchFields", "cases_per_chunk", "load_torch"]
+__all__ = ["DeviceOperators", "TorchFields", "load_torch"]
 
 log = logging.getLogger(__name__)
 
