@@ -119,7 +119,14 @@ def main() -> None:
     args = parser.parse_args()
     model = stack_model()
     if args.line:
-        line(model, [float(v) for v in args.line.split(",")])
+        try:
+            mu1 = [float(v) for v in args.line.split(",")]
+        except ValueError:
+            parser.error(f"--line: expected comma-separated numbers, got {args.line!r}")
+        if 0.3 not in mu1:
+            parser.error(f"--line: the μ1 values must include 0.3 (the case at the limit), "
+                         f"got {args.line!r}")
+        line(model, mu1)
     if args.grid:
         grid_study(model, args.grid, args.gap, args.tight)
 
