@@ -1,6 +1,6 @@
 """Cases at the friction limit started from zero at once (issue 16, session 30), side by side
 with the rule before: a warm start whose answer is not unique is set aside and the case
-solved again from zero (``starts.solve_again``); now a case whose start neighbour's
+solved again from zero (``starts.set_aside``); now a case whose start neighbour's
 converged state, read with the case's friction coefficients, leaves a rigid motion at
 its friction limit (``predictors.at_friction_limit``) starts from zero without a warm
 attempt.

@@ -39,7 +39,7 @@ def main() -> None:
                              "from zero at the friction limit (the old behaviour)")
     args = parser.parse_args()
     if args.no_guard:
-        starts.solve_again = lambda result, start: False  # type: ignore[assignment]
+        starts.set_aside = lambda result, start: None  # type: ignore[assignment]
         starts.at_limit = (  # type: ignore[assignment]
             lambda assemblies, ops, fields: [False] * len(assemblies))
     model = ml.load_model(args.model)

@@ -26,6 +26,7 @@ from multilatin.decomposition import rigid_clusters
 from multilatin.latin import LatinOptions
 from multilatin.parameters import Grid
 from multilatin.study.plan import clear_operator_cache
+from multilatin.study.report import summary_lines
 from multilatin.study.runner import run_study
 
 WALL = '''[[boundary]]
@@ -61,22 +62,27 @@ def test_a_study_solves_the_stack_from_zero_and_matches_cold(
         stack: ml.Model, tmp_path: Path, monkeypatch: pytest.MonkeyPatch) -> None:
     """Along μ1 the case at the limit is flagged and solved from zero, so the study's u_A
     equals the cold solve's; with the search cluster by cluster (``MAX_UNIONS`` = 0: the
-    behaviour before session 51) the warm answer stands, far off and unflagged."""
+    behaviour before session 51) the warm answer stands, far off and unflagged — but for the
+    study's own comparison of its modes, which says they disagree."""
     grid = Grid({"mu1": [0.25, 0.3], "mu2": [0.3], "gap": [0.2]})
 
-    def u_a_at_step_10(out: Path) -> tuple[np.ndarray, np.ndarray]:
+    def u_a_at_step_10(out: Path) -> tuple[np.ndarray, np.ndarray, list[str]]:
         clear_operator_cache()
-        data = run_study(stack, grid, modes=("multiresolution", "cold"), out=out,
-                         progress=False).dataset.sel(mu2=0.3, gap=0.2, mu1=0.3)
-        return data["u_A"].values[:, 9], data["unique"].values
+        result = run_study(stack, grid, modes=("multiresolution", "cold"), out=out,
+                           progress=False)
+        data = result.dataset.sel(mu2=0.3, gap=0.2, mu1=0.3)
+        return data["u_A"].values[:, 9], data["unique"].values, summary_lines(result)
 
-    u_a, unique = u_a_at_step_10(tmp_path / "unions")
+    u_a, unique, summary = u_a_at_step_10(tmp_path / "unions")
     assert not unique.any()
     assert u_a[0] == pytest.approx(u_a[1], rel=1e-4)
+    assert not any(line.startswith("MODES DISAGREE") for line in summary)
     monkeypatch.setattr(rigid_clusters, "MAX_UNIONS", 0)
     monkeypatch.setattr(rigid_clusters, "_GEOMETRIES", OrderedDict())  # clusters found anew
-    before, unique_before = u_a_at_step_10(tmp_path / "clusters")
+    before, unique_before, summary = u_a_at_step_10(tmp_path / "clusters")
     assert unique_before.all() and abs(before[0] / before[1] - 1) > 0.01
+    # the study's own comparison of its modes says so (session 52, ``study.agreement``)
+    assert "MODES DISAGREE: u_A beyond that bound" in "\n".join(summary)
 
 
 def test_unions_follow_the_contacts_smallest_first_and_are_bounded(

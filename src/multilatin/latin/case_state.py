@@ -18,7 +18,7 @@ RECENT = WINDOW + 5
 #: the per-case arrays of ``IterationState`` (first axis: the case)
 PER_CASE = ("qoi_recent", "eta_recent", "qoi_scale", "qoi_reported", "stopped_on_qoi",
             "drifting", "first_size", "qoi_settled_error", "settled_steps", "force_eta",
-            "jumped_at", "jump_rate")
+            "jumped_at", "jump_rate", "warm")
 
 
 @dataclass
@@ -55,6 +55,8 @@ class IterationState:
     jumped_at: IntArray = field(default_factory=lambda: np.zeros(0, dtype=np.int64))
     #: per case: its last geometric jump's slowest rate per iteration (``sliding``), 0: none
     jump_rate: FloatArray = field(default_factory=lambda: np.zeros(0))
+    #: per case: started from fields other than zero (``guards.vanishes``)
+    warm: npt.NDArray[np.bool_] = field(default_factory=lambda: np.zeros(0, dtype=bool))
     t_linear: float = 0.0  # linear stage, macro problem included
     t_local: float = 0.0
     t_macro: float = 0.0
@@ -68,7 +70,8 @@ class IterationState:
                    np.zeros(n_cases, dtype=bool), [[] for _ in range(n_cases)],
                    np.zeros(n_cases, dtype=bool), np.zeros(n_cases), np.zeros(reported.shape),
                    np.zeros(n_cases, dtype=np.int64), np.zeros(n_cases),
-                   np.full(n_cases, -1, dtype=np.int64), np.zeros(n_cases))
+                   np.full(n_cases, -1, dtype=np.int64), np.zeros(n_cases),
+                   np.zeros(n_cases, dtype=bool))
 
     def extend(self, reported: npt.NDArray[np.bool_]) -> None:
         """Room for more cases after these (cases joining a rolling batch): the per-case

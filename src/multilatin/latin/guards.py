@@ -16,8 +16,8 @@ from .indicator_kernel import weighted_squares
 from .options import LatinOptions
 
 __all__ = ["BLOWUP", "DRIFT_WINDOW", "FORCE_FLOOR", "FORCE_MARGIN", "FORCE_ROUNDOFF",
-           "STEP_SPREAD", "blows_up", "damp_stagnating", "drifting_steps", "drifts",
-           "force_indicator", "forces_unsettled"]
+           "NO_EQUILIBRIUM", "STEP_SPREAD", "VANISH", "blows_up", "damp_stagnating",
+           "drifting_steps", "drifts", "force_indicator", "forces_unsettled", "vanishes"]
 
 log = logging.getLogger(__name__)
 
@@ -30,9 +30,18 @@ DRIFT_WINDOW = 100
 #: 1.03 × its first value, over every bundled model 2.4 × (lug), and 4.3 × in the tests'
 #: cases with no equilibrium, stopped by ``drifts`` (session 38, ``benchmarks/blowup.py``)
 BLOWUP = 1e3
+#: a warm-started case whose ½(‖s‖ + ‖ŝ‖) falls below this share of its value after the
+#: first iteration stops as "vanished": its answer is zero, or far below the neighbour's it
+#: started from. η, relative to the fields' size, then stays put while they decay: a spun
+#: hub at ω = 0 and no interference (answer zero) started from its neighbour at ω = 500
+#: rad/s ran 1 000 iterations at η = 0.36, its fields 1e-7 of their start by iteration 50,
+#: 1e-65 by 400 (session 52). Studies solve such a case again from zero (``study.starts``)
+VANISH = 1e-6
 #: a drifting case's steps whose s − ŝ (relative to each step's size) is within this factor
 #: of the worst step's are named as those without equilibrium (``drifting_steps``)
 STEP_SPREAD = 1e-2
+#: how the failure of a drifting case begins: no equilibrium exists, whatever the start
+NO_EQUILIBRIUM = "no equilibrium"
 
 
 #: a case stops only where its interface forces have converged too: their own indicator
@@ -159,6 +168,14 @@ def blows_up(size: FloatArray, first_size: FloatArray) -> npt.NDArray[np.bool_]:
     fields run away (session 37: a trial step reached η < tol with fields of 1e14). A
     first size of zero (no load yet) sets no bound."""
     return np.asarray((first_size > 0.0) & (size > BLOWUP * first_size), dtype=bool)
+
+
+def vanishes(size: FloatArray, first_size: FloatArray, warm: npt.NDArray[np.bool_]
+             ) -> npt.NDArray[np.bool_]:
+    """Per case: warm-started and its ½(‖s‖ + ‖ŝ‖) ``size`` below ``VANISH`` times its
+    ``first_size`` (after the first iteration). From zero the first size is the answer's
+    scale; from a neighbour's fields it is the neighbour's."""
+    return np.asarray(warm & (first_size > 0.0) & (size < VANISH * first_size), dtype=bool)
 
 
 def damp_stagnating(histories: list[list[float]], active: IntArray, relaxation: FloatArray,

@@ -21,7 +21,14 @@ from .batching import make_engine
 from .case_state import PER_CASE, RECENT, IterationState
 from .engine import NumpyFields, indicator_weights
 from .extrapolation import ReducedRankExtrapolation
-from .guards import DRIFT_WINDOW, blows_up, damp_stagnating, drifts, forces_unsettled
+from .guards import (
+    DRIFT_WINDOW,
+    blows_up,
+    damp_stagnating,
+    drifts,
+    forces_unsettled,
+    vanishes,
+)
 from .local_stage import LocalStage
 from .operators import LatinOperators
 from .options import LatinOptions
@@ -148,6 +155,7 @@ class BatchIterations:
         self.n_qoi = len(functionals[0].names) if functionals else 0
         self.tracked = bool(functionals)  # QoIs tracked for their error estimates
         self.state = IterationState.empty(self._reported(functionals, w_hat.shape))
+        self.state.warm[:] = started_warm(w_hat, f_hat)
         self.active = np.arange(n_cases)
         self.counts = np.zeros(n_cases, dtype=np.int64)  # per case: its own iterations
         self.iteration = 0  # the batch's steps
@@ -197,6 +205,7 @@ class BatchIterations:
         first = len(self.state.histories)
         numbers = np.arange(first, first + n_new)
         self.state.extend(self._reported(functionals, w_hat.shape))
+        self.state.warm[first:first + n_new] = started_warm(w_hat, f_hat)
         self.local = self.local.joined(local)
         self.counts = np.concatenate([self.counts, np.zeros(n_new, dtype=np.int64)])
         self.engine.join(local, w_hat, f_hat, self._macro_data(local, n_new), functionals,
@@ -312,6 +321,7 @@ class BatchIterations:
         first = counts == 1
         out.first_size[active[first]] = size[first]
         blown = blows_up(size, out.first_size[active])
+        blown |= vanishes(size, out.first_size[active], out.warm[active])
         done = ((eta < options.tol) & after_jumps) | ~np.isfinite(eta) | capped | blown
         due = (counts % DRIFT_WINDOW == 0) & ~done
         if due.any():
@@ -385,6 +395,14 @@ class BatchIterations:
             done[positions[going_on]] = False
             fields = tuple(x[~going_on] for x in fields)
         return fields
+
+
+def started_warm(w_hat: FloatArray, f_hat: FloatArray) -> npt.NDArray[np.bool_]:
+    """Per case of ŝ = (``w_hat``, ``f_hat``): whether it starts from fields other than
+    zero."""
+    n_cases = w_hat.shape[0]
+    return np.asarray(np.any(w_hat.reshape(n_cases, -1) != 0.0, axis=1)
+                      | np.any(f_hat.reshape(n_cases, -1) != 0.0, axis=1), dtype=bool)
 
 
 def iterate(ops: LatinOperators, local: LocalStage, options: LatinOptions,

@@ -30,7 +30,15 @@ from .batching import interface_families, operators_per_case
 from .body_forces import BodyResponse, body_response, stacked_offsets, with_body_constants
 from .case_state import IterationState
 from .engine import one_blas_thread
-from .guards import BLOWUP, DRIFT_WINDOW, blows_up, drifting_steps
+from .guards import (
+    BLOWUP,
+    DRIFT_WINDOW,
+    NO_EQUILIBRIUM,
+    VANISH,
+    blows_up,
+    drifting_steps,
+    vanishes,
+)
 from .iteration import IterationObserver, iterate
 from .local_stage import LocalStage
 from .operators import LatinOperators
@@ -356,7 +364,7 @@ def _result(c: int, assembly: Assembly, pts: InterfacePoints, state: IterationSt
         where = (f"at step(s) {', '.join(map(str, steps))} (the other steps settled to "
                  f"{others:.1e} of their fields)" if len(steps) < w.shape[0] else "")
         converged, failure = False, (
-            f"no equilibrium{' ' + where if where else ''}: the interface fields grow at a "
+            f"{NO_EQUILIBRIUM}{' ' + where if where else ''}: the interface fields grow at a "
             f"steady rate over the last {DRIFT_WINDOW} iterations (eta = {history[-1]:.2e}, "
             "falling only because they grow): a body slides without end, the load "
             "exceeding what friction, contact and stops can hold (or the iteration is too "
@@ -368,6 +376,14 @@ def _result(c: int, assembly: Assembly, pts: InterfacePoints, state: IterationSt
             f"{state.sizes[c][0]:.3e} in {history.size} iterations); the iteration is "
             f"unstable (its acceleration, relaxation or search direction), and eta "
             f"(= {history[-1]:.2e}, relative to that size) measures no error")
+    if vanishes(np.asarray(state.sizes[c][-1:]), np.asarray(state.sizes[c][:1]),
+                state.warm[c:c + 1]).any():
+        converged, failure = False, (
+            f"vanished: from its warm start the interface fields fell to less than "
+            f"{VANISH:g} times their size after the first iteration (to "
+            f"{state.sizes[c][-1]:.3e} from {state.sizes[c][0]:.3e} in {history.size} "
+            f"iterations) while eta (= {history[-1]:.2e}, relative to that size) stayed: "
+            "the answer is zero or far smaller than the start's; solve it from zero")
     # Anderson's and RRE's steps break the contraction the estimate reads, and a state
     # still changing by more than SETTLED may hold changes its QoIs have not begun: NaN (None)
     change = state_change(history)

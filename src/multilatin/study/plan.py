@@ -288,13 +288,13 @@ def run_case(model: Model, grid: Grid, case: Case, mode: str, options: LatinOpti
         start_index, initial, extra = starts.case_start(grid, state, case, assembly, ops)
     setup_s = time.perf_counter() - t0
     result = solve_latin(assembly, options, operators=ops, initial=initial, check=False)
-    [(result, spent)] = starts.path_independent([assembly], options, [ops], [result],
-                                                [start_index])
+    [(result, spent, reason)] = starts.path_independent([assembly], options, [ops], [result],
+                                                        [start_index])
     wall_s = time.perf_counter() - t0
     if mode != "cold" and result.converged and state is not None:
         state = _retain(state, case, result)
     return case_record(grid, case, mode, result, wall_s, setup_s, built, start_index, 1,
-                       spent, extra), state
+                       spent, extra, reason), state
 
 
 def run_batch(model: Model, grid: Grid, cases: tuple[Case, ...], mode: str,
@@ -360,15 +360,15 @@ def _solve_together(model: Model, grid: Grid, cases: tuple[Case, ...], mode: str
     kept = starts.path_independent(assemblies, options, per_case, results,
                                    [start_index for start_index, _, _ in chosen])
     wall_s = time.perf_counter() - t0
-    total_iterations = sum(r.iterations + spent for r, spent in kept)
+    total_iterations = sum(r.iterations + spent for r, spent, _ in kept)
     records = []
-    for case, (result, spent), (start_index, _, extra), built in zip(
+    for case, (result, spent, reason), (start_index, _, extra), built in zip(
             cases, kept, chosen, first_built, strict=True):
         share = (result.iterations + spent) / total_iterations
         records.append(case_record(grid, case, mode, result, share * wall_s, share * setup_s,
-                                    built, start_index, len(cases), spent, extra))
+                                    built, start_index, len(cases), spent, extra, reason))
     if state is not None:  # the converged ones, retained in one copy of the state
-        state = state.added_all([_retained(case, result) for case, (result, _) in
+        state = state.added_all([_retained(case, result) for case, (result, _, _) in
                                  zip(cases, kept, strict=True) if result.converged])
     return records, state
 

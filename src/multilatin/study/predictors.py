@@ -181,7 +181,7 @@ def not_unique_beside(index: Index, axes: Collection[int], unsettled: Collection
     none. The case is then most likely not unique too (the friction limit is the load's, not
     the hole's: B3's studies flag the same friction pairs at every position), so it starts
     from zero rather than from a warm attempt that would be set aside
-    (``starts.solve_again``; docs/performance.md, session 26)."""
+    (``starts.set_aside``; docs/performance.md, session 26)."""
     for other in sorted(unsettled):
         d = _step_axis(index, other)
         if d is not None and d in axes:
@@ -205,7 +205,7 @@ def at_friction_limit(assemblies: Sequence[Assembly], points: Sequence[Interface
     ``RESERVE_TOL`` of zero either way — the load sits at the case's friction limit; None
     if there is none.
 
-    Such a case starts from zero: its warm attempt would be set aside (``starts.solve_again``;
+    Such a case starts from zero: its warm attempt would be set aside (``starts.set_aside``;
     the main job: 512 of the study's 5 404 iterations). A neighbour on the sticking side
     predicts it (B1: the reserve 1e-10 to 1e-5 at every such pair), one on the sliding side
     does not (its body rests on a stop); a wrong guess costs a solve from zero, never an

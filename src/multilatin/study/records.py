@@ -28,14 +28,15 @@ def peak_memory_mb() -> float:
 
 def case_record(grid: Grid, case: Case, mode: str, result: SolveResult, wall_s: float,
                 setup_s: float, built: bool, start_index: tuple[int, ...] | None, batch: int,
-                warm_attempt: int = 0, extra: tuple[tuple[int, ...], ...] = ()
-                ) -> dict[str, Any]:
+                warm_attempt: int = 0, extra: tuple[tuple[int, ...], ...] = (),
+                set_aside: str = "not unique") -> dict[str, Any]:
     """A case's journal record. ``warm_attempt``: iterations of a warm start given up for a
-    solve from zero (the answer was not unique); they count in ``iterations``. ``extra``:
-    the other neighbours of a secant or parallelogram start (``predictors``)."""
+    solve from zero (``set_aside`` says why: not unique, or not converged); they count in
+    ``iterations``. ``extra``: the other neighbours of a secant or parallelogram start
+    (``predictors``)."""
     start = start_text(grid, start_index, extra, case.axes)
     if warm_attempt:
-        start = "zero (not unique: the warm start was set aside)"
+        start = f"zero ({set_aside}: the warm start was set aside)"
     params = {name: case.mu[name] for name in grid}
     text = ", ".join(f"{k}={v:g}" for k, v in params.items())
     iterations = int(result.iterations) + warm_attempt

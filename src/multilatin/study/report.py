@@ -20,6 +20,7 @@ from ..io.modelfile.checks import CASE_FLAGS, CASE_NUMBERS, CASE_TEXTS  # noqa: 
 from ..io.output import safe_file_name  # noqa: E402
 from ..latin.tracking import SETTLED  # noqa: E402
 from ..parameters import label  # noqa: E402
+from .agreement import mode_agreement  # noqa: E402
 from .runner import StudyResult  # noqa: E402
 
 
@@ -108,6 +109,7 @@ def summary_lines(result: StudyResult) -> list[str]:
                          f"paper's definition (cases x first cold time / study time) = "
                          f"{gains['paper_gain']:.2f}; iterations ratio (cold / "
                          f"multiresolution) = {gains['iterations_ratio']:.2f}{over}")
+        lines += _agreement_lines(result, cold)
     lines += _error_lines(result, records)
     lines.append("converged: all" if not failed else
                  f"NOT CONVERGED: {len(failed)} case(s) (no answer: QoIs masked, left out of "
@@ -141,6 +143,27 @@ def summary_lines(result: StudyResult) -> list[str]:
     for repair in result.repairs:
         lines.append(f"repaired on resume: {repair}")
     return lines
+
+
+def _agreement_lines(result: StudyResult, cold: list[dict[str, Any]]) -> list[str]:
+    """How far the multiresolution answers lie from the cold ones (``agreement``), and
+    whether within what the QoI rule promises (each mode within ``qoi_rtol`` of the tight
+    answer: the two within twice that)."""
+    within = mode_agreement(result.mode_records("multiresolution"), cold)
+    if not within:
+        return []
+    line = ("multiresolution vs cold, the largest difference over the values both determine "
+            "(relative to max(|cold|, 1 % of the QoI's largest |cold|)): "
+            + ", ".join(f"{name} {value:.1e}" for name, value in within.items()))
+    rtol = result.dataset.attrs.get("qoi_rtol")
+    if rtol is None:
+        return [line]
+    beyond = [name for name, value in within.items() if value > 2.0 * float(rtol)]
+    line += f"; the QoI rule promises at most {2.0 * float(rtol):g} (2 x qoi_rtol)"
+    if not beyond:
+        return [line]
+    return [line, f"MODES DISAGREE: {', '.join(beyond)} beyond that bound — a warm start led "
+            "where a cold solve does not; trust the cold answers, and please report the case"]
 
 
 def _params(record: dict[str, Any]) -> str:

@@ -25,7 +25,7 @@ case C and G the case one grid step further back on the same line (P's own start
 Steps where G and P agree keep δ = 0 (the preload: C starts there from P's fields exactly).
 A start is only a start: the iteration's fixed point does not depend on it, and cases whose
 answer the discrete problem does not determine are solved from zero as before
-(``starts.solve_again``). Measured: docs/performance.md ("Retimed starts", session 33).
+(``starts.set_aside``). Measured: docs/performance.md ("Retimed starts", session 33).
 """
 
 from __future__ import annotations

@@ -20,9 +20,9 @@ chain from the first value kept one case at a time in the batch; three seeds sol
 in 0.27–0.28 s instead of 0.37–0.38, for 557 iterations instead of 511). Ready cases join
 nearest a case from zero first (their dependants are the most).
 
-A warm-started case whose answer the discrete problem does not determine is solved again
-from zero (``starts.solve_again``, the line batches' rule) inside the same rolling batch; the cases
-that start from it wait for that answer.
+A warm-started case whose answer the discrete problem does not determine, or that did not
+converge, is solved again from zero (``starts.set_aside``, the line batches' rule) inside the
+same rolling batch; the cases that start from it wait for that answer.
 """
 
 from __future__ import annotations
@@ -255,9 +255,10 @@ class ChainFeed:
                 self.fields[index] = self.state.retained[index]
         self.running: dict[Hashable, tuple[Case, Index | None, tuple[Index, ...], float, bool,
                                             int, float]] = {}
-        #: not unique from a warm start, solved again from zero: (case, its warm
-        #: iterations, their wall time)
+        #: set aside from a warm start, solved again from zero (``starts.set_aside``):
+        #: (case, its warm iterations, their wall time)
         self.again: list[tuple[Case, int, float]] = []
+        self.set_aside: dict[int, str] = {}  # per case number: why, where set aside
         self.unsaved: list[dict[str, Any]] = []  # finished, not yet handed on
 
     def take(self, count: int) -> list[StreamCase]:
@@ -347,9 +348,11 @@ class ChainFeed:
 
     def done(self, key: Hashable, result: SolveResult, wall_s: float) -> None:
         case, start_index, extra, setup_s, built, spent, spent_s = self.running.pop(key)
-        if starts.solve_again(result, start_index):
-            log.info("%s: not unique from a warm start; solved again from zero",
-                     result.assembly.label)
+        reason = starts.set_aside(result, start_index)
+        if reason is not None:
+            log.info("%s: %s from a warm start; solved again from zero",
+                     result.assembly.label, reason)
+            self.set_aside[case.number] = reason
             self.again.append((case, result.iterations, wall_s + setup_s))
             return
         self.done_numbers.add(case.number)
@@ -369,7 +372,8 @@ class ChainFeed:
                                             dependant))
         record = case_record(self.grid, case, self.mode, result, spent_s + wall_s + setup_s,
                              setup_s, built, start_index,
-                             int(result.timings.get("batch_size", 1)), spent, extra)
+                             int(result.timings.get("batch_size", 1)), spent, extra,
+                             self.set_aside.pop(case.number, "not unique"))
         self.unsaved.append(record)
         if len(self.unsaved) >= STATE_EVERY or self.finished():
             self.flush()

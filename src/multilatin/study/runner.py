@@ -26,6 +26,7 @@ from ..limits import check_study
 from ..model import Model
 from ..parameters import Grid
 from . import plan as plans
+from .agreement import mode_agreement
 from .chain_state import ChainState
 from .cluster import load_kernels, local_cluster, warm_workers, worker_addresses
 from .defaults import count_geometries, on_gpu, study_defaults
@@ -113,6 +114,8 @@ class StudyResult:
             out["cold_cases"] = [_case_json(r) for r in self.mode_records("cold")]
             out["cold_wall_s"] = self.elapsed_s["cold"]
             out.update(self.gains or {})
+            out["modes_within"] = mode_agreement(self.mode_records("multiresolution"),
+                                                 self.mode_records("cold"))
         return out
 
 
@@ -243,6 +246,7 @@ def run_study(
     store = StudyStore(folder, identity, record_fits=_record_fits(plan))
     attrs = {"model": model.name, "title": model.title, "command": command,
              "tolerance": options.tol, "chains": len(plan.chains),
+             **({} if options.qoi_rtol is None else {"qoi_rtol": options.qoi_rtol}),
              "geometric_parameters": list(plan.geometric), "units": model.spec.units}
     elapsed: dict[str, float] = {}
     try:  # the store (and its folder's lock) is closed however the study ends

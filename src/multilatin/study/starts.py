@@ -2,12 +2,13 @@
 fields (or an extrapolation from several, ``predictors``), zero where the case is most
 likely not unique (``at_limit``: a neighbour's state read with the case's friction
 coefficients, or a flag one hole position away), and a warm-started answer that the
-discrete problem does not determine solved again from zero (``path_independent``), so that
-no study's answer depends on its order."""
+discrete problem does not determine, or that did not converge, solved again from zero
+(``path_independent``), so that no study's answer depends on its order."""
 
 from __future__ import annotations
 
 import logging
+import re
 from collections.abc import Sequence
 from typing import TYPE_CHECKING
 
@@ -15,6 +16,7 @@ from ..decomposition.assembly import Assembly
 from ..decomposition.result import SolveResult
 from ..fem.elasticity import FloatArray
 from ..latin import LatinOptions, solve_latin_batch
+from ..latin.guards import NO_EQUILIBRIUM
 from ..latin.operators import LatinOperators
 from ..parameters import Grid
 from .predictors import (
@@ -101,7 +103,7 @@ def at_limit(assemblies: Sequence[Assembly], operators: Sequence[LatinOperators]
              neighbours: Sequence[Fields]) -> list[bool]:
     """Per case: most likely not unique, read from its start neighbour's converged fields
     (``predictors.at_friction_limit``, the cases of one geometry together); such a case
-    starts from zero, as its warm attempt would be set aside (``solve_again``)."""
+    starts from zero, as its warm attempt would be set aside (``set_aside``)."""
     motions = at_friction_limit(assemblies, [ops.points for ops in operators], neighbours)
     for assembly, motion in zip(assemblies, motions, strict=True):
         if motion is not None:
@@ -110,31 +112,42 @@ def at_limit(assemblies: Sequence[Assembly], operators: Sequence[LatinOperators]
     return [motion is not None for motion in motions]
 
 
-def solve_again(result: SolveResult, start_index: Index | None) -> bool:
-    """A warm-started answer that the discrete problem does not determine: the case is
-    solved again from zero (``multilatin.uniqueness``; a warm start would pick the solution
-    nearest its neighbour's, and the study's answer would depend on its order)."""
-    return start_index is not None and result.converged and not result.unique
+def set_aside(result: SolveResult, start_index: Index | None) -> str | None:
+    """Why a warm-started answer is set aside and the case solved again from zero (None:
+    kept). One the discrete problem does not determine (``multilatin.uniqueness``): a warm
+    start would pick the solution nearest its neighbour's, and the study's answer would
+    depend on its order. One that did not converge, but for want of an equilibrium (which no
+    start changes): a cold solve may (a warm start at zero load vanishes,
+    ``latin.guards.VANISH``), and a case fails only as it fails from zero."""
+    if start_index is None:
+        return None
+    if not result.converged:
+        if result.failure.startswith(NO_EQUILIBRIUM):
+            return None
+        return "not converged, " + re.split(r"[:;(]", result.failure, maxsplit=1)[0].strip()
+    return None if result.unique else "not unique"
 
 
 def path_independent(assemblies: Sequence[Assembly], options: LatinOptions,
                      operators: Sequence[LatinOperators], results: Sequence[SolveResult],
-                     start_indices: Sequence[Index | None]) -> list[tuple[SolveResult, int]]:
-    """Warm-started cases whose discrete problem does not determine their answer
-    (``multilatin.uniqueness``) are solved again from zero with the same operators (all of
-    them as one batch): a warm start would pick the solution nearest its neighbour's, so
-    the study's answer would depend on the order of the grid. Returns per case the result
-    kept and the iterations spent on the warm attempt (0 when it is kept)."""
-    again = [n for n, (result, start) in enumerate(zip(results, start_indices, strict=True))
-             if solve_again(result, start)]
-    kept = [(result, 0) for result in results]
+                     start_indices: Sequence[Index | None]
+                     ) -> list[tuple[SolveResult, int, str]]:
+    """Warm-started cases whose answer is set aside (``set_aside``: not determined by the
+    discrete problem, or not converged) are solved again from zero with the same operators
+    (all of them as one batch), so that no study's answer depends on the order of its grid.
+    Returns per case the result kept, the iterations spent on the warm attempt (0 when it
+    is kept) and why it was set aside ("" when kept)."""
+    reasons = [set_aside(result, start) for result, start in
+               zip(results, start_indices, strict=True)]
+    kept = [(result, 0, "") for result in results]
+    again = [n for n, reason in enumerate(reasons) if reason is not None]
     if not again:
         return kept
     for n in again:
-        log.info("%s: not unique from a warm start; solved again from zero",
-                 assemblies[n].name)
+        log.info("%s: %s from a warm start; solved again from zero", assemblies[n].label,
+                 reasons[n])
     cold = solve_latin_batch([assemblies[n] for n in again], options,
                              operators=[operators[n] for n in again], check=False)
     for n, result in zip(again, cold, strict=True):
-        kept[n] = (result, results[n].iterations)
+        kept[n] = (result, results[n].iterations, str(reasons[n]))
     return kept
