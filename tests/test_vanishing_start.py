@@ -100,6 +100,9 @@ def test_a_study_solves_a_vanished_case_again_from_zero(
     for mode in ("multiresolution", "cold"):  # the studies' accuracy, against R = 20 p
         np.testing.assert_allclose(data["R"].sel(mode=mode).values, 20.0 * np.array(grid["p"]),
                                    rtol=STUDY_QOI_RTOL, atol=0.0)
+    assert set(study.modes_within) == {"R"}
+    assert study.modes_within["R"] <= 2 * STUDY_QOI_RTOL
+    assert study.to_json_dict()["modes_within"] == study.modes_within
     records = [json.loads(line) for line in (tmp_path / "cases.jsonl").read_text().splitlines()]
     zero = next(r for r in records if r["mode"] == "multiresolution" and r["params"]["p"] == 0)
     assert zero["start"] == "zero (not converged, vanished: the warm start was set aside)"

@@ -20,7 +20,6 @@ from ..io.modelfile.checks import CASE_FLAGS, CASE_NUMBERS, CASE_TEXTS  # noqa: 
 from ..io.output import safe_file_name  # noqa: E402
 from ..latin.tracking import SETTLED  # noqa: E402
 from ..parameters import label  # noqa: E402
-from .agreement import mode_agreement  # noqa: E402
 from .runner import StudyResult  # noqa: E402
 
 
@@ -109,7 +108,7 @@ def summary_lines(result: StudyResult) -> list[str]:
                          f"paper's definition (cases x first cold time / study time) = "
                          f"{gains['paper_gain']:.2f}; iterations ratio (cold / "
                          f"multiresolution) = {gains['iterations_ratio']:.2f}{over}")
-        lines += _agreement_lines(result, cold)
+        lines += _agreement_lines(result)
     lines += _error_lines(result, records)
     lines.append("converged: all" if not failed else
                  f"NOT CONVERGED: {len(failed)} case(s) (no answer: QoIs masked, left out of "
@@ -145,11 +144,11 @@ def summary_lines(result: StudyResult) -> list[str]:
     return lines
 
 
-def _agreement_lines(result: StudyResult, cold: list[dict[str, Any]]) -> list[str]:
+def _agreement_lines(result: StudyResult) -> list[str]:
     """How far the multiresolution answers lie from the cold ones (``agreement``), and
     whether within what the QoI rule promises (each mode within ``qoi_rtol`` of the tight
     answer: the two within twice that)."""
-    within = mode_agreement(result.mode_records("multiresolution"), cold)
+    within = result.modes_within
     if not within:
         return []
     line = ("multiresolution vs cold, the largest difference over the values both determine "

@@ -93,6 +93,12 @@ class StudyResult:
             "gain_cases": float(len(kept)),
         }
 
+    @property
+    def modes_within(self) -> dict[str, float]:
+        """Both modes run: per QoI the largest difference between their answers
+        (``agreement.mode_agreement``); empty otherwise."""
+        return mode_agreement(self.mode_records("multiresolution"), self.mode_records("cold"))
+
     def to_json_dict(self) -> dict[str, Any]:
         main = self.main_mode
         out: dict[str, Any] = {
@@ -114,8 +120,7 @@ class StudyResult:
             out["cold_cases"] = [_case_json(r) for r in self.mode_records("cold")]
             out["cold_wall_s"] = self.elapsed_s["cold"]
             out.update(self.gains or {})
-            out["modes_within"] = mode_agreement(self.mode_records("multiresolution"),
-                                                 self.mode_records("cold"))
+            out["modes_within"] = self.modes_within
         return out
 
 
