@@ -3,20 +3,21 @@
 η (relative to the fields' size) stayed at ~0.36 while the fields decayed, and the case ran
 to the cap of 1 000 iterations, NaN in the multiresolution study (cold: one iteration).
 
-    python benchmarks/zero_load.py [--before]
+    python benchmarks/zero_load.py
 
 The study over ω ∈ {0, 500, 1000, 2000, 3000} rad/s × δ ∈ {0, 0.005, 0.01} mm, both
-modes: per mode the cases that did not converge, the case (0, 0)'s start and iterations,
-the iterations in all, and the largest difference between the modes over every QoI value
-(relative to max(|cold|, 1 % of the QoI's largest |value|)). ``--before``: without the
-vanishing check (``VANISH = 0``) and with a warm start that did not converge kept (the
-behaviour before session 52). Needs gmsh (``pip install 'multilatin[reference]'``).
+modes, three ways: as today (a case nothing loads drops its warm start,
+``guards.drop_unloaded_starts``); without that drop (the warm start vanishes,
+``guards.VANISH``, and the study solves the case again from zero, ``starts.set_aside``); and
+as before session 52 (neither, and a warm start that did not converge kept). Per way and
+mode: the cases that did not converge, the case (0, 0)'s start and iterations, the
+iterations in all, and per QoI the largest difference between the modes
+(``StudyResult.modes_within``). Needs gmsh (``pip install 'multilatin[reference]'``).
 """
 
 from __future__ import annotations
 
 import argparse
-import json
 import sys
 import tempfile
 import warnings
@@ -34,49 +35,55 @@ sys.path.insert(0, str(Path(__file__).resolve().parents[1] / "examples"))
 import spinning_fit  # noqa: E402
 
 GRID = {"omega": [0.0, 500.0, 1000.0, 2000.0, 3000.0], "delta": [0.0, 0.005, 0.01]}
-QOIS = ("p_fit", "u_out")
 
 
-def _before(result: ml.SolveResult, start_index: tuple[int, ...] | None) -> str | None:
+def _kept(result: ml.SolveResult, start_index: tuple[int, ...] | None) -> str | None:
     """``starts.set_aside`` before session 52: only answers that are not unique."""
     kept = start_index is None or not result.converged or result.unique
     return None if kept else "not unique"
 
 
+def _none_unloaded(local: object, bodies: list[object]) -> np.ndarray:
+    return np.zeros(len(bodies), dtype=bool)
+
+
+def run(model: ml.Model, folder: Path, way: str) -> None:
+    """The study, both modes, its table rows for ``way``."""
+    clear_operator_cache()
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore", RuntimeWarning)
+        study = run_study(model, ml.Grid(GRID), modes=("multiresolution", "cold"),
+                          out=folder, progress=False)
+    for mode in ("multiresolution", "cold"):
+        mine = study.mode_records(mode)
+        zero = next(r for r in mine if r["params"] == {"omega": 0.0, "delta": 0.0})
+        within = ("" if mode == "cold" else ", ".join(
+            f"{name} {value:.1e}" for name, value in study.modes_within.items()))
+        print(f"| {way} | {mode} | {sum(not r['converged'] for r in mine)} / {len(mine)} | "
+              f"{zero['start']} | {zero['iterations']} | "
+              f"{sum(r['iterations'] for r in mine)} | {within} |")
+
+
 def main() -> None:
-    parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
-    parser.add_argument("--before", action="store_true",
-                        help="no vanishing check, failed warm starts kept (before session 52)")
-    args = parser.parse_args()
-    if args.before:
-        guards.VANISH = 0.0
-        starts.set_aside = _before
+    argparse.ArgumentParser(description=__doc__.splitlines()[0]).parse_args()
+    ways = {"today": {}, "without the drop": {"unloaded": _none_unloaded},
+            "before session 52": {"unloaded": _none_unloaded, "VANISH": 0.0,
+                                  "set_aside": _kept}}
+    print("| way | mode | not converged | case (0, 0): start | its iterations | iterations "
+          "| modes within |")
+    print("|---|---|---|---|---|---|---|")
     with tempfile.TemporaryDirectory() as folder:
         model = spinning_fit.load(Path(folder))
-        clear_operator_cache()
-        with warnings.catch_warnings():
-            warnings.simplefilter("ignore", RuntimeWarning)
-            study = run_study(model, ml.Grid(GRID), modes=("multiresolution", "cold"),
-                              out=Path(folder) / "study", progress=False)
-        records = [json.loads(line) for line in
-                   (Path(folder) / "study" / "cases.jsonl").read_text().splitlines()]
-    data = study.dataset
-    print("| mode | not converged | case (0, 0): start | its iterations | iterations |")
-    print("|---|---|---|---|---|")
-    for mode in ("multiresolution", "cold"):
-        mine = [r for r in records if r["mode"] == mode]
-        zero = next(r for r in mine if r["params"] == {"omega": 0.0, "delta": 0.0})
-        print(f"| {mode} | {sum(not r['converged'] for r in mine)} / {len(mine)} | "
-              f"{zero['start']} | {zero['iterations']} | "
-              f"{sum(r['iterations'] for r in mine)} |")
-    for name in QOIS:
-        warm = data[name].sel(mode="multiresolution").values
-        cold = data[name].sel(mode="cold").values
-        scale = np.maximum(np.abs(cold), 0.01 * np.nanmax(np.abs(cold)))
-        gap = np.abs(warm - cold) / np.where(scale > 0, scale, 1.0)
-        missing = int(np.isnan(gap).sum())
-        print(f"{name}: modes within {np.nanmax(gap):.1e}"
-              + (f", {missing} value(s) NaN" if missing else ""))
+        for n, (way, patches) in enumerate(ways.items()):
+            saved = {name: getattr(starts if name == "set_aside" else guards, name)
+                     for name in patches}
+            for name, value in patches.items():
+                setattr(starts if name == "set_aside" else guards, name, value)
+            try:
+                run(model, Path(folder) / f"study{n}", way)
+            finally:
+                for name, value in saved.items():
+                    setattr(starts if name == "set_aside" else guards, name, value)
 
 
 if __name__ == "__main__":

@@ -2,20 +2,21 @@
 put while the fields decay, and the case ran to ``max_iter`` as not converged — a spun hub
 at ω = 0 and no interference, started from ω = 500 rad/s in a study over ω from 0
 (``examples/spinning_fit.py``), was NaN in the multiresolution study and solved in one
-iteration cold. The case now stops as "vanished" (``latin.guards.VANISH``) and a study
-solves it again from zero (``study.starts.set_aside``), as it does a warm start that did not
-converge for any reason."""
+iteration cold. A case nothing loads now drops its warm start (``latin.guards.
+drop_unloaded_starts``: one iteration); one whose fields vanish from their warm start (a
+load far smaller than its neighbour's, or a zero the check misses) stops as "vanished"
+(``latin.guards.VANISH``), and a study solves it again from zero (``study.starts.
+set_aside``), as it does a warm start that did not converge for any reason."""
 
 from __future__ import annotations
 
-import json
 from pathlib import Path
 
 import numpy as np
 import pytest
 
 import multilatin as ml
-from multilatin.latin import LatinOptions, solve_latin
+from multilatin.latin import LatinOptions, guards, solve_latin
 from multilatin.latin.guards import VANISH
 from multilatin.latin.options import STUDY_QOI_RTOL
 from multilatin.parameters import Grid
@@ -67,32 +68,38 @@ def pressed() -> ml.Model:
     return ml.Model(ml.ModelSpec.from_string(PRESSED, name="pressed"))
 
 
-def test_a_warm_start_at_zero_load_stops_as_vanished(pressed: ml.Model) -> None:
-    """From p = 10 to p = 0 the fields fall below ``VANISH`` of their start within a few
-    dozen iterations, and the result says so; from zero the answer is exact at once; a
-    small load (1e-4 of the start's, above ``VANISH``) still converges from the warm start
-    to the cold answer."""
+def test_warm_starts_at_zero_and_at_a_vanishing_load(pressed: ml.Model,
+                                                     monkeypatch: pytest.MonkeyPatch) -> None:
+    """From p = 10: at p = 0 the warm start is dropped (one iteration, R = 0 exactly) —
+    kept (the check switched off), its fields fall below ``VANISH`` of their start within a
+    few dozen iterations and the result says so; at p = 1e-6 (1e-7 of the start's load)
+    they vanish too; at p = 1e-3 (1e-4, above ``VANISH``) the warm start converges to the
+    cold answer."""
     options = LatinOptions()
     start = solve_latin(pressed.assemble({"p": 10.0}), options)
     fields = (start.interface.displacement_hat, start.interface.force_hat)
-    warm = solve_latin(pressed.assemble({"p": 0.0}), options, initial=fields, check=False)
-    assert not warm.converged and warm.failure.startswith("vanished")
-    assert warm.iterations < 200
-    cold = solve_latin(pressed.assemble({"p": 0.0}), options)
-    assert cold.iterations == 1 and cold.qoi["R"] == 0.0
+    zero = solve_latin(pressed.assemble({"p": 0.0}), options, initial=fields)
+    assert zero.iterations == 1 and zero.qoi["R"] == 0.0
+    tiny = solve_latin(pressed.assemble({"p": 1e-6}), options, initial=fields, check=False)
+    assert not tiny.converged and tiny.failure.startswith("vanished")
+    assert tiny.iterations < 200
     small = solve_latin(pressed.assemble({"p": 1e-3}), options, initial=fields)
     assert small.qoi["R"] == pytest.approx(0.02, rel=1e-5)
-    assert 1e-3 / 10.0 > VANISH
+    assert 1e-3 / 10.0 > VANISH > 1e-6 / 10.0
+    monkeypatch.setattr(guards, "unloaded", lambda local, bodies: np.zeros(1, dtype=bool))
+    kept = solve_latin(pressed.assemble({"p": 0.0}), options, initial=fields, check=False)
+    assert not kept.converged and kept.failure.startswith("vanished")
 
 
 @pytest.mark.parametrize("batch, rolling", [(1, True), (3, True), (3, False)])
 def test_a_study_solves_a_vanished_case_again_from_zero(
         pressed: ml.Model, tmp_path: Path, batch: int, rolling: bool) -> None:
-    """Down p = 10, 5, 0 the last case starts from p = 5, vanishes, and is solved again
-    from zero (its record says why, its iterations count the warm attempt), one case at a
-    time, in a rolling batch and in line batches alike; the study converges everywhere, both
-    modes within the studies' accuracy of the closed form."""
-    grid = Grid({"p": [10.0, 5.0, 0.0]})
+    """Down p = 10, 5, 1e-6, 0: the case p = 1e-6 starts from p = 5, vanishes, and is
+    solved again from zero (its record says why, its iterations count the warm attempt);
+    p = 0 drops its warm start — one case at a time, in a rolling batch and in line batches
+    alike. The study converges everywhere, both modes within the studies' accuracy of the
+    closed form and of each other."""
+    grid = Grid({"p": [10.0, 5.0, 1e-6, 0.0]})
     study = run_study(pressed, grid, modes=("multiresolution", "cold"), out=tmp_path,
                       progress=False, batch=batch, rolling=rolling)
     data = study.dataset
@@ -103,7 +110,8 @@ def test_a_study_solves_a_vanished_case_again_from_zero(
     assert set(study.modes_within) == {"R"}
     assert study.modes_within["R"] <= 2 * STUDY_QOI_RTOL
     assert study.to_json_dict()["modes_within"] == study.modes_within
-    records = [json.loads(line) for line in (tmp_path / "cases.jsonl").read_text().splitlines()]
-    zero = next(r for r in records if r["mode"] == "multiresolution" and r["params"]["p"] == 0)
-    assert zero["start"] == "zero (not converged, vanished: the warm start was set aside)"
-    assert zero["iterations"] > 1
+    records = {r["params"]["p"]: r for r in study.mode_records("multiresolution")}
+    assert records[1e-6]["start"] == "zero (not converged, vanished: the warm start was set aside)"
+    assert records[1e-6]["iterations"] > 1
+    assert records[0.0]["start"] == "zero (nothing loads it)"
+    assert records[0.0]["iterations"] == 1

@@ -6,7 +6,7 @@ from __future__ import annotations
 
 import logging
 from collections.abc import Sequence
-from typing import Any
+from typing import TYPE_CHECKING, Any
 
 import numpy as np
 import numpy.typing as npt
@@ -15,9 +15,14 @@ from ..fem.elasticity import FloatArray, IntArray
 from .indicator_kernel import weighted_squares
 from .options import LatinOptions
 
+if TYPE_CHECKING:
+    from .body_forces import BodyResponse
+    from .local_stage import LocalStage
+
 __all__ = ["BLOWUP", "DRIFT_WINDOW", "FORCE_FLOOR", "FORCE_MARGIN", "FORCE_ROUNDOFF",
            "NO_EQUILIBRIUM", "STEP_SPREAD", "VANISH", "blows_up", "damp_stagnating",
-           "drifting_steps", "drifts", "force_indicator", "forces_unsettled", "vanishes"]
+           "drifting_steps", "drifts", "drop_unloaded_starts", "force_indicator",
+           "forces_unsettled", "unloaded", "vanishes"]
 
 log = logging.getLogger(__name__)
 
@@ -35,7 +40,8 @@ BLOWUP = 1e3
 #: started from. η, relative to the fields' size, then stays put while they decay: a spun
 #: hub at ω = 0 and no interference (answer zero) started from its neighbour at ω = 500
 #: rad/s ran 1 000 iterations at η = 0.36, its fields 1e-7 of their start by iteration 50,
-#: 1e-65 by 400 (session 52). Studies solve such a case again from zero (``study.starts``)
+#: 1e-65 by 400 (session 52). Studies solve such a case again from zero (``study.starts``);
+#: a case nothing loads drops its warm start at once (``drop_unloaded_starts``)
 VANISH = 1e-6
 #: a drifting case's steps whose s − ŝ (relative to each step's size) is within this factor
 #: of the worst step's are named as those without equilibrium (``drifting_steps``)
@@ -176,6 +182,37 @@ def vanishes(size: FloatArray, first_size: FloatArray, warm: npt.NDArray[np.bool
     ``first_size`` (after the first iteration). From zero the first size is the answer's
     scale; from a neighbour's fields it is the neighbour's."""
     return np.asarray(warm & (first_size > 0.0) & (size < VANISH * first_size), dtype=bool)
+
+
+def unloaded(local: LocalStage, bodies: Sequence[BodyResponse | None]
+             ) -> npt.NDArray[np.bool_]:
+    """Per case: nothing loads it — no prescribed displacement or force, no interference
+    (every contact and stop gap ≥ 0), no body force, temperature change or point load — so
+    that its answer is zero, reached from zero in one iteration. A warm start there would
+    only decay (``vanishes``). Something missed here costs a solve from zero, never an
+    answer."""
+    n_cases = local.prescribed.shape[0]
+    quiet = ~np.any(local.prescribed.reshape(n_cases, -1) != 0.0, axis=1)
+    quiet &= np.all(local.gap_contact.reshape(n_cases, -1) >= 0.0, axis=1)
+    quiet &= np.all(local.gap_stop.reshape(n_cases, -1) >= 0.0, axis=1)
+    for c, body in enumerate(bodies):
+        if body is not None and (np.any(body.offsets != 0.0)
+                                 or any(np.any(x != 0.0) for x in body.interior.values())):
+            quiet[c] = False
+    return np.asarray(quiet, dtype=bool)
+
+
+def drop_unloaded_starts(local: LocalStage, bodies: Sequence[BodyResponse | None],
+                         w_hat: FloatArray, f_hat: FloatArray, labels: Sequence[str]) -> None:
+    """The warm starts ŝ = (``w_hat``, ``f_hat``) of the cases nothing loads (``unloaded``)
+    set to zero, in place: from zero such a case is done in one iteration."""
+    n_cases = w_hat.shape[0]
+    warm = (np.any(w_hat.reshape(n_cases, -1) != 0.0, axis=1)
+            | np.any(f_hat.reshape(n_cases, -1) != 0.0, axis=1))
+    for c in np.flatnonzero(warm & unloaded(local, bodies)).tolist():
+        log.info("%s: nothing loads it; its warm start is dropped (from zero: one "
+                 "iteration)", labels[c])
+        w_hat[c] = f_hat[c] = 0.0
 
 
 def damp_stagnating(histories: list[list[float]], active: IntArray, relaxation: FloatArray,

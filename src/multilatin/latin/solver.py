@@ -37,6 +37,7 @@ from .guards import (
     VANISH,
     blows_up,
     drifting_steps,
+    drop_unloaded_starts,
     vanishes,
 )
 from .iteration import IterationObserver, iterate
@@ -159,6 +160,7 @@ def solve_latin_batch(
     local = LocalStage(assemblies, points, ops.search_direction, macro_only=ops.macro_only,
                        body=stacked_offsets(bodies, n_steps, ops.points.n_points))
     check_scale(assemblies, points[0], ops.search_direction, local)
+    drop_unloaded_starts(local, bodies, w_hat, f_hat, [a.label for a in assemblies])
 
     t1 = time.perf_counter()
     functionals = [with_body_constants(functional, body, assembly) for functional, body,

@@ -29,6 +29,7 @@ from ..limits import check_scale
 from .batching import same_interfaces
 from .body_forces import BodyResponse, body_response, stacked_offsets, with_body_constants
 from .engine import one_blas_thread
+from .guards import drop_unloaded_starts
 from .iteration import BatchIterations
 from .local_stage import LocalStage
 from .operators import LatinOperators
@@ -159,6 +160,7 @@ def _join(batch: BatchIterations | None, members: dict[int, _Member],
         local = LocalStage(assemblies, points, ops.search_direction, macro_only=ops.macro_only,
                            body=stacked_offsets(bodies, shape[0], shape[1]))
         check_scale(assemblies, points[0], ops.search_direction, local)
+        drop_unloaded_starts(local, bodies, w_hat, f_hat, [a.label for a in assemblies])
         # built once per operators and set of QoIs: shared functionals are applied to all
         # the cases at once (``NumpyFields.qoi_values``)
         functionals = []

@@ -37,6 +37,10 @@ def case_record(grid: Grid, case: Case, mode: str, result: SolveResult, wall_s: 
     start = start_text(grid, start_index, extra, case.axes)
     if warm_attempt:
         start = f"zero ({set_aside}: the warm start was set aside)"
+    elif start_index is not None and result.iterations == 1 and result.indicator == 0.0:
+        # η = 0 at once: the state is zero (a warm start dropped, ``latin.guards.
+        # drop_unloaded_starts``, or a neighbour's zero fields)
+        start = "zero (nothing loads it)"
     params = {name: case.mu[name] for name in grid}
     text = ", ".join(f"{k}={v:g}" for k, v in params.items())
     iterations = int(result.iterations) + warm_attempt
