@@ -85,6 +85,22 @@ def test_a_study_solves_the_stack_from_zero_and_matches_cold(
     assert "MODES DISAGREE: u_A beyond that bound" in "\n".join(summary)
 
 
+def test_a_block_nothing_holds_sideways_starts_from_zero_at_once(stack: ml.Model,
+                                                                 tmp_path: Path) -> None:
+    """At μ2 = 0 nothing holds the top block sideways (its contact frictionless, no wall):
+    free at every step, no case is unique. The start predictor (``predictors.
+    at_friction_limit``) reads that from the neighbour's state — a motion with no capacity
+    at all and nil load along it — so the second case starts from zero at once; before
+    session 52 it read only motions with a capacity, and a warm attempt (~100–190
+    iterations on this line) was set aside first."""
+    clear_operator_cache()
+    study = run_study(stack, Grid({"mu1": [0.1, 0.15], "mu2": [0.0], "gap": [0.2]}),
+                      modes=("multiresolution",), out=tmp_path, progress=False)
+    records = study.mode_records("multiresolution")
+    assert [r["unique"] for r in records] == [False, False]
+    assert [r["start"] for r in records] == ["zero", "zero"]
+
+
 def test_unions_follow_the_contacts_smallest_first_and_are_bounded(
         caplog: pytest.LogCaptureFixture, monkeypatch: pytest.MonkeyPatch) -> None:
     """A column of five free blocks, each on the next: the unions are its runs of 2–5
