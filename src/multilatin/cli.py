@@ -128,7 +128,11 @@ def _add_latin_arguments(parser: argparse.ArgumentParser, qoi_rtol: float | None
                         "iterations; 0: every step every iteration (docs/performance.md) "
                         "(default: %(default)s)")
     parser.add_argument("--interface-elements", default=d.interface_elements,
-                        choices=["nodal", "edges", "edge-pairs"])
+                        choices=["nodal", "edges", "edge-pairs"],
+                        help="the interface fields' elements: nodal (the trace nodes' dual "
+                        "cells), or for comparison the paper's P0 per mesh edge (B0: 1 384 "
+                        "iterations against 66, B1's studies mostly at the cap) or P0 per "
+                        "pair of edges (docs/method.md) (default: %(default)s)")
     parser.add_argument("--backend", default=d.backend, choices=list(BACKENDS),
                         help="array library of the iteration: numpy (with Numba; the "
                         "reference) or torch (PyTorch, extra 'gpu') (default: %(default)s)")

@@ -162,7 +162,9 @@ def _agreement_lines(result: StudyResult) -> list[str]:
     if not beyond:
         return [line]
     return [line, f"MODES DISAGREE: {', '.join(beyond)} beyond that bound — a warm start led "
-            "where a cold solve does not; trust the cold answers, and please report the case"]
+            "elsewhere than a cold solve, or the QoI rule stopped short of its promise: "
+            "trust the cold answers, check with a smaller --qoi-rtol, and please report "
+            "the case"]
 
 
 def _params(record: dict[str, Any]) -> str:
