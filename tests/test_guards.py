@@ -237,3 +237,19 @@ def test_failed_cases_are_masked_warned_and_left_out_of_the_gains(tmp_path: Path
         run_study(model, grid, options=options, out=tmp_path / "b", progress=False,
                   on_failure="raise")
     assert caught.value.result.failed
+
+
+def test_a_case_at_the_cap_says_what_its_last_state_leaves_free() -> None:
+    """The lap joint at p = 0: nothing presses the plates, the upper one is free to lift,
+    and the iteration crawls to the cap (the reference: F_pull = 0, the lift undetermined).
+    The failure names the free motion of its last state (``guards.explain_capped``); a case
+    at the cap whose last state leaves nothing free keeps the plain message."""
+    lap = ml.load_model("lap")
+    options = LatinOptions(max_iter=200)
+    free = ml.solve_latin(lap.assemble({"mu": 0.1, "p": 0.0}), options, check=False)
+    assert not free.converged and free.failure.startswith("eta = ")
+    assert "in its last state, step " in free.failure
+    assert "upper is free to move (translation (+0, +1))" in free.failure
+    held = ml.solve_latin(lap.assemble({"mu": 0.1, "p": 50.0}), LatinOptions(max_iter=20),
+                          check=False)
+    assert not held.converged and "in its last state" not in held.failure

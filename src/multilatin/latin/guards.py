@@ -1,27 +1,33 @@
 """The guards of the LATIN iteration's control (``solver._iterate``) for cases that do not
 converge the normal way: a state that grows without end (no equilibrium), one that blows
-up (an unstable iteration), and an η that stagnates (the relaxation lowered)."""
+up (an unstable iteration), a warm start that vanishes or that nothing loads, an η that
+stagnates (the relaxation lowered), and what a case at the cap leaves free."""
 
 from __future__ import annotations
 
 import logging
 from collections.abc import Sequence
+from dataclasses import replace
 from typing import TYPE_CHECKING, Any
 
 import numpy as np
 import numpy.typing as npt
 
+from ..decomposition.uniqueness import free_motions_batch
 from ..fem.elasticity import FloatArray, IntArray
 from .indicator_kernel import weighted_squares
 from .options import LatinOptions
 
 if TYPE_CHECKING:
+    from ..decomposition.assembly import Assembly
+    from ..decomposition.interfaces import InterfacePoints
+    from ..decomposition.result import SolveResult
     from .body_forces import BodyResponse
     from .local_stage import LocalStage
 
 __all__ = ["BLOWUP", "DRIFT_WINDOW", "FORCE_FLOOR", "FORCE_MARGIN", "FORCE_ROUNDOFF",
-           "NO_EQUILIBRIUM", "STEP_SPREAD", "VANISH", "blows_up", "damp_stagnating",
-           "drifting_steps", "drifts", "drop_unloaded_starts", "force_indicator",
+           "NO_EQUILIBRIUM", "START_FAILURES", "STEP_SPREAD", "VANISH", "blows_up", "damp_stagnating",
+           "drifting_steps", "drifts", "drop_unloaded_starts", "explain_capped", "force_indicator",
            "forces_unsettled", "unloaded", "vanishes"]
 
 log = logging.getLogger(__name__)
@@ -48,6 +54,12 @@ VANISH = 1e-6
 STEP_SPREAD = 1e-2
 #: how the failure of a drifting case begins: no equilibrium exists, whatever the start
 NO_EQUILIBRIUM = "no equilibrium"
+#: how the failures a start can cause begin (``solver``'s messages): fields that vanish
+#: from it (``vanishes``), blow up (``blows_up``) or overflow. A study solves a warm start
+#: that failed so again from zero (``study.starts.set_aside``); not one that reached the
+#: cap (the lap joint at p = 0 crawls there from either start: solved again, 1 000 → 2 000
+#: iterations for the same failure, session 52) or has no equilibrium
+START_FAILURES = ("vanished", "diverged", "non-finite")
 
 
 #: a case stops only where its interface forces have converged too: their own indicator
@@ -229,3 +241,29 @@ def damp_stagnating(histories: list[list[float]], active: IntArray, relaxation: 
             relaxation[position] = max(relaxation[position] - 0.1, 0.5)
             log.info("case %d of the batch: eta stagnates (%.2e after %.2e), relaxation "
                      "lowered to %.1f", case, latest, before, relaxation[position])
+
+
+def explain_capped(results: list[SolveResult],
+                   exits: Sequence[tuple[FloatArray, FloatArray, FloatArray, FloatArray]],
+                   assemblies: Sequence[Assembly], points: Sequence[InterfacePoints]
+                   ) -> list[SolveResult]:
+    """The results that reached the cap (``max_iter``), their failure completed with what
+    their last state (``exits``: per result (W, F, Ŵ, F̂)) leaves free — a body nothing holds,
+    along which the iteration crawls, says why better than "a larger max_iter may
+    converge" (session 52: the lap joint at p = 0, its upper plate free to lift)."""
+    capped = [n for n, result in enumerate(results) if result.failure.startswith("eta = ")]
+    if not capped:
+        return results
+    motions = free_motions_batch([assemblies[n] for n in capped], [points[n] for n in capped],
+                                 [exits[n][2] for n in capped], [exits[n][3] for n in capped])
+    out = list(results)
+    for n, found in zip(capped, motions, strict=True):
+        if not found:
+            continue
+        motion = next((m for m in found if m.reaches_last_step), found[-1])
+        more = f" (and {len(found) - 1} more)" if len(found) > 1 else ""
+        out[n] = replace(results[n], failure=(
+            f"{results[n].failure}; in its last state, {motion.describe()}{more}: a body "
+            "nothing holds may be what the iteration crawls along — `multilatin reference` "
+            "says whether the discrete problem determines the answer"))
+    return out

@@ -38,6 +38,7 @@ from .guards import (
     blows_up,
     drifting_steps,
     drop_unloaded_starts,
+    explain_capped,
     vanishes,
 )
 from .iteration import IterationObserver, iterate
@@ -331,7 +332,7 @@ def results_of(cases: Sequence[int], assemblies: Sequence[Assembly],
         for n, found, (_, _, w_hat, f_hat) in zip(converged, motions, exits, strict=True):
             slips = large_slips(assemblies[n], points[n], w_hat, f_hat)
             results[n] = replace(results[n], free_motions=tuple(found), large_slips=slips)
-    return results
+    return explain_capped(results, [state.exits[c] for c in cases], assemblies, points)
 
 
 def _result(c: int, assembly: Assembly, pts: InterfacePoints, state: IterationState,

@@ -20,9 +20,10 @@ chain from the first value kept one case at a time in the batch; three seeds sol
 in 0.27–0.28 s instead of 0.37–0.38, for 557 iterations instead of 511). Ready cases join
 nearest a case from zero first (their dependants are the most).
 
-A warm-started case whose answer the discrete problem does not determine, or that did not
-converge, is solved again from zero (``starts.set_aside``, the line batches' rule) inside the
-same rolling batch; the cases that start from it wait for that answer.
+A warm-started case whose answer the discrete problem does not determine, or whose failure
+the start may have caused, is solved again from zero (``starts.set_aside``, the line
+batches' rule) inside the same rolling batch; the cases that start from it wait for that
+answer.
 """
 
 from __future__ import annotations

@@ -2,8 +2,8 @@
 fields (or an extrapolation from several, ``predictors``), zero where the case is most
 likely not unique (``at_limit``: a neighbour's state read with the case's friction
 coefficients, or a flag one hole position away), and a warm-started answer that the
-discrete problem does not determine, or that did not converge, solved again from zero
-(``path_independent``), so that no study's answer depends on its order."""
+discrete problem does not determine, or whose failure the start may have caused, solved
+again from zero (``path_independent``), so that no study's answer depends on its order."""
 
 from __future__ import annotations
 
@@ -16,7 +16,7 @@ from ..decomposition.assembly import Assembly
 from ..decomposition.result import SolveResult
 from ..fem.elasticity import FloatArray
 from ..latin import LatinOptions, solve_latin_batch
-from ..latin.guards import NO_EQUILIBRIUM
+from ..latin.guards import START_FAILURES
 from ..latin.operators import LatinOperators
 from ..parameters import Grid
 from .predictors import (
@@ -116,13 +116,14 @@ def set_aside(result: SolveResult, start_index: Index | None) -> str | None:
     """Why a warm-started answer is set aside and the case solved again from zero (None:
     kept). One the discrete problem does not determine (``multilatin.uniqueness``): a warm
     start would pick the solution nearest its neighbour's, and the study's answer would
-    depend on its order. One that did not converge, but for want of an equilibrium (which no
-    start changes): a cold solve may (a warm start at zero load vanishes,
-    ``latin.guards.VANISH``), and a case fails only as it fails from zero."""
+    depend on its order. One whose failure the start may have caused
+    (``latin.guards.START_FAILURES``: its fields vanished, as a warm start at zero load's
+    do, blew up or overflowed): a cold solve may converge. Not one at the cap, or without
+    an equilibrium: no start changes those, and a second solve would double their cost."""
     if start_index is None:
         return None
     if not result.converged:
-        if result.failure.startswith(NO_EQUILIBRIUM):
+        if not result.failure.startswith(START_FAILURES):
             return None
         return "not converged, " + re.split(r"[:;(]", result.failure, maxsplit=1)[0].strip()
     return None if result.unique else "not unique"
