@@ -25,10 +25,11 @@ if TYPE_CHECKING:
     from .body_forces import BodyResponse
     from .local_stage import LocalStage
 
-__all__ = ["BLOWUP", "DRIFT_WINDOW", "FORCE_FLOOR", "FORCE_MARGIN", "FORCE_ROUNDOFF",
-           "NO_EQUILIBRIUM", "START_FAILURES", "STEP_SPREAD", "VANISH", "blows_up", "damp_stagnating",
-           "drifting_steps", "drifts", "drop_unloaded_starts", "explain_capped", "force_indicator",
-           "forces_unsettled", "unloaded", "vanishes"]
+__all__ = ["BLOWUP", "CAPPED", "DRIFT_WINDOW", "FORCE_FLOOR", "FORCE_MARGIN",
+           "FORCE_ROUNDOFF", "NO_EQUILIBRIUM", "START_FAILURES", "STEP_SPREAD", "VANISH",
+           "blows_up", "damp_stagnating", "drifting_steps", "drifts", "drop_unloaded_starts",
+           "explain_capped", "force_indicator", "forces_unsettled", "started_warm", "unloaded",
+           "vanishes"]
 
 log = logging.getLogger(__name__)
 
@@ -54,6 +55,8 @@ VANISH = 1e-6
 STEP_SPREAD = 1e-2
 #: how the failure of a drifting case begins: no equilibrium exists, whatever the start
 NO_EQUILIBRIUM = "no equilibrium"
+#: how the failure of a case at the cap (``max_iter``) begins: η, then its value
+CAPPED = "eta = "
 #: how the failures a start can cause begin (``solver``'s messages): fields that vanish
 #: from it (``vanishes``), blow up (``blows_up``) or overflow. A study solves a warm start
 #: that failed so again from zero (``study.starts.set_aside``); not one that reached the
@@ -188,6 +191,14 @@ def blows_up(size: FloatArray, first_size: FloatArray) -> npt.NDArray[np.bool_]:
     return np.asarray((first_size > 0.0) & (size > BLOWUP * first_size), dtype=bool)
 
 
+def started_warm(w_hat: FloatArray, f_hat: FloatArray) -> npt.NDArray[np.bool_]:
+    """Per case of ŝ = (``w_hat``, ``f_hat``): whether it starts from fields other than
+    zero."""
+    n_cases = w_hat.shape[0]
+    return np.asarray(np.any(w_hat.reshape(n_cases, -1) != 0.0, axis=1)
+                      | np.any(f_hat.reshape(n_cases, -1) != 0.0, axis=1), dtype=bool)
+
+
 def vanishes(size: FloatArray, first_size: FloatArray, warm: npt.NDArray[np.bool_]
              ) -> npt.NDArray[np.bool_]:
     """Per case: warm-started and its ½(‖s‖ + ‖ŝ‖) ``size`` below ``VANISH`` times its
@@ -218,10 +229,7 @@ def drop_unloaded_starts(local: LocalStage, bodies: Sequence[BodyResponse | None
                          w_hat: FloatArray, f_hat: FloatArray, labels: Sequence[str]) -> None:
     """The warm starts ŝ = (``w_hat``, ``f_hat``) of the cases nothing loads (``unloaded``)
     set to zero, in place: from zero such a case is done in one iteration."""
-    n_cases = w_hat.shape[0]
-    warm = (np.any(w_hat.reshape(n_cases, -1) != 0.0, axis=1)
-            | np.any(f_hat.reshape(n_cases, -1) != 0.0, axis=1))
-    for c in np.flatnonzero(warm & unloaded(local, bodies)).tolist():
+    for c in np.flatnonzero(started_warm(w_hat, f_hat) & unloaded(local, bodies)).tolist():
         log.info("%s: nothing loads it; its warm start is dropped (from zero: one "
                  "iteration)", labels[c])
         w_hat[c] = f_hat[c] = 0.0
@@ -251,7 +259,7 @@ def explain_capped(results: list[SolveResult],
     their last state (``exits``: per result (W, F, Ŵ, F̂)) leaves free — a body nothing holds,
     along which the iteration crawls, says why better than "a larger max_iter may
     converge" (session 52: the lap joint at p = 0, its upper plate free to lift)."""
-    capped = [n for n, result in enumerate(results) if result.failure.startswith("eta = ")]
+    capped = [n for n, result in enumerate(results) if result.failure.startswith(CAPPED)]
     if not capped:
         return results
     motions = free_motions_batch([assemblies[n] for n in capped], [points[n] for n in capped],

@@ -27,6 +27,7 @@ from .guards import (
     damp_stagnating,
     drifts,
     forces_unsettled,
+    started_warm,
     vanishes,
 )
 from .local_stage import LocalStage
@@ -395,14 +396,6 @@ class BatchIterations:
             done[positions[going_on]] = False
             fields = tuple(x[~going_on] for x in fields)
         return fields
-
-
-def started_warm(w_hat: FloatArray, f_hat: FloatArray) -> npt.NDArray[np.bool_]:
-    """Per case of ŝ = (``w_hat``, ``f_hat``): whether it starts from fields other than
-    zero."""
-    n_cases = w_hat.shape[0]
-    return np.asarray(np.any(w_hat.reshape(n_cases, -1) != 0.0, axis=1)
-                      | np.any(f_hat.reshape(n_cases, -1) != 0.0, axis=1), dtype=bool)
 
 
 def iterate(ops: LatinOperators, local: LocalStage, options: LatinOptions,

@@ -32,6 +32,7 @@ from .case_state import IterationState
 from .engine import one_blas_thread
 from .guards import (
     BLOWUP,
+    CAPPED,
     DRIFT_WINDOW,
     NO_EQUILIBRIUM,
     VANISH,
@@ -266,7 +267,7 @@ def _outcome(history: FloatArray, qoi: dict[str, float | list[float]],
     if bad:
         return False, f"non-finite quantities of interest ({', '.join(bad)})"
     if eta >= options.tol and not stopped_on_qoi:
-        return False, (f"eta = {eta:.3e} >= tol = {options.tol:g} after {history.size} "
+        return False, (f"{CAPPED}{eta:.3e} >= tol = {options.tol:g} after {history.size} "
                        "iterations (max_iter); a larger max_iter or another kappa (the "
                        "search direction, which the answer does not depend on; "
                        "docs/convergence.md, 'kappa on every bundled model') may converge")
