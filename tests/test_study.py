@@ -58,6 +58,26 @@ def test_bad_grids_are_refused(items: list[str], message: str) -> None:
         Grid.parse(items)
 
 
+def test_values_out_of_order_are_sorted_and_monotone_ones_kept(
+        b1: ml.Model, tmp_path: Path, caplog: pytest.LogCaptureFixture) -> None:
+    """A case starts from its neighbours along a line and each line is plotted in the
+    grid's order: values given out of order would start cases from far-off ones and draw
+    zig-zag lines (found by a user-style study, session 53)."""
+    with caplog.at_level("WARNING", logger="multilatin.parameters"):
+        grid = Grid.parse(["mu2=0.3,0,0.2,0.1", "mu1=0.3"])
+    assert grid["mu2"] == (0.0, 0.1, 0.2, 0.3)
+    assert "'mu2': values given out of order" in caplog.text and "mu1" not in caplog.text
+    caplog.clear()
+    with caplog.at_level("WARNING", logger="multilatin.parameters"):
+        falling = Grid({"p": [10.0, 5.0, 0.0]})
+    assert falling["p"] == (10.0, 5.0, 0.0) and not caplog.text
+    shuffled = run_study(b1, grid, out=tmp_path / "shuffled", progress=False)
+    given = run_study(b1, MU2_LINE, out=tmp_path / "sorted", progress=False)
+    assert [r["iterations"] for r in shuffled.records] == [
+        r["iterations"] for r in given.records]
+    assert list(shuffled.dataset["mu2"].values) == [0.0, 0.1, 0.2, 0.3]
+
+
 def test_unknown_or_inadmissible_parameters_fail_before_any_work(b1: ml.Model,
                                                                   tmp_path: Path) -> None:
     with pytest.raises(ModelError, match="unknown parameter"):

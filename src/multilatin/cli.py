@@ -178,7 +178,7 @@ def build_parser() -> argparse.ArgumentParser:
     study.add_argument("model", help="bundled model name or a .toml path")
     study.add_argument("--grid", action="append", default=[], metavar="NAME=VALUES",
                        help="a varied parameter: name=start:stop:count, name=v1,v2,... or "
-                       "name=value (repeatable)")
+                       "name=value (repeatable; a list out of order is sorted)")
     study.add_argument("--set", dest="assignments", action="append", default=[],
                        metavar="NAME=VALUE", help="fix a parameter that is not varied")
     modes = study.add_mutually_exclusive_group()

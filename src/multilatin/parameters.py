@@ -9,6 +9,7 @@ Base room: imports only ``errors`` and ``limits``; every other room may import i
 
 from __future__ import annotations
 
+import logging
 import math
 import numbers
 from collections.abc import Iterable, Iterator, Mapping
@@ -18,6 +19,8 @@ import numpy as np
 
 from .errors import ModelError
 from .limits import check_grid_count
+
+log = logging.getLogger(__name__)
 
 
 def label(name: str, unit: str) -> str:
@@ -135,7 +138,12 @@ def parse_assignments(assignments: list[str]) -> dict[str, float]:
 
 
 class Grid(Mapping[str, tuple[float, ...]]):
-    """A tensor grid of parameter values: name -> values, in the order the user gave them.
+    """A tensor grid of parameter values: name -> values, in the order the user gave them
+    when that order is monotone (rising or falling), sorted rising when it is not.
+
+    A study starts each case from its neighbours along a grid line and plots each line in
+    the grid's order, so values given out of order (``mu2=0.5,0.1,0.3``) would start cases
+    from far-off ones and draw zig-zag lines: they are sorted, with a warning.
 
     Built from command-line items (``parse``) or, after pyMOR's ``ParameterSpace``, by
     sampling admissible ranges (``ParameterSpace.sample_uniformly``). Every value is checked
@@ -152,6 +160,12 @@ class Grid(Mapping[str, tuple[float, ...]]):
                 raise ModelError(f"grid {name!r}: no values")
             if len(set(grid_values)) != len(grid_values):
                 raise ModelError(f"grid {name!r}: repeated values {grid_values}")
+            steps = np.diff(grid_values)
+            if not (np.all(steps > 0) or np.all(steps < 0)):
+                grid_values = tuple(sorted(grid_values))
+                log.warning("grid %r: values given out of order, run and stored in rising "
+                            "order %s (a case starts from its neighbours along a grid line)",
+                            name, ", ".join(f"{v:g}" for v in grid_values))
             self._values[name] = grid_values
 
     @classmethod
