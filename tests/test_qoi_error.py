@@ -225,6 +225,34 @@ def test_qoi_stopping_waits_only_for_the_steps_a_qoi_reports(monkeypatch) -> Non
     assert at_its_step.iterations < every_step.iterations
 
 
+def test_a_qoi_that_is_a_small_rest_of_its_terms_stops_nothing(monkeypatch) -> None:
+    """B1 with the stop's gap at 0: A sits on the stop, u_A ≈ 1e-9 mm, read through the
+    centre block's response from interface terms of ~1e-2 mm (``magnitudes``). Its floor
+    of 1 % of its own largest value asked 1e-14 mm of it, and the case ran on to η < 1e-7
+    (session 53); with the floor from its terms (``iteration.CANCELLED``) it stops on its
+    QoIs, every QoI within 1e-3 of the tight solve's relative to its terms."""
+    model = ml.load_model("b1")
+    assembly = model.assemble({"mu1": 0.3, "mu2": 0.3, "gap": 0.0})
+    operators = LatinOperators(assembly, ml.LatinOptions())
+    functionals = qoi_functionals(operators, assembly, operators.points)
+    tight = ml.solve_latin(assembly, TIGHT, operators=operators)
+    fields = tight.interface
+    assert fields is not None
+    terms = functionals.magnitudes(fields.displacement[None], fields.force[None],
+                                   fields.force_hat[None])[0]
+    u_a = np.asarray(tight.qoi["u_A"])
+    assert np.abs(u_a).max() < 1e-4 * terms[1].max()  # a small rest of its terms
+    stopped = ml.solve_latin(assembly, ml.LatinOptions(qoi_rtol=1e-3), operators=operators)
+    assert stopped.stopped_on_qoi
+    for i, name in enumerate(functionals.names):
+        scale = np.maximum(np.abs(np.atleast_1d(tight.qoi[name])), terms[i].max())
+        error = np.abs(np.atleast_1d(stopped.qoi[name]) - np.atleast_1d(tight.qoi[name]))
+        assert np.all(error <= 1e-3 * scale), name
+    monkeypatch.setattr(iteration, "CANCELLED", 0.0)
+    own_floor = ml.solve_latin(assembly, ml.LatinOptions(qoi_rtol=1e-3), operators=operators)
+    assert not own_floor.stopped_on_qoi and own_floor.iterations > stopped.iterations
+
+
 def test_a_study_does_not_stop_on_eta_before_its_qois_settle() -> None:
     """B1-9 (0.1, 0.5) warm-started from (0.05, 0.5), as a study runs it: η < 3e-6 comes
     while R_stop (4.05 N, the push at the friction capacity) is still 0.7 % off — its

@@ -248,6 +248,15 @@ class NumpyFields:
                                                     f_hat[i:i + 1])[0]
                          for i, c in enumerate(self.active)])
 
+    def qoi_magnitudes(self) -> FloatArray:
+        assert self.functionals is not None and self.w is not None and self.f is not None
+        w, f, f_hat = self.w, self.f, self.f_hat
+        if self.shared:
+            return self.functionals[0].magnitudes(w, f, f_hat)
+        return np.stack([self.functionals[c].magnitudes(w[i:i + 1], f[i:i + 1],
+                                                        f_hat[i:i + 1])[0]
+                         for i, c in enumerate(self.active)])
+
     def indicator(self) -> tuple[FloatArray, FloatArray]:
         assert self.w is not None and self.f is not None
         if kernels.indicator_squares is not None and self.local.compiled:

@@ -27,6 +27,9 @@ class FieldEngine(Protocol):
     def qoi_values(self) -> FloatArray:
         """The tracked QoIs (n_active, n_qoi, n_steps) of the current fields, on the host."""
 
+    def qoi_magnitudes(self) -> FloatArray:
+        """``QoiFunctionals.magnitudes`` of the current fields, as ``qoi_values``."""
+
     def indicator(self) -> tuple[FloatArray, FloatArray]:
         """Per active case ‖s − ŝ‖ and ½(‖s‖ + ‖ŝ‖) (paper §4.3), on the host."""
 

@@ -304,6 +304,22 @@ class TorchFields:
             values = values + self.qoi_constant
         return values if self.slots.size == self.w.shape[0] else values[self.slots]
 
+    def qoi_magnitudes(self) -> FloatArray:
+        assert self.w is not None and self.f is not None
+        torch = self.torch
+        n_cases, n_steps = self.w.shape[:2]
+        total = torch.zeros((n_cases, n_steps, self.n_qoi), dtype=torch.float64,
+                            device=self.device)
+        for (used, coefficients), values in zip(self.qoi_parts, (self.w, self.f, self.f_hat),
+                                                strict=True):
+            if used.numel():
+                total = total + torch.bmm(
+                    values.reshape(n_cases, n_steps, -1)[:, :, used].abs(), coefficients.abs())
+        out = np.asarray(total.transpose(1, 2).cpu().numpy(), dtype=np.float64)
+        if self.qoi_constant is not None:
+            out = out + np.abs(self.qoi_constant)
+        return out if self.slots.size == self.w.shape[0] else out[self.slots]
+
     def _norm_squares(self, w: Tensor, f: Tensor, w_hat: Tensor, f_hat: Tensor) -> Tensor:
         """‖s − ŝ‖², ‖s‖², ‖ŝ‖² of every row (§4.3), stacked (3, rows)."""
         squares = self._squares

@@ -143,6 +143,23 @@ class QoiFunctionals:
             out = out + self.constant[None, :, :n_steps]
         return np.asarray(out, dtype=np.float64)
 
+    def magnitudes(self, w: FloatArray, f: FloatArray, f_hat: FloatArray) -> FloatArray:
+        """Σ_p |coefficient| · |field| (+ |constant|), shaped as ``values``: the size of a
+        QoI's terms before they cancel. Where a QoI is a small rest of large terms (a point
+        held still, read through the substructure's response), its relative accuracy is
+        out of the iteration's reach and its floor comes from here (``CANCELLED``)."""
+        n_cases, n_steps = w.shape[:2]
+        total = np.zeros((n_cases * n_steps, len(self.names)))
+        for (used, coefficients), columns, values in zip(self.parts, self.selectors,
+                                                        (w, f, f_hat), strict=True):
+            if used.size:
+                total += (np.abs(values.reshape(n_cases * n_steps, -1)[:, columns])
+                          @ np.abs(coefficients))
+        out = total.reshape(n_cases, n_steps, len(self.names)).transpose(0, 2, 1)
+        if self.constant is not None:
+            out = out + np.abs(self.constant[None, :, :n_steps])
+        return np.asarray(out, dtype=np.float64)
+
 
 def _as_slice(used: IntArray) -> IntArray | slice:
     """A run of consecutive columns as a slice (a view: no gather per iteration)."""
