@@ -21,6 +21,7 @@ from typing import TYPE_CHECKING, Any
 import numpy as np
 
 from . import kernels
+from .held_stops import ATTACHED
 
 if TYPE_CHECKING:
     from .torch_local import TorchLocalStage
@@ -69,7 +70,17 @@ def _stops(displacement: Any, force: Any, w_hat: Any, f_hat: Any, closed: Any, s
         fx, fy = 0.0, 0.0
         if normal_force <= 0.0:
             fx, fy = _in_cone(trial_x, trial_y, normal_force, nx, ny, mu_stop[c, i])
-        closed[c, t, i] = 1 if normal_force < 0.0 else 0
+        # 2: closed with its node on the stop at the previous step already, which holds
+        # a corner (``held_stops.ATTACHED``); 1: closed; 0: open
+        closed[c, t, i] = 0
+        if normal_force < 0.0:
+            closed[c, t, i] = 1
+            if abs(closing) <= ATTACHED * (
+                    abs(gap_stop[c, i]) + abs(gap_stop[c, i] - closing)
+                    + abs(nx * displacement[c, t, p, 0] + ny * displacement[c, t, p, 1])
+                    + abs(nx * force[c, t, p, 0] + ny * force[c, t, p, 1])
+                    / (nx * nx * kx + ny * ny * ky)):
+                closed[c, t, i] = 2
         px += dwx + (fx - force[c, t, p, 0]) / kx
         py += dwy + (fy - force[c, t, p, 1]) / ky
         f_hat[c, t, p, 0] = fx
@@ -133,7 +144,7 @@ def _pairs(displacement: Any, force: Any, w_hat: Any, f_hat: Any, closed: Any, a
             held = True
             for h in range(2):
                 holder = corner_stops[q, h]
-                if holder >= 0 and closed[c, t, holder] == 0:
+                if holder >= 0 and closed[c, t, holder] != 2:
                     held = False
             if held:
                 fx, fy = _in_cone(corner_x, corner_y, fx * nx + fy * ny, nx, ny,

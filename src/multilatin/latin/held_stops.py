@@ -8,7 +8,8 @@ corner 1.9 % apart between the two κ, and 15 % of its largest value from the re
 which merged the corner's two stops). As at a held corner between two bodies
 (``LocalStage._contact_and_stops``),
 the friction keeps its previous step's value, limited to the cone, while the holder holds
-(a prescribed displacement that did not move since the last step, a closed stop), and the
+(a prescribed displacement that did not move since the last step, a closed stop its node
+was on at the step before, ``ATTACHED``), and the
 stop's Ŵ follows the holder; a prescribed displacement that moved makes the stop slide, by
 its own Coulomb law. The monolithic reference applies the same rule
 (``reference.contact_newton``). The compiled kernel (``kernels._contact_and_stops``) and
@@ -31,13 +32,26 @@ from ..fem.elasticity import FloatArray, IntArray
 if TYPE_CHECKING:
     from .local_stage import LocalStage
 
-__all__ = ["hold_stops", "moving_corners"]
+__all__ = ["ATTACHED", "hold_stops", "moving_corners"]
+
+#: a closed stop holds a corner (its friction kept at its previous value) only where its
+#: node was on the stop at the previous step already: |gap − n·Ŵ(t − 1)| ≤ this × (|gap| +
+#: |n·Ŵ(t − 1)| + |n·W(t)| + |n·F(t)| / k), the rounding of the stop's update. A node that
+#: reaches the stop within the step slid along the contact to get there, and slides by
+#: Coulomb's law. Held from the moment the stop closed, B1 with the stop's gap at 1e-5 mm
+#: slid its centre block's top corner onto the stop with a friction force of 1 % of the
+#: normal one against μ = 0.3, and R_stop ended 1.3 % off the reference's stick; at the
+#: bundled gap, (μ1, μ2) = (0.3, 0.15) slid it there at 0.13 against 0.15, R_stop 0.16 %
+#: off (session 53, docs/correctness.md)
+ATTACHED = 1e-9
 
 
 def hold_stops(local: LocalStage, t: int, prev_stop: FloatArray,
-               stop_closed: npt.NDArray[np.bool_], f_hat: FloatArray, w_hat: FloatArray
-               ) -> None:
-    """The held stops' F̂ and Ŵ in step ``t``, in place (after every stop's own law)."""
+               stop_closed: npt.NDArray[np.bool_], f_hat: FloatArray, w_hat: FloatArray,
+               stop_holds: npt.NDArray[np.bool_]) -> None:
+    """The held stops' F̂ and Ŵ in step ``t``, in place (after every stop's own law);
+    ``stop_holds``: the stops closed with their node on them at the step before already
+    (``ATTACHED``), which alone hold another stop."""
     q = local.held_stops
     p = local.stops[q]
     n = local.n_stop[q]
@@ -47,7 +61,7 @@ def hold_stops(local: LocalStage, t: int, prev_stop: FloatArray,
     now = local.prescribed[:, t, boundary, d]  # (cases, held)
     before = local.prescribed[:, t - 1, boundary, d] if t > 0 else np.zeros_like(now)
     holder = np.maximum(by_stop, 0)
-    holding = np.where(by_boundary >= 0, now == before, stop_closed[:, holder])
+    holding = np.where(by_boundary >= 0, now == before, stop_holds[:, holder])
     target = np.where(by_boundary >= 0, now, prev_stop[:, holder, d])
     bound = np.where(stop_closed[:, q],
                      -local.mu_stop[:, q] * np.sum(n * f_hat[:, t, p], axis=-1), 0.0)

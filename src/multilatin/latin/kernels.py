@@ -38,6 +38,7 @@ from ..fem.elasticity import FloatArray, IntArray
 from . import two_scale_kernels as _two_scale
 from .cross_points import merge_groups as _merge_groups
 from .cross_points import split_groups as _split_groups
+from .held_stops import ATTACHED
 from .indicator_kernel import indicator_squares as _indicator_squares
 from .two_scale_kernels import coupling_shift as _coupling_shift
 from .two_scale_kernels import project_columns as _project_columns
@@ -92,6 +93,7 @@ def _contact_and_stops(displacement: FloatArray, force: FloatArray, w_hat: Float
         prev_b = np.zeros((n_pairs, 2))
         prev_stop = np.zeros((n_stops, 2))
         stop_closed = np.zeros(n_stops, dtype=np.bool_)
+        stop_holds = np.zeros(n_stops, dtype=np.bool_)
         corner_force = np.zeros((n_corners, 2))
         t0 = first[c]
         if t0 > 0:
@@ -124,13 +126,19 @@ def _contact_and_stops(displacement: FloatArray, force: FloatArray, w_hat: Float
                 if normal_force <= 0.0:
                     fx, fy = _in_cone(trial_x, trial_y, normal_force, nx, ny, mu_stop[c, i])
                 stop_closed[i] = normal_force < 0.0
+                # a corner's stop holds where its node was on it already (``ATTACHED``)
+                stop_holds[i] = stop_closed[i] and abs(closing) <= ATTACHED * (
+                    abs(gap_stop[c, i]) + abs(gap_stop[c, i] - closing)
+                    + abs(nx * displacement[c, t, p, 0] + ny * displacement[c, t, p, 1])
+                    + abs(nx * force[c, t, p, 0] + ny * force[c, t, p, 1])
+                    / (nx * nx * kx + ny * ny * ky))
                 prev_stop[i, 0] += dwx + (fx - force[c, t, p, 0]) / kx
                 prev_stop[i, 1] += dwy + (fy - force[c, t, p, 1]) / ky
                 f_hat[c, t, p, 0], f_hat[c, t, p, 1] = fx, fy
                 w_hat[c, t, p, 0], w_hat[c, t, p, 1] = prev_stop[i, 0], prev_stop[i, 1]
             for i in range(n_stops):  # held stops (``held_nodes.held_stops``)
                 if stop_held_boundary[i] < 0 and (stop_held_stop[i] < 0
-                                                  or not stop_closed[stop_held_stop[i]]):
+                                                  or not stop_holds[stop_held_stop[i]]):
                     continue
                 p = stops[i]
                 d = 1 - (0 if abs(n_stop[i, 0]) >= abs(n_stop[i, 1]) else 1)
@@ -203,7 +211,7 @@ def _contact_and_stops(displacement: FloatArray, force: FloatArray, w_hat: Float
                     held = not corner_moving[c, t, q]
                     for h in range(2):
                         holder = corner_stops[q, h]
-                        if holder >= 0 and not stop_closed[holder]:
+                        if holder >= 0 and not stop_holds[holder]:
                             held = False
                     if held:
                         fx, fy = _in_cone(corner_force[q, 0], corner_force[q, 1],

@@ -21,7 +21,7 @@ from ..fem.elasticity import FloatArray, IntArray
 from . import kernels
 from .branch_tape import BranchTape
 from .cross_points import corrected, cross_point_groups, merged
-from .held_stops import hold_stops, moving_corners
+from .held_stops import ATTACHED, hold_stops, moving_corners
 
 __all__ = ["BranchTape", "LocalStage", "MacroOnlyMap", "macro_only_map"]
 
@@ -333,7 +333,8 @@ class LocalStage:
         stops, step after step: Coulomb's law acts on increments of the local history Ŵ.
 
         At a *held corner* (a contact pair whose tangential motion is fixed on both sides,
-        by a prescribed displacement or a closed stop) the friction force is statically
+        by a prescribed displacement or a closed stop its node was on at the previous step
+        already, ``held_stops.ATTACHED``) the friction force is statically
         indeterminate; it keeps its previous value, limited to the cone — the limit of any
         tangential compliance, and what incremental penalty codes compute —, except where
         its prescribed holders moved since the last step, against each other or one against
@@ -356,6 +357,7 @@ class LocalStage:
         corner, corner_stops = self.corner, self.corner_stops
         previous_corner_force = np.zeros((n_cases, corner.size, 2))
         stop_closed = np.zeros((n_cases, p.size), dtype=bool)
+        stop_holds = stop_closed
         for t in range(displacement.shape[1]):
             if p.size:
                 dw = displacement[:, t, p] - prev_stop
@@ -364,11 +366,16 @@ class LocalStage:
                 normal_force = np.sum(n_stop * trial, axis=-1) + k_stop_normal * closing
                 fp = self._coulomb(trial, normal_force, n_stop, self.mu_stop)
                 stop_closed = self._branch(normal_force < 0.0)
+                # a corner's stop holds where its node was on it already (``ATTACHED``)
+                stop_holds = stop_closed & (np.abs(closing) <= ATTACHED * (
+                    np.abs(self.gap_stop) + np.abs(self.gap_stop - closing)
+                    + np.abs(np.sum(n_stop * displacement[:, t, p], axis=-1))
+                    + np.abs(np.sum(n_stop * force[:, t, p], axis=-1)) / k_stop_normal))
                 prev_stop = prev_stop + dw + (fp - force[:, t, p]) / k_stop
                 f_hat[:, t, p] = fp
                 w_hat[:, t, p] = prev_stop
                 if self.held_stops.size:
-                    hold_stops(self, t, prev_stop, stop_closed, f_hat, w_hat)
+                    hold_stops(self, t, prev_stop, stop_closed, f_hat, w_hat, stop_holds)
             if not a.size:
                 continue
             dwa = displacement[:, t, a] - prev_a  # increments from the local-stage history
@@ -392,7 +399,7 @@ class LocalStage:
             fa = self._coulomb(trial, normal_force, n, self.mu_contact)
             if corner.size:
                 held = np.all((corner_stops < 0)
-                              | stop_closed[:, np.maximum(corner_stops, 0)], axis=-1)
+                              | stop_holds[:, np.maximum(corner_stops, 0)], axis=-1)
                 held &= ~self.corner_moving[:, t]
                 current = fa[:, corner]
                 frozen = self._in_cone(previous_corner_force,

@@ -17,6 +17,7 @@ import numpy as np
 
 from ..fem.elasticity import IntArray
 from .cross_points import corrected, merged
+from .held_stops import ATTACHED
 from .local_stage import LocalStage
 
 if TYPE_CHECKING:
@@ -260,6 +261,7 @@ class TorchLocalStage:
         stop_closed = torch.zeros((n_cases, self.n_stops), dtype=torch.bool,
                                   device=displacement.device)
         corner_force = torch.zeros((n_cases, self.n_corners, 2), **options)
+        stop_holds = stop_closed
         stop_forces: list[Tensor] = []
         stop_shifts, pair_forces, shifts_a, shifts_b = [], [], [], []
         for t in range(n_steps):
@@ -271,10 +273,17 @@ class TorchLocalStage:
                                 + self.k_stop_normal * closing)
                 fp = self._coulomb(trial, normal_force, self.n_stop, self.mu_stop)
                 stop_closed = normal_force < 0.0
+                # a corner's stop holds where its node was on it already (``ATTACHED``)
+                stop_holds = stop_closed & (closing.abs() <= ATTACHED * (
+                    self.gap_stop.abs() + (self.gap_stop - closing).abs()
+                    + torch.sum(self.n_stop * shift_p[:, t], dim=-1).abs()
+                    + torch.sum(self.n_stop * force_p[:, t], dim=-1).abs()
+                    / self.k_stop_normal))
                 prev_stop = prev_stop + dw + (fp - force_p[:, t]) / self.k_stop
                 if self.n_held_stops:
                     fp, prev_stop = self._hold_stops(t, fp, prev_stop, stop_closed,
-                                                     stop_forces[-1] if t else None)
+                                                     stop_forces[-1] if t else None,
+                                                     stop_holds)
                 stop_forces.append(fp)
                 stop_shifts.append(prev_stop)
             if not self.n_pairs:
@@ -304,7 +313,7 @@ class TorchLocalStage:
             if self.n_corners:
                 corner = self.corner
                 if self.n_stops:
-                    held = torch.all(self.corner_free | stop_closed[:, self.corner_stops],
+                    held = torch.all(self.corner_free | stop_holds[:, self.corner_stops],
                                      dim=-1)
                 else:
                     held = torch.all(self.corner_free, dim=-1).expand(n_cases, -1)
@@ -335,14 +344,14 @@ class TorchLocalStage:
             w_hat[:, :, b] = torch.stack(shifts_b, dim=1)
 
     def _hold_stops(self, t: int, fp: Tensor, prev_stop: Tensor, stop_closed: Tensor,
-                    previous: Tensor | None) -> tuple[Tensor, Tensor]:
+                    previous: Tensor | None, stop_holds: Tensor) -> tuple[Tensor, Tensor]:
         """The held stops' F̂ and Ŵ in step ``t`` (``held_stops.hold_stops``), as new
         tensors; ``previous``: every stop's F̂ of the step before."""
         torch = self.torch
         q, d, by_boundary, boundary, holder = self.held_stops
         now = self.prescribed[:, t, boundary, d]
         before = self.prescribed[:, t - 1, boundary, d] if t > 0 else torch.zeros_like(now)
-        holding = torch.where(by_boundary, now == before, stop_closed[:, holder])
+        holding = torch.where(by_boundary, now == before, stop_holds[:, holder])
         target = torch.where(by_boundary, now, prev_stop[:, holder, d])
         bound = torch.where(stop_closed[:, q], -self.mu_stop[:, q] * torch.sum(
             self.n_stop[q] * fp[:, q], dim=-1), 0.0)

@@ -15,12 +15,14 @@ the Jacobian only (the residual, hence the converged equations, stay exact): flo
 (B1's centre block at μ = 0 during the preload) and redundant constraints (a corner node
 against a stop and sticking on a face held by a wall: unique displacements, indeterminate
 multipliers). A pair whose two nodes have their tangential displacement held (a fixed dof,
-or a closed stop on that node) keeps its previous tangential force, limited to the cone: the
+or a closed stop on that node, which it was on at the previous step already) keeps its
+previous tangential force, limited to the cone: the
 friction there is statically indeterminate, and this is the rule of the LATIN local stage
 (``latin.LocalStage``) and the limit of any tangential compliance — unless its prescribed
 holders moved since the last step (against each other, or one against a closed stop): the
 pair slides, by Coulomb's law. A stop pair whose node is held tangentially (a fixed dof that did
-not move, or another closed stop on that node) keeps its previous force the same way.
+not move, or another closed stop on that node, on it at the previous step) keeps its
+previous force the same way.
 Steps are damped by backtracking on the residual norm (full semi-smooth steps can cycle
 between active sets).
 """
@@ -300,6 +302,7 @@ def solve_contact_history(
     lam = np.zeros(2 * n_pairs)
     u_free = np.zeros(n_free)
     jump_prev = np.zeros(n_pairs)  # tangential jump t·[u] at the previous step
+    on_stop = contacts.gap <= 0.0  # a pair closed at the previous step (at rest: u = 0)
     corner, corner_stops = _held_corners(contacts, movable)
     held_stop, stop_holder = _held_stops(contacts, movable)
     lam_t_prev = np.zeros(n_pairs)  # tangential multipliers at the previous step
@@ -329,11 +332,15 @@ def solve_contact_history(
             # friction force, limited to the cone (the rule of the LATIN local stage; it
             # is indeterminate there)
             held = np.zeros(n_pairs, dtype=bool)
-            held[corner] = np.all((corner_stops < 0)
-                                  | active[np.maximum(corner_stops, 0)], axis=1)
+            # a stop holds where its node was on it at the previous step already (a
+            # node that reaches it slid along the contact: ``held_stops.ATTACHED``)
+            stop = np.maximum(corner_stops, 0)
+            held[corner] = np.all((corner_stops < 0) | (active[stop] & on_stop[stop]),
+                                  axis=1)
             held[corner] &= ~corner_moving
+            holder = np.maximum(stop_holder, 0)
             held[held_stop] = np.where(stop_holder < 0, slip[held_stop] == 0.0,
-                                       active[np.maximum(stop_holder, 0)])
+                                       active[holder] & on_stop[holder])
             held &= active
             clipped = held & (np.abs(lam_t_prev) > bound)
             stick = stick & ~held
@@ -436,6 +443,8 @@ def solve_contact_history(
         multipliers[step, :, 1] = lam[1::2]
         lam_t_prev = lam[1::2].copy()
         contact_force[:, step] = jump.T @ lam
-        jump_prev = (jump @ u[:, step])[1::2]
+        jumps = jump @ u[:, step]
+        jump_prev = jumps[1::2]
+        on_stop = contacts.gap + jumps[0::2] <= gap_tol
         log.debug("contact step %d: %d Newton iterations", step + 1, newton)
     return u, contact_force, multipliers, total_iterations
