@@ -240,21 +240,19 @@ class NumpyFields:
         self.t_local += time.perf_counter() - tb
 
     def qoi_values(self) -> FloatArray:
-        assert self.functionals is not None and self.w is not None and self.f is not None
-        w, f, f_hat = self.w, self.f, self.f_hat
-        if self.shared:
-            return self.functionals[0].values(w, f, f_hat)
-        return np.stack([self.functionals[c].values(w[i:i + 1], f[i:i + 1],
-                                                    f_hat[i:i + 1])[0]
-                         for i, c in enumerate(self.active)])
+        return self._per_case("values")
 
     def qoi_magnitudes(self) -> FloatArray:
+        return self._per_case("magnitudes")
+
+    def _per_case(self, reading: str) -> FloatArray:
+        """``QoiFunctionals.values`` or ``.magnitudes`` of every active case's fields."""
         assert self.functionals is not None and self.w is not None and self.f is not None
         w, f, f_hat = self.w, self.f, self.f_hat
         if self.shared:
-            return self.functionals[0].magnitudes(w, f, f_hat)
-        return np.stack([self.functionals[c].magnitudes(w[i:i + 1], f[i:i + 1],
-                                                        f_hat[i:i + 1])[0]
+            return np.asarray(getattr(self.functionals[0], reading)(w, f, f_hat))
+        return np.stack([getattr(self.functionals[c], reading)(w[i:i + 1], f[i:i + 1],
+                                                                f_hat[i:i + 1])[0]
                          for i, c in enumerate(self.active)])
 
     def indicator(self) -> tuple[FloatArray, FloatArray]:

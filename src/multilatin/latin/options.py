@@ -112,10 +112,10 @@ class LatinOptions:
         times its value, or times 1 % of the largest magnitude it took at its steps over
         the last ``iteration.RECENT`` iterations
         for a QoI near zero (a tenth of its terms' size, ``iteration.CANCELLED``, for a QoI
-        that is a small rest of its terms), and the state's own remaining change η / (1 − ρ) (ρ: η's rate)
-        is below ``qoi_rtol`` too (``iteration.state_settled``: a QoI that stalls while the
-        state still moves stops nothing); looked at after ``tracking.WINDOW`` + 5
-        iterations. From then
+        that is a small rest of its terms), and the state's own remaining change
+        η / (1 − ρ) (ρ: η's rate) is below ``qoi_rtol`` too (``iteration.state_settled``:
+        a QoI that stalls while the state still moves stops nothing); looked at after
+        ``tracking.WINDOW`` + 5 iterations. From then
         on η < tol alone no longer stops a case whose estimates have not settled, only η <
         tol / 10 does (``solver.ETA_STOP_UNDER``). None: η alone. Such a case is converged
         on its QoIs (``SolveResult.stopped_on_qoi``).
