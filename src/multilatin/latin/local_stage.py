@@ -367,10 +367,10 @@ class LocalStage:
                 fp = self._coulomb(trial, normal_force, n_stop, self.mu_stop)
                 stop_closed = self._branch(normal_force < 0.0)
                 # a corner's stop holds where its node was on it already (``ATTACHED``)
-                stop_holds = stop_closed & (np.abs(closing) <= ATTACHED * (
+                stop_holds = self._branch(stop_closed & (np.abs(closing) <= ATTACHED * (
                     np.abs(self.gap_stop) + np.abs(self.gap_stop - closing)
                     + np.abs(np.sum(n_stop * displacement[:, t, p], axis=-1))
-                    + np.abs(np.sum(n_stop * force[:, t, p], axis=-1)) / k_stop_normal))
+                    + np.abs(np.sum(n_stop * force[:, t, p], axis=-1)) / k_stop_normal)))
                 prev_stop = prev_stop + dw + (fp - force[:, t, p]) / k_stop
                 f_hat[:, t, p] = fp
                 w_hat[:, t, p] = prev_stop
