@@ -21,7 +21,6 @@ from typing import TYPE_CHECKING, Any
 import numpy as np
 
 from . import kernels
-from .held_stops import ATTACHED
 
 if TYPE_CHECKING:
     from .torch_local import TorchLocalStage
@@ -47,6 +46,7 @@ for _config in ("numba.cuda.core.config", "numba.core.config"):
 _in_cone = cuda.jit(device=True)(getattr(kernels._in_cone, "py_func", kernels._in_cone))
 _series_trial = cuda.jit(device=True)(getattr(kernels._series_trial, "py_func",
                                               kernels._series_trial))
+_attached = cuda.jit(device=True)(getattr(kernels._attached, "py_func", kernels._attached))
 
 
 def _stops(displacement: Any, force: Any, w_hat: Any, f_hat: Any, closed: Any, stops: Any,
@@ -75,11 +75,10 @@ def _stops(displacement: Any, force: Any, w_hat: Any, f_hat: Any, closed: Any, s
         closed[c, t, i] = 0
         if normal_force < 0.0:
             closed[c, t, i] = 1
-            if abs(closing) <= ATTACHED * (
-                    abs(gap_stop[c, i]) + abs(gap_stop[c, i] - closing)
-                    + abs(nx * displacement[c, t, p, 0] + ny * displacement[c, t, p, 1])
-                    + abs(nx * force[c, t, p, 0] + ny * force[c, t, p, 1])
-                    / (nx * nx * kx + ny * ny * ky)):
+            if _attached(closing, gap_stop[c, i],
+                         nx * displacement[c, t, p, 0] + ny * displacement[c, t, p, 1],
+                         nx * force[c, t, p, 0] + ny * force[c, t, p, 1],
+                         nx * nx * kx + ny * ny * ky):
                 closed[c, t, i] = 2
         px += dwx + (fx - force[c, t, p, 0]) / kx
         py += dwy + (fy - force[c, t, p, 1]) / ky

@@ -22,7 +22,7 @@ by Coulomb's law.
 
 from __future__ import annotations
 
-from typing import TYPE_CHECKING
+from typing import TYPE_CHECKING, Any
 
 import numpy as np
 import numpy.typing as npt
@@ -32,7 +32,7 @@ from ..fem.elasticity import FloatArray, IntArray
 if TYPE_CHECKING:
     from .local_stage import LocalStage
 
-__all__ = ["ATTACHED", "hold_stops", "moving_corners"]
+__all__ = ["ATTACHED", "attached", "hold_stops", "moving_corners"]
 
 #: a closed stop holds a corner (its friction kept at its previous value) only where its
 #: node was on the stop at the previous step already: |gap − n·Ŵ(t − 1)| ≤ this × (|gap| +
@@ -45,6 +45,14 @@ __all__ = ["ATTACHED", "hold_stops", "moving_corners"]
 #: off (session 53, docs/correctness.md)
 ATTACHED = 1e-9
 
+
+def attached(closing: Any, gap: Any, normal_w: Any, normal_f: Any, k_normal: Any) -> Any:
+    """Whether a stop's node was on it at the previous step already (``ATTACHED``), from
+    its ``closing`` = gap − n·Ŵ(t − 1), its ``gap``, n·W(t), n·F(t) and n·k·n: written
+    with ``abs`` and arithmetic alone, so that the NumPy and PyTorch stages call it on
+    arrays and the compiled and CUDA kernels compile it for one stop."""
+    return abs(closing) <= ATTACHED * (abs(gap) + abs(gap - closing) + abs(normal_w)
+                                       + abs(normal_f) / k_normal)
 
 def hold_stops(local: LocalStage, t: int, prev_stop: FloatArray,
                stop_closed: npt.NDArray[np.bool_], f_hat: FloatArray, w_hat: FloatArray,

@@ -289,7 +289,9 @@ class BatchIterations:
         if self.tracked:  # the QoIs, for their error estimate (tracking.py)
             values = engine.qoi_values()
             out.qoi_recent[active, (counts - 1) % RECENT] = values
-            sizes = np.maximum(np.abs(values), CANCELLED * engine.qoi_magnitudes())
+            sizes = np.abs(values)
+            if options.qoi_rtol is not None:  # the scale only the QoI rule reads
+                sizes = np.maximum(sizes, CANCELLED * engine.qoi_magnitudes())
             out.qoi_scale[active, (counts - 1) % RECENT] = np.where(
                 out.qoi_reported[active], sizes, 0.0).max(axis=2, initial=0.0)
         # η = ‖s − ŝ‖ / ½(‖s‖ + ‖ŝ‖), ‖s‖² = Σ_t Σ_points ∫ (k⁻¹ F·F + k W·W) dΓ (§4.3)

@@ -38,12 +38,17 @@ from ..fem.elasticity import FloatArray, IntArray
 from . import two_scale_kernels as _two_scale
 from .cross_points import merge_groups as _merge_groups
 from .cross_points import split_groups as _split_groups
-from .held_stops import ATTACHED
+from .held_stops import attached
 from .indicator_kernel import indicator_squares as _indicator_squares
 from .two_scale_kernels import coupling_shift as _coupling_shift
 from .two_scale_kernels import project_columns as _project_columns
 
 log = logging.getLogger(__name__)
+
+#: compiled inline with the contact kernel (``_compile``); the CUDA kernels take its
+#: ``py_func``
+_attached = attached
+
 
 def _in_cone(source_x: float, source_y: float, normal_force: float, nx: float, ny: float,
              friction: float) -> tuple[float, float]:
@@ -126,12 +131,11 @@ def _contact_and_stops(displacement: FloatArray, force: FloatArray, w_hat: Float
                 if normal_force <= 0.0:
                     fx, fy = _in_cone(trial_x, trial_y, normal_force, nx, ny, mu_stop[c, i])
                 stop_closed[i] = normal_force < 0.0
-                # a corner's stop holds where its node was on it already (``ATTACHED``)
-                stop_holds[i] = stop_closed[i] and abs(closing) <= ATTACHED * (
-                    abs(gap_stop[c, i]) + abs(gap_stop[c, i] - closing)
-                    + abs(nx * displacement[c, t, p, 0] + ny * displacement[c, t, p, 1])
-                    + abs(nx * force[c, t, p, 0] + ny * force[c, t, p, 1])
-                    / (nx * nx * kx + ny * ny * ky))
+                # a corner's stop holds where its node was on it already
+                stop_holds[i] = stop_closed[i] and _attached(
+                    closing, gap_stop[c, i],
+                    nx * displacement[c, t, p, 0] + ny * displacement[c, t, p, 1],
+                    nx * force[c, t, p, 0] + ny * force[c, t, p, 1], nx * nx * kx + ny * ny * ky)
                 prev_stop[i, 0] += dwx + (fx - force[c, t, p, 0]) / kx
                 prev_stop[i, 1] += dwy + (fy - force[c, t, p, 1]) / ky
                 f_hat[c, t, p, 0], f_hat[c, t, p, 1] = fx, fy
@@ -392,7 +396,8 @@ _KERNELS = ("contact_and_stops", "relax", "relax_rows", "indicator_squares", "pe
 
 
 def _compile() -> None:
-    global _in_cone, _series_trial, _contact_and_stops, _project_columns, _coupling_shift
+    global _in_cone, _series_trial, _attached, _contact_and_stops, _project_columns
+    global _coupling_shift
     global _merge_groups, _split_groups
     compiled: dict[str, Callable[..., Any] | None] = dict.fromkeys(_KERNELS)
     try:  # pragma: no cover - depends on the installed extras
@@ -402,6 +407,7 @@ def _compile() -> None:
     else:
         jit_inline = numba.njit(cache=True, inline="always")
         _in_cone, _series_trial = jit_inline(_in_cone), jit_inline(_series_trial)
+        _attached = jit_inline(_attached)
         jit = numba.njit(cache=True)
         # called from ``_coupled_contact`` and the corrections: compiled before them
         _merge_groups, _split_groups = jit(_merge_groups), jit(_split_groups)

@@ -21,7 +21,7 @@ from ..fem.elasticity import FloatArray, IntArray
 from . import kernels
 from .branch_tape import BranchTape
 from .cross_points import corrected, cross_point_groups, merged
-from .held_stops import ATTACHED, hold_stops, moving_corners
+from .held_stops import attached, hold_stops, moving_corners
 
 __all__ = ["BranchTape", "LocalStage", "MacroOnlyMap", "macro_only_map"]
 
@@ -366,11 +366,10 @@ class LocalStage:
                 normal_force = np.sum(n_stop * trial, axis=-1) + k_stop_normal * closing
                 fp = self._coulomb(trial, normal_force, n_stop, self.mu_stop)
                 stop_closed = self._branch(normal_force < 0.0)
-                # a corner's stop holds where its node was on it already (``ATTACHED``)
-                stop_holds = self._branch(stop_closed & (np.abs(closing) <= ATTACHED * (
-                    np.abs(self.gap_stop) + np.abs(self.gap_stop - closing)
-                    + np.abs(np.sum(n_stop * displacement[:, t, p], axis=-1))
-                    + np.abs(np.sum(n_stop * force[:, t, p], axis=-1)) / k_stop_normal)))
+                # a corner's stop holds where its node was on it already
+                stop_holds = self._branch(stop_closed & attached(
+                    closing, self.gap_stop, np.sum(n_stop * displacement[:, t, p], axis=-1),
+                    np.sum(n_stop * force[:, t, p], axis=-1), k_stop_normal))
                 prev_stop = prev_stop + dw + (fp - force[:, t, p]) / k_stop
                 f_hat[:, t, p] = fp
                 w_hat[:, t, p] = prev_stop

@@ -17,7 +17,7 @@ import numpy as np
 
 from ..fem.elasticity import IntArray
 from .cross_points import corrected, merged
-from .held_stops import ATTACHED
+from .held_stops import attached
 from .local_stage import LocalStage
 
 if TYPE_CHECKING:
@@ -273,12 +273,10 @@ class TorchLocalStage:
                                 + self.k_stop_normal * closing)
                 fp = self._coulomb(trial, normal_force, self.n_stop, self.mu_stop)
                 stop_closed = normal_force < 0.0
-                # a corner's stop holds where its node was on it already (``ATTACHED``)
-                stop_holds = stop_closed & (closing.abs() <= ATTACHED * (
-                    self.gap_stop.abs() + (self.gap_stop - closing).abs()
-                    + torch.sum(self.n_stop * shift_p[:, t], dim=-1).abs()
-                    + torch.sum(self.n_stop * force_p[:, t], dim=-1).abs()
-                    / self.k_stop_normal))
+                # a corner's stop holds where its node was on it already
+                stop_holds = stop_closed & attached(
+                    closing, self.gap_stop, torch.sum(self.n_stop * shift_p[:, t], dim=-1),
+                    torch.sum(self.n_stop * force_p[:, t], dim=-1), self.k_stop_normal)
                 prev_stop = prev_stop + dw + (fp - force_p[:, t]) / self.k_stop
                 if self.n_held_stops:
                     fp, prev_stop = self._hold_stops(t, fp, prev_stop, stop_closed,
