@@ -64,6 +64,48 @@ def test_a_corner_reaching_the_stop_slides_by_coulombs_law(b1):
         assert ratio[:14].max() < 0.3 - 1e-3 and ratio[14] == pytest.approx(0.3, rel=1e-6)
 
 
+@pytest.fixture(scope="module")
+def small_gaps(b1):
+    """B1 at (0.3, 0.3) with its stop's gap at 0 and 1e-7 mm: LATIN at the default
+    tolerance, tightly at κ = 0.5 and 2, and the reference."""
+    out = {}
+    for gap in (0.0, 1e-7):
+        mu = {"mu1": 0.3, "mu2": 0.3, "gap": gap}
+        out[gap] = ([b1.solve(mu, options=ml.LatinOptions(kappa=kappa, tol=1e-10,
+                                                          max_iter=3000))
+                     for kappa in (0.5, 2.0)], b1.solve(mu), b1.reference(mu))
+    return out
+
+
+@pytest.mark.parametrize("gap", [0.0, 1e-7])
+def test_a_corner_at_a_gap_below_the_iterations_resolution_sticks(small_gaps, gap):
+    """The corner sticks on the wall-held top block until its friction reaches the cone
+    (step 15), and the stop carries nothing there before. With the stop's gap below what
+    the iteration resolves, LATIN settled on the stop carrying the corner while the pair
+    stuck 1e-7 mm away (η stalling at 6e-7, just under the default tolerance): R_stop
+    1245.85 N, 1.3 % off, reported converged with an error estimate of 0.03 N; at gap 0
+    the corner was held from the first step (1245.55 N against the reference's 1230.63 N,
+    neither the limit of small gaps). A corner's stop now opens while its pair sticks
+    short of it (``held_stops.open_arrivals``; session 54)."""
+    tight, default, reference = small_gaps[gap]
+    expected = reference.qoi["R_stop"]
+    for latin in tight:  # the same answer at two search directions
+        assert latin.qoi["R_stop"] == pytest.approx(expected, rel=1e-6)
+    assert default.converged
+    assert default.qoi["R_stop"] == pytest.approx(expected, rel=1e-4)
+    shear = reference.contact.shear
+    corner = [i for i, at in enumerate(reference.contact.positions) if np.allclose(at, (50, 100))]
+    ratio = np.abs(shear[:, corner[0]]) / reference.contact.pressure[:, corner[0]]
+    assert ratio[:14].max() < 0.3 - 1e-3 and ratio[14] == pytest.approx(0.3, rel=1e-6)
+
+
+def test_the_answer_is_continuous_at_gap_zero(small_gaps):
+    """Gap 0 is the limit of small gaps in both solvers (1230.38 N, 1230.36 N at 1e-7)."""
+    for which in (lambda case: case[0][0], lambda case: case[2]):
+        at_zero, near = which(small_gaps[0.0]), which(small_gaps[1e-7])
+        assert at_zero.qoi["R_stop"] == pytest.approx(near.qoi["R_stop"], rel=1e-4)
+
+
 def test_frictionless_stop_carries_the_whole_push(solved):
     latin, reference = solved[(0.0, 0.0)]
     assert latin.qoi["R_stop"] == pytest.approx(1500.0, rel=1e-4)

@@ -16,6 +16,7 @@ from __future__ import annotations
 
 import contextlib
 import importlib
+import math
 from typing import TYPE_CHECKING, Any
 
 import numpy as np
@@ -47,6 +48,44 @@ _in_cone = cuda.jit(device=True)(getattr(kernels._in_cone, "py_func", kernels._i
 _series_trial = cuda.jit(device=True)(getattr(kernels._series_trial, "py_func",
                                               kernels._series_trial))
 _attached = cuda.jit(device=True)(getattr(kernels._attached, "py_func", kernels._attached))
+_beyond_stop = cuda.jit(device=True)(getattr(kernels._beyond_stop, "py_func",
+                                             kernels._beyond_stop))
+
+
+def _stop_step(displacement: Any, force: Any, w_hat: Any, f_hat: Any, closed: Any,
+               stops: Any, k_stop: Any, n_stop: Any, mu_stop: Any, gap_stop: Any,
+               history: Any, h: int, c: int, t: int, i: int) -> None:  # pragma: no cover
+    """Stop i of case c in step t, from its Ŵ after the previous step (``history[h]``,
+    updated)."""
+    p = stops[i]
+    nx, ny = n_stop[i, 0], n_stop[i, 1]
+    kx, ky = k_stop[i, 0], k_stop[i, 1]
+    px, py = history[h, 0], history[h, 1]
+    dwx = displacement[c, t, p, 0] - px
+    dwy = displacement[c, t, p, 1] - py
+    trial_x = force[c, t, p, 0] - kx * dwx
+    trial_y = force[c, t, p, 1] - ky * dwy
+    closing = gap_stop[c, i] - (nx * px + ny * py)
+    normal_force = nx * trial_x + ny * trial_y + (nx * nx * kx + ny * ny * ky) * closing
+    fx, fy = 0.0, 0.0
+    if normal_force <= 0.0:
+        fx, fy = _in_cone(trial_x, trial_y, normal_force, nx, ny, mu_stop[c, i])
+    # 2: closed with its node on the stop at the previous step already, which holds
+    # a corner (``held_stops.ATTACHED``); 1: closed; 0: open
+    closed[c, t, i] = 0
+    if normal_force < 0.0:
+        closed[c, t, i] = 1
+        if _attached(closing, gap_stop[c, i],
+                     nx * displacement[c, t, p, 0] + ny * displacement[c, t, p, 1],
+                     nx * force[c, t, p, 0] + ny * force[c, t, p, 1],
+                     nx * nx * kx + ny * ny * ky):
+            closed[c, t, i] = 2
+    history[h, 0] = px + dwx + (fx - force[c, t, p, 0]) / kx
+    history[h, 1] = py + dwy + (fy - force[c, t, p, 1]) / ky
+    f_hat[c, t, p, 0] = fx
+    f_hat[c, t, p, 1] = fy
+    w_hat[c, t, p, 0] = history[h, 0]
+    w_hat[c, t, p, 1] = history[h, 1]
 
 
 def _stops(displacement: Any, force: Any, w_hat: Any, f_hat: Any, closed: Any, stops: Any,
@@ -56,43 +95,18 @@ def _stops(displacement: Any, force: Any, w_hat: Any, f_hat: Any, closed: Any, s
     if thread >= displacement.shape[0] * n_stops:
         return
     c, i = thread // n_stops, thread % n_stops
-    p = stops[i]
-    nx, ny = n_stop[i, 0], n_stop[i, 1]
-    kx, ky = k_stop[i, 0], k_stop[i, 1]
-    px, py = 0.0, 0.0  # the stop point's displacement after the previous step
+    history = cuda.local.array((1, 2), numba.float64)  # Ŵ after the previous step
+    history[0, 0], history[0, 1] = 0.0, 0.0
     for t in range(displacement.shape[1]):
-        dwx = displacement[c, t, p, 0] - px
-        dwy = displacement[c, t, p, 1] - py
-        trial_x = force[c, t, p, 0] - kx * dwx
-        trial_y = force[c, t, p, 1] - ky * dwy
-        closing = gap_stop[c, i] - (nx * px + ny * py)
-        normal_force = nx * trial_x + ny * trial_y + (nx * nx * kx + ny * ny * ky) * closing
-        fx, fy = 0.0, 0.0
-        if normal_force <= 0.0:
-            fx, fy = _in_cone(trial_x, trial_y, normal_force, nx, ny, mu_stop[c, i])
-        # 2: closed with its node on the stop at the previous step already, which holds
-        # a corner (``held_stops.ATTACHED``); 1: closed; 0: open
-        closed[c, t, i] = 0
-        if normal_force < 0.0:
-            closed[c, t, i] = 1
-            if _attached(closing, gap_stop[c, i],
-                         nx * displacement[c, t, p, 0] + ny * displacement[c, t, p, 1],
-                         nx * force[c, t, p, 0] + ny * force[c, t, p, 1],
-                         nx * nx * kx + ny * ny * ky):
-                closed[c, t, i] = 2
-        px += dwx + (fx - force[c, t, p, 0]) / kx
-        py += dwy + (fy - force[c, t, p, 1]) / ky
-        f_hat[c, t, p, 0] = fx
-        f_hat[c, t, p, 1] = fy
-        w_hat[c, t, p, 0] = px
-        w_hat[c, t, p, 1] = py
+        _stop_step(displacement, force, w_hat, f_hat, closed, stops, k_stop, n_stop, mu_stop,
+                   gap_stop, history, 0, c, t, i)
 
 
 def _pairs(displacement: Any, force: Any, w_hat: Any, f_hat: Any, closed: Any, a: Any, b: Any,
            k_contact: Any, k_contact_b: Any, n_contact: Any, mu_contact: Any,
            gap_contact: Any, stops: Any, corner_of_pair: Any, corner_stops: Any,
-           held_side: Any, held_boundary: Any, held_stop: Any,
-           prescribed: Any) -> None:  # pragma: no cover
+           held_side: Any, held_boundary: Any, held_stop: Any, prescribed: Any,
+           k_stop: Any, n_stop: Any, mu_stop: Any, gap_stop: Any) -> None:  # pragma: no cover
     thread = cuda.grid(1)
     n_pairs = a.shape[0]
     if thread >= displacement.shape[0] * n_pairs:
@@ -106,7 +120,19 @@ def _pairs(displacement: Any, force: Any, w_hat: Any, f_hat: Any, closed: Any, a
     d = 0 if abs(ny) > abs(nx) else 1  # a held node's tangential component
     ax, ay, bx, by = 0.0, 0.0, 0.0, 0.0  # both sides' displacements after the previous step
     corner_x, corner_y = 0.0, 0.0
+    # a corner's stops run again here, step by step with the pair, which opens them while
+    # it sticks short of them (``held_stops.open_arrivals``): their Ŵ after the previous
+    # step, and whether they were closed then
+    history = cuda.local.array((2, 2), numba.float64)
+    carried = cuda.local.array(2, numba.boolean)
+    for h in range(2):
+        history[h, 0], history[h, 1], carried[h] = 0.0, 0.0, False
     for t in range(displacement.shape[1]):
+        if q >= 0:
+            for h in range(2):
+                if corner_stops[q, h] >= 0:
+                    _stop_step(displacement, force, w_hat, f_hat, closed, stops, k_stop,
+                               n_stop, mu_stop, gap_stop, history, h, c, t, corner_stops[q, h])
         dax = displacement[c, t, pa, 0] - ax
         day = displacement[c, t, pa, 1] - ay
         dbx = displacement[c, t, pb, 0] - bx
@@ -139,11 +165,12 @@ def _pairs(displacement: Any, force: Any, w_hat: Any, f_hat: Any, closed: Any, a
         fx, fy = 0.0, 0.0
         if normal_force <= 0.0:
             fx, fy = _in_cone(trial_x, trial_y, normal_force, nx, ny, mu_contact[c, j])
+        held = False
         if q >= 0:
             held = True
             for h in range(2):
                 holder = corner_stops[q, h]
-                if holder >= 0 and closed[c, t, holder] != 2:
+                if holder >= 0 and not (closed[c, t, holder] == 2 and carried[h]):
                     held = False
             if held:
                 fx, fy = _in_cone(corner_x, corner_y, fx * nx + fy * ny, nx, ny,
@@ -170,8 +197,53 @@ def _pairs(displacement: Any, force: Any, w_hat: Any, f_hat: Any, closed: Any, a
         w_hat[c, t, pa, 1] = ay
         w_hat[c, t, pb, 0] = bx
         w_hat[c, t, pb, 1] = by
+        if q >= 0:
+            _open_arrivals(displacement, force, w_hat, f_hat, closed, stops, k_stop, n_stop,
+                           gap_stop, history, corner_stops, q, held, normal_force,
+                           trial_x, trial_y, nx, ny, mu_contact[c, j], ax, ay, bx, by,
+                           pa, pb, kx, ky, kbx, kby, c, t)
+            for h in range(2):
+                if corner_stops[q, h] >= 0:
+                    carried[h] = closed[c, t, corner_stops[q, h]] != 0
 
 
+def _open_arrivals(displacement: Any, force: Any, w_hat: Any, f_hat: Any, closed: Any,
+                   stops: Any, k_stop: Any, n_stop: Any, gap_stop: Any, history: Any,
+                   corner_stops: Any, q: int, held: bool, normal_force: float, trial_x: float,
+                   trial_y: float, nx: float, ny: float, mu: float, ax: float, ay: float,
+                   bx: float, by: float, pa: int, pb: int, kx: float, ky: float, kbx: float,
+                   kby: float, c: int, t: int) -> None:  # pragma: no cover
+    """``held_stops.open_arrivals`` at corner q, after its pair's step t."""
+    if held or normal_force > 0.0:
+        return
+    tx = trial_x - (trial_x * nx + trial_y * ny) * nx
+    ty = trial_y - (trial_x * nx + trial_y * ny) * ny
+    if math.sqrt(tx * tx + ty * ty) > -mu * normal_force:
+        return
+    for h in range(2):
+        i = corner_stops[q, h]
+        if i < 0 or closed[c, t, i] == 0:
+            continue
+        point, sx, sy = (pa, ax, ay) if h == 0 else (pb, bx, by)
+        kpx, kpy = (kx, ky) if h == 0 else (kbx, kby)
+        gap = gap_stop[c, i]
+        beyond = n_stop[i, 0] * sx + n_stop[i, 1] * sy - gap
+        size = (abs(displacement[c, t, point, 0]) + abs(displacement[c, t, point, 1])
+                + abs(force[c, t, point, 0]) / kpx + abs(force[c, t, point, 1]) / kpy)
+        if _beyond_stop(beyond, gap, size):
+            continue
+        p = stops[i]
+        history[h, 0] = displacement[c, t, p, 0] - force[c, t, p, 0] / k_stop[i, 0]
+        history[h, 1] = displacement[c, t, p, 1] - force[c, t, p, 1] / k_stop[i, 1]
+        f_hat[c, t, p, 0] = 0.0
+        f_hat[c, t, p, 1] = 0.0
+        w_hat[c, t, p, 0] = history[h, 0]
+        w_hat[c, t, p, 1] = history[h, 1]
+        closed[c, t, i] = 0
+
+
+_stop_step = cuda.jit(device=True)(_stop_step)
+_open_arrivals = cuda.jit(device=True)(_open_arrivals)
 STOPS, PAIRS = cuda.jit(_stops), cuda.jit(_pairs)
 
 
@@ -204,7 +276,8 @@ class ContactKernels:
                     *fields, *self.fixed_stops, stage.mu_stop, stage.gap_stop)
         if stage.n_pairs:
             _launch(PAIRS, n_cases * stage.n_pairs, torch, *fields, *self.fixed_pairs,
-                    stage.mu_contact, stage.gap_contact, *self.fixed_held, stage.prescribed)
+                    stage.mu_contact, stage.gap_contact, *self.fixed_held, stage.prescribed,
+                    *self.fixed_stops[1:], stage.mu_stop, stage.gap_stop)
 
 
 def _launch(kernel: Any, n_threads: int, torch: Any, *tensors: Any) -> None:

@@ -38,7 +38,7 @@ from ..fem.elasticity import FloatArray, IntArray
 from . import two_scale_kernels as _two_scale
 from .cross_points import merge_groups as _merge_groups
 from .cross_points import split_groups as _split_groups
-from .held_stops import attached
+from .held_stops import attached, beyond_stop
 from .indicator_kernel import indicator_squares as _indicator_squares
 from .two_scale_kernels import coupling_shift as _coupling_shift
 from .two_scale_kernels import project_columns as _project_columns
@@ -48,6 +48,7 @@ log = logging.getLogger(__name__)
 #: compiled inline with the contact kernel (``_compile``); the CUDA kernels take its
 #: ``py_func``
 _attached = attached
+_beyond_stop = beyond_stop
 
 
 def _in_cone(source_x: float, source_y: float, normal_force: float, nx: float, ny: float,
@@ -99,12 +100,15 @@ def _contact_and_stops(displacement: FloatArray, force: FloatArray, w_hat: Float
         prev_stop = np.zeros((n_stops, 2))
         stop_closed = np.zeros(n_stops, dtype=np.bool_)
         stop_holds = np.zeros(n_stops, dtype=np.bool_)
+        carried = np.zeros(n_stops, dtype=np.bool_)  # closed at the step before
         corner_force = np.zeros((n_corners, 2))
         t0 = first[c]
         if t0 > 0:
             for i in range(n_stops):
                 for d in range(2):
                     prev_stop[i, d] = w_hat[c, t0 - 1, stops[i], d]
+                carried[i] = (n_stop[i, 0] * f_hat[c, t0 - 1, stops[i], 0]
+                              + n_stop[i, 1] * f_hat[c, t0 - 1, stops[i], 1]) < 0.0
             for j in range(n_pairs):
                 for d in range(2):
                     prev_a[j, d] = w_hat[c, t0 - 1, a[j], d]
@@ -211,11 +215,12 @@ def _contact_and_stops(displacement: FloatArray, force: FloatArray, w_hat: Float
                     fx, fy = _in_cone(trial_x, trial_y, normal_force, nx, ny,
                                       mu_contact[c, j])
                 q = corner_of_pair[j]
+                held = False
                 if q >= 0:
                     held = not corner_moving[c, t, q]
                     for h in range(2):
                         holder = corner_stops[q, h]
-                        if holder >= 0 and not stop_holds[holder]:
+                        if holder >= 0 and not (stop_holds[holder] and carried[holder]):
                             held = False
                     if held:
                         fx, fy = _in_cone(corner_force[q, 0], corner_force[q, 1],
@@ -234,9 +239,51 @@ def _contact_and_stops(displacement: FloatArray, force: FloatArray, w_hat: Float
                 f_hat[c, t, pb, 0], f_hat[c, t, pb, 1] = -fx, -fy
                 w_hat[c, t, pa, 0], w_hat[c, t, pa, 1] = prev_a[j, 0], prev_a[j, 1]
                 w_hat[c, t, pb, 0], w_hat[c, t, pb, 1] = prev_b[j, 0], prev_b[j, 1]
+                if q >= 0 and not held and normal_force <= 0.0:
+                    # friction first (``held_stops.open_arrivals``)
+                    tx = trial_x - (trial_x * nx + trial_y * ny) * nx
+                    ty = trial_y - (trial_x * nx + trial_y * ny) * ny
+                    if math.sqrt(tx * tx + ty * ty) <= -mu_contact[c, j] * normal_force:
+                        for h in range(2):
+                            i = corner_stops[q, h]
+                            if i >= 0 and stop_closed[i]:
+                                if h == 0:
+                                    _open_arrival(displacement, force, w_hat, f_hat,
+                                                  prev_stop, stop_closed, stops, k_stop,
+                                                  n_stop, gap_stop, prev_a[j], pa,
+                                                  k_contact[j], c, t, i)
+                                else:
+                                    _open_arrival(displacement, force, w_hat, f_hat,
+                                                  prev_stop, stop_closed, stops, k_stop,
+                                                  n_stop, gap_stop, prev_b[j], pb,
+                                                  k_contact_b[j], c, t, i)
+            for i in range(n_stops):
+                carried[i] = stop_closed[i]
         if group_pairs.shape[0]:
             _split_groups(displacement, force, w_hat, a, b, k_contact, k_contact_b,
                           group_pairs, group_share, kept, c, t0)
+
+
+def _open_arrival(displacement: FloatArray, force: FloatArray, w_hat: FloatArray,
+                  f_hat: FloatArray, prev_stop: FloatArray, stop_closed: npt.NDArray[np.bool_],
+                  stops: IntArray, k_stop: FloatArray, n_stop: FloatArray,
+                  gap_stop: FloatArray, side: FloatArray, point: int, k_side: FloatArray,
+                  c: int, t: int, i: int) -> None:  # pragma: no cover - compiled
+    """Stop i of a sticking corner opens unless the pair's Ŵ on its side (``side``, at
+    ``point``, its search direction ``k_side``) is beyond it
+    (``held_stops.open_arrivals``)."""
+    p = stops[i]
+    gap = gap_stop[c, i]
+    beyond = n_stop[i, 0] * side[0] + n_stop[i, 1] * side[1] - gap
+    size = (abs(displacement[c, t, point, 0]) + abs(displacement[c, t, point, 1])
+            + abs(force[c, t, point, 0]) / k_side[0] + abs(force[c, t, point, 1]) / k_side[1])
+    if _beyond_stop(beyond, gap, size):
+        return
+    prev_stop[i, 0] = displacement[c, t, p, 0] - force[c, t, p, 0] / k_stop[i, 0]
+    prev_stop[i, 1] = displacement[c, t, p, 1] - force[c, t, p, 1] / k_stop[i, 1]
+    f_hat[c, t, p, 0], f_hat[c, t, p, 1] = 0.0, 0.0
+    w_hat[c, t, p, 0], w_hat[c, t, p, 1] = prev_stop[i, 0], prev_stop[i, 1]
+    stop_closed[i] = False
 
 
 def _perfect_and_boundary(displacement: FloatArray, force: FloatArray, w_hat: FloatArray,
@@ -396,7 +443,9 @@ _KERNELS = ("contact_and_stops", "relax", "relax_rows", "indicator_squares", "pe
 
 
 def _compile() -> None:
-    global _in_cone, _series_trial, _attached, _contact_and_stops, _project_columns
+    global _in_cone, _series_trial, _attached, _beyond_stop, _open_arrival
+    global _contact_and_stops
+    global _project_columns
     global _coupling_shift
     global _merge_groups, _split_groups
     compiled: dict[str, Callable[..., Any] | None] = dict.fromkeys(_KERNELS)
@@ -408,6 +457,7 @@ def _compile() -> None:
         jit_inline = numba.njit(cache=True, inline="always")
         _in_cone, _series_trial = jit_inline(_in_cone), jit_inline(_series_trial)
         _attached = jit_inline(_attached)
+        _beyond_stop, _open_arrival = jit_inline(_beyond_stop), jit_inline(_open_arrival)
         jit = numba.njit(cache=True)
         # called from ``_coupled_contact`` and the corrections: compiled before them
         _merge_groups, _split_groups = jit(_merge_groups), jit(_split_groups)

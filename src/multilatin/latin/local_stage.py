@@ -21,7 +21,7 @@ from ..fem.elasticity import FloatArray, IntArray
 from . import kernels
 from .branch_tape import BranchTape
 from .cross_points import corrected, cross_point_groups, merged
-from .held_stops import attached, hold_stops, moving_corners
+from .held_stops import attached, hold_stops, moving_corners, open_arrivals
 
 __all__ = ["BranchTape", "LocalStage", "MacroOnlyMap", "macro_only_map"]
 
@@ -333,12 +333,13 @@ class LocalStage:
         stops, step after step: Coulomb's law acts on increments of the local history Ŵ.
 
         At a *held corner* (a contact pair whose tangential motion is fixed on both sides,
-        by a prescribed displacement or a closed stop its node was on at the previous step
-        already, ``held_stops.ATTACHED``) the friction force is statically
+        by a prescribed displacement or a stop closed at the previous step already, its
+        node on it, ``held_stops.ATTACHED``) the friction force is statically
         indeterminate; it keeps its previous value, limited to the cone — the limit of any
         tangential compliance, and what incremental penalty codes compute —, except where
         its prescribed holders moved since the last step, against each other or one against
-        a closed stop (``corner_moving``): the pair slides, by Coulomb's law.
+        a closed stop (``corner_moving``): the pair slides, by Coulomb's law. Where it is
+        not held, its stop opens while the pair sticks short of it (``open_arrivals``).
         """
         n_cases = displacement.shape[0]
         a, b = self.contact_pairs
@@ -358,6 +359,7 @@ class LocalStage:
         previous_corner_force = np.zeros((n_cases, corner.size, 2))
         stop_closed = np.zeros((n_cases, p.size), dtype=bool)
         stop_holds = stop_closed
+        carried = stop_closed  # closed at the step before, after ``open_arrivals``
         for t in range(displacement.shape[1]):
             if p.size:
                 dw = displacement[:, t, p] - prev_stop
@@ -397,8 +399,8 @@ class LocalStage:
                                           trial[:, h, d])
             fa = self._coulomb(trial, normal_force, n, self.mu_contact)
             if corner.size:
-                held = np.all((corner_stops < 0)
-                              | stop_holds[:, np.maximum(corner_stops, 0)], axis=-1)
+                holds = (stop_holds & carried)[:, np.maximum(corner_stops, 0)]
+                held = np.all((corner_stops < 0) | holds, axis=-1)
                 held &= ~self.corner_moving[:, t]
                 current = fa[:, corner]
                 frozen = self._in_cone(previous_corner_force,
@@ -415,6 +417,11 @@ class LocalStage:
                 prev_a[:, h, d] = np.where(holding & ~on_b, target, prev_a[:, h, d])
             f_hat[:, t, a], f_hat[:, t, b] = fa, -fa
             w_hat[:, t, a], w_hat[:, t, b] = prev_a, prev_b
+            if corner.size and p.size:
+                stop_closed = open_arrivals(self, t, trial, normal_force, held,
+                                            (prev_a, prev_b), stop_closed, prev_stop,
+                                            displacement, force, w_hat, f_hat)
+            carried = stop_closed
 
 
 @dataclass(frozen=True)

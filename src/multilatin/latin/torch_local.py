@@ -17,7 +17,7 @@ import numpy as np
 
 from ..fem.elasticity import IntArray
 from .cross_points import corrected, merged
-from .held_stops import attached
+from .held_stops import attached, beyond_stop
 from .local_stage import LocalStage
 
 if TYPE_CHECKING:
@@ -83,6 +83,12 @@ class TorchLocalStage:
         stops_of_corner = np.asarray(local.corner_stops, dtype=np.int64).reshape(-1, 2)
         self.corner_free = self.torch.as_tensor(stops_of_corner < 0, device=device)
         self.corner_stops = index(np.maximum(stops_of_corner, 0))
+        #: per side, the corners with a stop there and that stop (``open_arrivals``)
+        self.corner_sides = [(index(np.flatnonzero(stops_of_corner[:, side] >= 0)),
+                              index(stops_of_corner[stops_of_corner[:, side] >= 0, side]))
+                             for side in (0, 1) if np.any(stops_of_corner[:, side] >= 0)]
+        self.corner_side_index = [side for side in (0, 1)
+                                  if np.any(stops_of_corner[:, side] >= 0)]
         h = local.held_pairs
         self.n_held = h.size
         self.held = (index(h), index(local.held_component),
@@ -123,8 +129,10 @@ class TorchLocalStage:
         from .cuda_local import ContactKernels
 
         # a stop held by another reads it at the same step, which the kernel's thread per
-        # stop does not; a corner between moving holders slides: these operations do both
-        if self.n_held_stops or self.any_corner_moving:
+        # stop does not; a corner between moving holders slides; the pair thread of a
+        # corner runs its stops again (``held_stops.open_arrivals``), which no other
+        # thread may read: these operations do all three
+        if self.n_held_stops or self.any_corner_moving or _shared_corner_stops(local):
             return
         self.contact_kernels = ContactKernels(self, local)
 
@@ -262,6 +270,7 @@ class TorchLocalStage:
                                   device=displacement.device)
         corner_force = torch.zeros((n_cases, self.n_corners, 2), **options)
         stop_holds = stop_closed
+        carried = stop_closed  # closed at the step before, after ``_open_arrivals``
         stop_forces: list[Tensor] = []
         stop_shifts, pair_forces, shifts_a, shifts_b = [], [], [], []
         for t in range(n_steps):
@@ -311,8 +320,8 @@ class TorchLocalStage:
             if self.n_corners:
                 corner = self.corner
                 if self.n_stops:
-                    held = torch.all(self.corner_free | stop_holds[:, self.corner_stops],
-                                     dim=-1)
+                    held = torch.all(self.corner_free
+                                     | (stop_holds & carried)[:, self.corner_stops], dim=-1)
                 else:
                     held = torch.all(self.corner_free, dim=-1).expand(n_cases, -1)
                 if self.any_corner_moving:  # an operation (a launch) only where needed
@@ -331,6 +340,13 @@ class TorchLocalStage:
             pair_forces.append(fa)
             shifts_a.append(prev_a)
             shifts_b.append(prev_b)
+            if self.n_corners and self.corner_sides:
+                stop_closed, stop_forces[-1], prev_stop = self._open_arrivals(
+                    trial, normal_force, held, (prev_a, prev_b), stop_closed,
+                    stop_forces[-1], prev_stop, shift_p[:, t], force_p[:, t],
+                    (displacement[:, t], force[:, t]))
+                stop_shifts[-1] = prev_stop
+            carried = stop_closed
         if self.n_stops:
             f_hat[:, :, p] = torch.stack(stop_forces, dim=1)
             w_hat[:, :, p] = torch.stack(stop_shifts, dim=1)
@@ -340,6 +356,38 @@ class TorchLocalStage:
             f_hat[:, :, b] = -pair_force
             w_hat[:, :, a] = torch.stack(shifts_a, dim=1)
             w_hat[:, :, b] = torch.stack(shifts_b, dim=1)
+
+    def _open_arrivals(self, trial: Tensor, normal_force: Tensor, held: Tensor,
+                       sides: tuple[Tensor, Tensor], stop_closed: Tensor, stop_force: Tensor,
+                       stop_shift: Tensor, shift: Tensor, force: Tensor,
+                       fields: tuple[Tensor, Tensor]) -> tuple[Tensor, Tensor, Tensor]:
+        """Friction first at corners that are not held (``held_stops.open_arrivals``): the
+        stops' closed status, F̂ and Ŵ of the step after it (``shift``, ``force``: the
+        stops' W and F in the step; ``fields``: every point's W and F in the step)."""
+        torch = self.torch
+        corner, n = self.corner, self.n_corner
+        source = trial[:, corner]
+        tangential = source - torch.sum(source * n, dim=-1)[..., None] * n
+        size = torch.sqrt(torch.sum(tangential**2, dim=-1))
+        pushed = normal_force[:, corner]
+        stick = (pushed <= 0.0) & (size <= self.mu_corner * -pushed) & ~held
+        closed, stop_force, stop_shift = stop_closed.clone(), stop_force.clone(), stop_shift.clone()
+        for (q, i), side in zip(self.corner_sides, self.corner_side_index, strict=True):
+            normal = self.n_stop[i]
+            gap = self.gap_stop[:, i]
+            pair = corner[q]
+            point = self.contact[side][pair]
+            k = (self.k_contact, self.k_contact_b)[side][pair]
+            size = (torch.sum(torch.abs(fields[0][:, point]), dim=-1)
+                    + torch.sum(torch.abs(fields[1][:, point]) / k, dim=-1))
+            beyond = torch.sum(normal * sides[side][:, pair], dim=-1) - gap
+            reached = beyond_stop(beyond, gap, size)
+            opens = (stop_closed[:, i] & stick[:, q] & ~reached)[..., None]
+            stop_force[:, i] = torch.where(opens, torch.zeros_like(force[:, i]), stop_force[:, i])
+            stop_shift[:, i] = torch.where(opens, shift[:, i] - force[:, i] / self.k_stop[i],
+                                           stop_shift[:, i])
+            closed[:, i] &= ~opens[..., 0]
+        return closed, stop_force, stop_shift
 
     def _hold_stops(self, t: int, fp: Tensor, prev_stop: Tensor, stop_closed: Tensor,
                     previous: Tensor | None, stop_holds: Tensor) -> tuple[Tensor, Tensor]:
@@ -387,3 +435,12 @@ def _index_converter(torch: Any, device: torch.device) -> Any:
     def index(array: Any) -> Tensor:
         return torch.as_tensor(np.ascontiguousarray(array, dtype=np.int64), device=device)
     return index
+
+
+def _shared_corner_stops(local: LocalStage) -> bool:
+    """Whether a corner's stop is another corner's, or holds a pair or a stop (the CUDA
+    pair kernel's thread of a corner writes its stops: ``cuda_local``)."""
+    stops = local.corner_stops[local.corner_stops >= 0]
+    holders = np.r_[local.held_stop[local.held_stop >= 0],
+                    local.stop_held_stop[local.stop_held_stop >= 0]]
+    return bool(np.unique(stops).size < stops.size or np.isin(stops, holders).any())

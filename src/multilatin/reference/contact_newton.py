@@ -303,6 +303,7 @@ def solve_contact_history(
     u_free = np.zeros(n_free)
     jump_prev = np.zeros(n_pairs)  # tangential jump t·[u] at the previous step
     on_stop = contacts.gap <= 0.0  # a pair closed at the previous step (at rest: u = 0)
+    carried = np.zeros(n_pairs, dtype=bool)  # a pair's force at the previous step > 0
     corner, corner_stops = _held_corners(contacts, movable)
     held_stop, stop_holder = _held_stops(contacts, movable)
     lam_t_prev = np.zeros(n_pairs)  # tangential multipliers at the previous step
@@ -324,6 +325,15 @@ def solve_contact_history(
         bound = mu * np.where(active, normal_trial, 0.0)
         tangent_trial = lam_t - r * slip
         stick = active & ((bound > 0.0) | kink_active) & (np.abs(tangent_trial) <= bound)
+        if corner.size:
+            # friction first (``LocalStage._arrivals``): a corner's stop that carried
+            # nothing at the step before is open while the corner sticks with its node
+            # not beyond the stop
+            stop = np.maximum(corner_stops, 0)
+            quiet = ((corner_stops >= 0) & ~carried[stop] & stick[corner][:, None]
+                     & (gap[stop] >= -gap_tol))
+            active[stop[quiet]] = False
+            stick &= active
         slip_mask = active & ~stick
         sign = np.sign(tangent_trial)
         if corner.size or held_stop.size:
@@ -335,8 +345,8 @@ def solve_contact_history(
             # a stop holds where its node was on it at the previous step already (a
             # node that reaches it slid along the contact: ``held_stops.ATTACHED``)
             stop = np.maximum(corner_stops, 0)
-            held[corner] = np.all((corner_stops < 0) | (active[stop] & on_stop[stop]),
-                                  axis=1)
+            held[corner] = np.all((corner_stops < 0)
+                                  | (active[stop] & on_stop[stop] & carried[stop]), axis=1)
             held[corner] &= ~corner_moving
             holder = np.maximum(stop_holder, 0)
             held[held_stop] = np.where(stop_holder < 0, slip[held_stop] == 0.0,
@@ -446,5 +456,6 @@ def solve_contact_history(
         jumps = jump @ u[:, step]
         jump_prev = jumps[1::2]
         on_stop = contacts.gap + jumps[0::2] <= gap_tol
+        carried = lam[0::2] > tol * scale_force
         log.debug("contact step %d: %d Newton iterations", step + 1, newton)
     return u, contact_force, multipliers, total_iterations
