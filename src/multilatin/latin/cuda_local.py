@@ -16,7 +16,6 @@ from __future__ import annotations
 
 import contextlib
 import importlib
-import math
 from typing import TYPE_CHECKING, Any
 
 import numpy as np
@@ -50,6 +49,9 @@ _series_trial = cuda.jit(device=True)(getattr(kernels._series_trial, "py_func",
 _attached = cuda.jit(device=True)(getattr(kernels._attached, "py_func", kernels._attached))
 _beyond_stop = cuda.jit(device=True)(getattr(kernels._beyond_stop, "py_func",
                                              kernels._beyond_stop))
+_sticks = cuda.jit(device=True)(getattr(kernels._sticks, "py_func", kernels._sticks))
+_stop_opens = cuda.jit(device=True)(getattr(kernels._stop_opens, "py_func",
+                                            kernels._stop_opens))
 
 
 def _stop_step(displacement: Any, force: Any, w_hat: Any, f_hat: Any, closed: Any,
@@ -198,10 +200,10 @@ def _pairs(displacement: Any, force: Any, w_hat: Any, f_hat: Any, closed: Any, a
         w_hat[c, t, pb, 0] = bx
         w_hat[c, t, pb, 1] = by
         if q >= 0:
-            _open_arrivals(displacement, force, w_hat, f_hat, closed, stops, k_stop, n_stop,
-                           gap_stop, history, corner_stops, q, held, normal_force,
-                           trial_x, trial_y, nx, ny, mu_contact[c, j], ax, ay, bx, by,
-                           pa, pb, kx, ky, kbx, kby, c, t)
+            if not held and _sticks(trial_x, trial_y, normal_force, nx, ny, mu_contact[c, j]):
+                _open_arrivals(displacement, force, w_hat, f_hat, closed, stops, k_stop,
+                               n_stop, gap_stop, history, corner_stops, q, ax, ay, bx, by,
+                               pa, pb, kx, ky, kbx, kby, c, t)
             for h in range(2):
                 if corner_stops[q, h] >= 0:
                     carried[h] = closed[c, t, corner_stops[q, h]] != 0
@@ -209,36 +211,24 @@ def _pairs(displacement: Any, force: Any, w_hat: Any, f_hat: Any, closed: Any, a
 
 def _open_arrivals(displacement: Any, force: Any, w_hat: Any, f_hat: Any, closed: Any,
                    stops: Any, k_stop: Any, n_stop: Any, gap_stop: Any, history: Any,
-                   corner_stops: Any, q: int, held: bool, normal_force: float, trial_x: float,
-                   trial_y: float, nx: float, ny: float, mu: float, ax: float, ay: float,
-                   bx: float, by: float, pa: int, pb: int, kx: float, ky: float, kbx: float,
-                   kby: float, c: int, t: int) -> None:  # pragma: no cover
-    """``held_stops.open_arrivals`` at corner q, after its pair's step t."""
-    if held or normal_force > 0.0:
-        return
-    tx = trial_x - (trial_x * nx + trial_y * ny) * nx
-    ty = trial_y - (trial_x * nx + trial_y * ny) * ny
-    if math.sqrt(tx * tx + ty * ty) > -mu * normal_force:
-        return
+                   corner_stops: Any, q: int, ax: float, ay: float, bx: float, by: float,
+                   pa: int, pb: int, kx: float, ky: float, kbx: float, kby: float, c: int,
+                   t: int) -> None:  # pragma: no cover
+    """``held_stops.open_arrivals`` at corner q, its pair sticking after step t."""
     for h in range(2):
         i = corner_stops[q, h]
         if i < 0 or closed[c, t, i] == 0:
             continue
-        point, sx, sy = (pa, ax, ay) if h == 0 else (pb, bx, by)
-        kpx, kpy = (kx, ky) if h == 0 else (kbx, kby)
-        gap = gap_stop[c, i]
-        beyond = n_stop[i, 0] * sx + n_stop[i, 1] * sy - gap
-        size = (abs(displacement[c, t, point, 0]) + abs(displacement[c, t, point, 1])
-                + abs(force[c, t, point, 0]) / kpx + abs(force[c, t, point, 1]) / kpy)
-        if _beyond_stop(beyond, gap, size):
+        side_x, side_y, point = (ax, ay, pa) if h == 0 else (bx, by, pb)
+        k_x, k_y = (kx, ky) if h == 0 else (kbx, kby)
+        if not _stop_opens(displacement, force, n_stop, gap_stop, side_x, side_y, point,
+                           k_x, k_y, c, t, i):
             continue
         p = stops[i]
-        history[h, 0] = displacement[c, t, p, 0] - force[c, t, p, 0] / k_stop[i, 0]
-        history[h, 1] = displacement[c, t, p, 1] - force[c, t, p, 1] / k_stop[i, 1]
-        f_hat[c, t, p, 0] = 0.0
-        f_hat[c, t, p, 1] = 0.0
-        w_hat[c, t, p, 0] = history[h, 0]
-        w_hat[c, t, p, 1] = history[h, 1]
+        for d in range(2):
+            history[h, d] = displacement[c, t, p, d] - force[c, t, p, d] / k_stop[i, d]
+            f_hat[c, t, p, d] = 0.0
+            w_hat[c, t, p, d] = history[h, d]
         closed[c, t, i] = 0
 
 

@@ -239,24 +239,23 @@ def _contact_and_stops(displacement: FloatArray, force: FloatArray, w_hat: Float
                 f_hat[c, t, pb, 0], f_hat[c, t, pb, 1] = -fx, -fy
                 w_hat[c, t, pa, 0], w_hat[c, t, pa, 1] = prev_a[j, 0], prev_a[j, 1]
                 w_hat[c, t, pb, 0], w_hat[c, t, pb, 1] = prev_b[j, 0], prev_b[j, 1]
-                if q >= 0 and not held and normal_force <= 0.0:
-                    # friction first (``held_stops.open_arrivals``)
-                    tx = trial_x - (trial_x * nx + trial_y * ny) * nx
-                    ty = trial_y - (trial_x * nx + trial_y * ny) * ny
-                    if math.sqrt(tx * tx + ty * ty) <= -mu_contact[c, j] * normal_force:
-                        for h in range(2):
-                            i = corner_stops[q, h]
-                            if i >= 0 and stop_closed[i]:
-                                if h == 0:
-                                    _open_arrival(displacement, force, w_hat, f_hat,
-                                                  prev_stop, stop_closed, stops, k_stop,
-                                                  n_stop, gap_stop, prev_a[j], pa,
-                                                  k_contact[j], c, t, i)
-                                else:
-                                    _open_arrival(displacement, force, w_hat, f_hat,
-                                                  prev_stop, stop_closed, stops, k_stop,
-                                                  n_stop, gap_stop, prev_b[j], pb,
-                                                  k_contact_b[j], c, t, i)
+                if q >= 0 and not held and _sticks(trial_x, trial_y, normal_force, nx, ny,
+                                                   mu_contact[c, j]):
+                    for h in range(2):  # friction first (``held_stops.open_arrivals``)
+                        i = corner_stops[q, h]
+                        if i < 0 or not stop_closed[i]:
+                            continue
+                        side, point = (prev_a[j], pa) if h == 0 else (prev_b[j], pb)
+                        k_side = k_contact[j] if h == 0 else k_contact_b[j]
+                        if _stop_opens(displacement, force, n_stop, gap_stop, side[0],
+                                       side[1], point, k_side[0], k_side[1], c, t, i):
+                            p = stops[i]
+                            for d in range(2):
+                                prev_stop[i, d] = (displacement[c, t, p, d]
+                                                   - force[c, t, p, d] / k_stop[i, d])
+                                f_hat[c, t, p, d] = 0.0
+                                w_hat[c, t, p, d] = prev_stop[i, d]
+                            stop_closed[i] = False
             for i in range(n_stops):
                 carried[i] = stop_closed[i]
         if group_pairs.shape[0]:
@@ -264,26 +263,28 @@ def _contact_and_stops(displacement: FloatArray, force: FloatArray, w_hat: Float
                           group_pairs, group_share, kept, c, t0)
 
 
-def _open_arrival(displacement: FloatArray, force: FloatArray, w_hat: FloatArray,
-                  f_hat: FloatArray, prev_stop: FloatArray, stop_closed: npt.NDArray[np.bool_],
-                  stops: IntArray, k_stop: FloatArray, n_stop: FloatArray,
-                  gap_stop: FloatArray, side: FloatArray, point: int, k_side: FloatArray,
-                  c: int, t: int, i: int) -> None:  # pragma: no cover - compiled
-    """Stop i of a sticking corner opens unless the pair's Ŵ on its side (``side``, at
-    ``point``, its search direction ``k_side``) is beyond it
+def _sticks(trial_x: float, trial_y: float, normal_force: float, nx: float, ny: float,
+            mu: float) -> bool:  # pragma: no cover - compiled
+    """Whether a contact pair's trial force is pressed and in its cone (``_in_cone``)."""
+    if normal_force > 0.0:
+        return False
+    tx = trial_x - (trial_x * nx + trial_y * ny) * nx
+    ty = trial_y - (trial_x * nx + trial_y * ny) * ny
+    return bool(math.sqrt(tx * tx + ty * ty) <= -mu * normal_force)
+
+
+def _stop_opens(displacement: FloatArray, force: FloatArray, n_stop: FloatArray,
+                gap_stop: FloatArray, side_x: float, side_y: float, point: int,
+                k_x: float, k_y: float, c: int, t: int,
+                i: int) -> bool:  # pragma: no cover - compiled
+    """Whether stop i of a sticking corner opens: the pair's Ŵ on its side (``side_x``,
+    ``side_y``, at ``point``, search direction ``k_x``, ``k_y``) is not beyond it
     (``held_stops.open_arrivals``)."""
-    p = stops[i]
     gap = gap_stop[c, i]
-    beyond = n_stop[i, 0] * side[0] + n_stop[i, 1] * side[1] - gap
+    beyond = n_stop[i, 0] * side_x + n_stop[i, 1] * side_y - gap
     size = (abs(displacement[c, t, point, 0]) + abs(displacement[c, t, point, 1])
-            + abs(force[c, t, point, 0]) / k_side[0] + abs(force[c, t, point, 1]) / k_side[1])
-    if _beyond_stop(beyond, gap, size):
-        return
-    prev_stop[i, 0] = displacement[c, t, p, 0] - force[c, t, p, 0] / k_stop[i, 0]
-    prev_stop[i, 1] = displacement[c, t, p, 1] - force[c, t, p, 1] / k_stop[i, 1]
-    f_hat[c, t, p, 0], f_hat[c, t, p, 1] = 0.0, 0.0
-    w_hat[c, t, p, 0], w_hat[c, t, p, 1] = prev_stop[i, 0], prev_stop[i, 1]
-    stop_closed[i] = False
+            + abs(force[c, t, point, 0]) / k_x + abs(force[c, t, point, 1]) / k_y)
+    return not _beyond_stop(beyond, gap, size)
 
 
 def _perfect_and_boundary(displacement: FloatArray, force: FloatArray, w_hat: FloatArray,
@@ -443,9 +444,8 @@ _KERNELS = ("contact_and_stops", "relax", "relax_rows", "indicator_squares", "pe
 
 
 def _compile() -> None:
-    global _in_cone, _series_trial, _attached, _beyond_stop, _open_arrival
-    global _contact_and_stops
-    global _project_columns
+    global _in_cone, _series_trial, _attached, _beyond_stop, _sticks, _stop_opens
+    global _contact_and_stops, _project_columns
     global _coupling_shift
     global _merge_groups, _split_groups
     compiled: dict[str, Callable[..., Any] | None] = dict.fromkeys(_KERNELS)
@@ -457,7 +457,8 @@ def _compile() -> None:
         jit_inline = numba.njit(cache=True, inline="always")
         _in_cone, _series_trial = jit_inline(_in_cone), jit_inline(_series_trial)
         _attached = jit_inline(_attached)
-        _beyond_stop, _open_arrival = jit_inline(_beyond_stop), jit_inline(_open_arrival)
+        _beyond_stop, _sticks = jit_inline(_beyond_stop), jit_inline(_sticks)
+        _stop_opens = jit_inline(_stop_opens)
         jit = numba.njit(cache=True)
         # called from ``_coupled_contact`` and the corrections: compiled before them
         _merge_groups, _split_groups = jit(_merge_groups), jit(_split_groups)

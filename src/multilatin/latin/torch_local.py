@@ -83,12 +83,11 @@ class TorchLocalStage:
         stops_of_corner = np.asarray(local.corner_stops, dtype=np.int64).reshape(-1, 2)
         self.corner_free = self.torch.as_tensor(stops_of_corner < 0, device=device)
         self.corner_stops = index(np.maximum(stops_of_corner, 0))
-        #: per side, the corners with a stop there and that stop (``open_arrivals``)
-        self.corner_sides = [(index(np.flatnonzero(stops_of_corner[:, side] >= 0)),
-                              index(stops_of_corner[stops_of_corner[:, side] >= 0, side]))
-                             for side in (0, 1) if np.any(stops_of_corner[:, side] >= 0)]
-        self.corner_side_index = [side for side in (0, 1)
-                                  if np.any(stops_of_corner[:, side] >= 0)]
+        #: (side, the corners with a stop on that side, those stops): ``open_arrivals``
+        on_side = [stops_of_corner[:, side] >= 0 for side in (0, 1)]
+        self.corner_sides = [(side, index(np.flatnonzero(has)),
+                              index(stops_of_corner[has, side]))
+                             for side, has in enumerate(on_side) if has.any()]
         h = local.held_pairs
         self.n_held = h.size
         self.held = (index(h), index(local.held_component),
@@ -372,7 +371,7 @@ class TorchLocalStage:
         pushed = normal_force[:, corner]
         stick = (pushed <= 0.0) & (size <= self.mu_corner * -pushed) & ~held
         closed, stop_force, stop_shift = stop_closed.clone(), stop_force.clone(), stop_shift.clone()
-        for (q, i), side in zip(self.corner_sides, self.corner_side_index, strict=True):
+        for side, q, i in self.corner_sides:
             normal = self.n_stop[i]
             gap = self.gap_stop[:, i]
             pair = corner[q]

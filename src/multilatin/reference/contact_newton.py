@@ -305,6 +305,7 @@ def solve_contact_history(
     on_stop = contacts.gap <= 0.0  # a pair closed at the previous step (at rest: u = 0)
     carried = np.zeros(n_pairs, dtype=bool)  # a pair's force at the previous step > 0
     corner, corner_stops = _held_corners(contacts, movable)
+    corner_stop = np.maximum(corner_stops, 0)  # an index where a corner has no stop
     held_stop, stop_holder = _held_stops(contacts, movable)
     lam_t_prev = np.zeros(n_pairs)  # tangential multipliers at the previous step
     total_iterations = 0
@@ -326,13 +327,12 @@ def solve_contact_history(
         tangent_trial = lam_t - r * slip
         stick = active & ((bound > 0.0) | kink_active) & (np.abs(tangent_trial) <= bound)
         if corner.size:
-            # friction first (``LocalStage._arrivals``): a corner's stop that carried
-            # nothing at the step before is open while the corner sticks with its node
-            # not beyond the stop
-            stop = np.maximum(corner_stops, 0)
-            quiet = ((corner_stops >= 0) & ~carried[stop] & stick[corner][:, None]
-                     & (gap[stop] >= -gap_tol))
-            active[stop[quiet]] = False
+            # friction first (``latin.held_stops.open_arrivals``): a corner's stop that
+            # carried nothing at the step before is open while the corner sticks with its
+            # node not beyond the stop
+            quiet = ((corner_stops >= 0) & ~carried[corner_stop] & stick[corner][:, None]
+                     & (gap[corner_stop] >= -gap_tol))
+            active[corner_stop[quiet]] = False
             stick &= active
         slip_mask = active & ~stick
         sign = np.sign(tangent_trial)
@@ -344,7 +344,7 @@ def solve_contact_history(
             held = np.zeros(n_pairs, dtype=bool)
             # a stop holds where its node was on it at the previous step already (a
             # node that reaches it slid along the contact: ``held_stops.ATTACHED``)
-            stop = np.maximum(corner_stops, 0)
+            stop = corner_stop
             held[corner] = np.all((corner_stops < 0)
                                   | (active[stop] & on_stop[stop] & carried[stop]), axis=1)
             held[corner] &= ~corner_moving
