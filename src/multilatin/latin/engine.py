@@ -335,6 +335,20 @@ class NumpyFields:
         forces: FloatArray = f_hat
         return forces
 
+    def saved(self, cases: IntArray) -> tuple[Any, ...]:
+        assert self.w is not None and self.f is not None
+        return tuple(None if x is None else x[cases] for x in  # indexed by an array: copies
+                     (self.w, self.f, self.w_hat, self.f_hat, self.side_macro))
+
+    def restore(self, cases: IntArray, saved: tuple[Any, ...]) -> None:
+        self.w, self.f = np.array(self.w), np.array(self.f)  # not the linear stage's output
+        live = self._live_steps(cases)  # settled steps stay as they settled
+        for name, old in zip(("w", "f", "w_hat", "f_hat", "side_macro"), saved, strict=True):
+            if old is not None:
+                rows = getattr(self, name)
+                rows[cases] = np.where(live.reshape(live.shape + (1,) * (old.ndim - 2)),
+                                       old, rows[cases])
+
     def take_back(self, cases: IntArray) -> None:
         """The active cases at positions ``cases`` (of the last ``moved_forces``) as they
         were before it."""

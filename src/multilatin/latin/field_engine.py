@@ -55,6 +55,14 @@ class FieldEngine(Protocol):
         """Copies of (W, F) of the active cases at positions ``cases``, kept where the
         fields live (torch: on its device): the sliding extrapolation's marks."""
 
+    def saved(self, cases: IntArray) -> tuple[Any, ...]:
+        """Copies of everything the next iteration of the active cases at positions
+        ``cases`` starts from (s and ŝ, and what the local stage keeps), for ``restore``."""
+
+    def restore(self, cases: IntArray, saved: tuple[Any, ...]) -> None:
+        """The active cases at positions ``cases`` as ``saved`` had them (the same cases,
+        in the same order, that batch's numbering)."""
+
     def take(self, rows: Any, index: IntArray) -> Any:
         """The rows ``index`` of ``state``'s arrays (or of their differences)."""
 

@@ -44,8 +44,9 @@ iterations; the lug 160 → 126, the roller 402 → 319; B1's studies do not cha
 A crawl may also end before the gap closes — a warm start from a neighbour whose block slides
 to a new equilibrium that friction, not the stop, sets: the jump then overshoots. So a jump
 is checked one window later: if η is then above ``TAKE_BACK`` times its value at the jump,
-the jump is taken back (s shifted back by the same increment) and that case makes no
-further jump. Measured on B1 at κ = 1, (0.05, 0.05) → (0.1, 0.05) warm, with session 14's
+the jump is taken back — the case set back to where it was before the jump
+(``RESTORE``) — and that case makes no further jump. Measured on B1 at κ = 1, (0.05,
+0.05) → (0.1, 0.05) warm, with session 14's
 direction: without that check, 16 jumps and back in a cycle (η ≈ 1e-3 at the cap of 1 000
 iterations). A good jump raises η for a few iterations too, while the linear stage
 rebalances the forces it moved (B1 at (0.1, 0.25) cold: 1.43 × one window later, then
@@ -64,7 +65,8 @@ from .field_engine import FieldEngine
 from .local_stage import LocalStage
 
 __all__ = ["ALIGNED", "GEOMETRIC", "GROUP_ROWS", "LEADING", "MATERIAL", "MAX_JUMP",
-           "MODES", "SLOW_ON_QOIS", "STEADY", "TAKE_BACK", "WINDOW", "SlidingExtrapolation"]
+           "MODES", "RESTORE", "SLOW_ON_QOIS", "STEADY", "TAKE_BACK", "WINDOW",
+           "SlidingExtrapolation"]
 
 #: iterations between two looks; a crawl must hold over two windows
 WINDOW = 10
@@ -81,6 +83,13 @@ LEADING = 0.5
 #: the good jumps' rises measured 1.0–1.65 × over B1, B1-4 and B1-9's 13 × 13 studies and
 #: cold grids at κ = 0.1 … 2 (docs/convergence.md, session 29)
 TAKE_BACK = 2.0
+#: a jump taken back sets the case back to where it was before the jump (s, ŝ:
+#: ``FieldEngine.restore``), not s minus the jump: ten iterations after a geometric jump
+#: its increment has partly decayed, and the local stage's statuses it flipped may stay
+#: flipped. b1-4 at gap 0, (0.3, 0.15), under the QoI rule: a two-mode jump at η = 2.5e-7
+#: flipped the stop's local stage at the corner (F̂ 8.6 N), η 1.3e-3; shifted back, η stayed
+#: at 1e-4 (188 iterations in all; restored, 120; session 55)
+RESTORE = True
 #: cases tested at once (their marks' rows gathered): bounds the test's memory
 GROUP_ROWS = 256
 #: a geometric jump: the ratio r of two windows' increments (r = ρ¹⁰ for a mode decaying
@@ -127,8 +136,9 @@ class SlidingExtrapolation:
         self.jump_rate = np.zeros(n_cases)
         self.taken_back = np.zeros(n_cases, dtype=bool)  # then no further jump
         self.geometric_jumps = 0  # of ``jumps``, those of a geometric mode
-        #: per case with a jump under check: (η at the jump, its increments dw, df)
-        self.pending: dict[int, tuple[float, Any, Any]] = {}
+        #: per case with a jump under check: (η at the jump, its increments dw, df, the
+        #: case's fields before it: ``FieldEngine.saved``)
+        self.pending: dict[int, tuple[float, Any, Any, tuple[Any, ...]]] = {}
 
     def forget(self, case: int) -> None:
         """Restart the case's record (its fields were moved by another rule)."""
@@ -169,11 +179,14 @@ class SlidingExtrapolation:
         for i, case in enumerate(active.tolist()):
             if not due[i] or case not in self.pending:
                 continue
-            eta_at_jump, dw, df = self.pending.pop(case)
+            eta_at_jump, dw, df, before = self.pending.pop(case)
             if not eta[i] <= TAKE_BACK * eta_at_jump:  # overshot: back, no more jumps
-                positions.append(i)
-                shifts_w.append(-dw)
-                shifts_f.append(-df)
+                if RESTORE:
+                    engine.restore(np.array([i]), before)
+                else:
+                    positions.append(i)
+                    shifts_w.append(-dw)
+                    shifts_f.append(-df)
                 self.taken_back[case] = True
                 self.marks.pop(case, None)
                 moved.append(case)
@@ -252,14 +265,21 @@ class SlidingExtrapolation:
                     positions.append(i)
                     shifts_w.append(jump_w)
                     shifts_f.append(jump_f)
-                    self.pending[case] = (float(eta[i]), shifts_w[-1], shifts_f[-1])
+                    self.pending[case] = (float(eta[i]), shifts_w[-1], shifts_f[-1], ())
                     self.marks[case].clear()
                     moved.append(case)
                     self.jumped_at[case] = int(counts[i])
                     self.jumps[case] += 1
         if positions:
-            engine.shift(np.array(positions), shifts_w, shifts_f)
-            engine.local_stage_of(np.array(positions))
+            at = np.array(positions)
+            saved = engine.saved(at) if RESTORE else ()
+            for n, i in enumerate(positions):
+                case = int(active[i])
+                eta_at_jump, jump_w, jump_f, _ = self.pending[case]
+                self.pending[case] = (eta_at_jump, jump_w, jump_f,
+                                      tuple(None if x is None else x[n:n + 1] for x in saved))
+            engine.shift(at, shifts_w, shifts_f)
+            engine.local_stage_of(at)
         return moved
 
     @staticmethod

@@ -371,6 +371,21 @@ class TorchFields:
         for name, old in zip(names, kept, strict=True):
             setattr(self, name, old.index_copy(0, index, getattr(self, name)[index]))
 
+    def saved(self, cases: IntArray) -> tuple[Any, ...]:
+        self._settle()
+        assert self.w is not None and self.f is not None
+        index = self._index(self.slots[cases])
+        return tuple(None if x is None else x.index_select(0, index)
+                     for x in (self.w, self.f, self.w_hat, self.f_hat, self.side_macro))
+
+    def restore(self, cases: IntArray, saved: tuple[Any, ...]) -> None:
+        self._settle()
+        self._results = {}
+        index = self._index(self.slots[cases])
+        for name, old in zip(("w", "f", "w_hat", "f_hat", "side_macro"), saved, strict=True):
+            if old is not None:
+                setattr(self, name, getattr(self, name).index_copy(0, index, old))
+
     def _stacked(self, rows: Sequence[Any]) -> Tensor:
         """Rows (tensors, or host arrays: ``extrapolation``) as one tensor on the device."""
         return self.torch.stack([row if isinstance(row, self.torch.Tensor) else
