@@ -16,9 +16,9 @@ from .tracking import WINDOW, estimates_after
 RECENT = WINDOW + 5
 
 #: the per-case arrays of ``IterationState`` (first axis: the case)
-PER_CASE = ("qoi_recent", "eta_recent", "qoi_scale", "qoi_reported", "stopped_on_qoi",
-            "drifting", "first_size", "qoi_settled_error", "settled_steps", "force_eta",
-            "jumped_at", "jump_rate", "warm")
+PER_CASE = ("qoi_recent", "eta_recent", "qoi_scale", "qoi_terms", "qoi_reported",
+            "stopped_on_qoi", "drifting", "first_size", "qoi_settled_error", "settled_steps",
+            "force_eta", "jumped_at", "jump_rate", "warm")
 
 
 @dataclass
@@ -35,6 +35,9 @@ class IterationState:
     #: per case, of its last ``RECENT`` iterations and QoI: the largest |value| over the
     #: steps, round the buffer as ``qoi_recent`` (``QOI_FLOOR``)
     qoi_scale: FloatArray
+    #: per case, QoI and step: ``CANCELLED`` × the size of the QoI's terms at the last
+    #: iteration (``QoiFunctionals.magnitudes``), the QoI rule's floor for a small rest
+    qoi_terms: FloatArray
     #: per case, QoI and step: whether the QoI reports that step (``QoiFunctionals.reported``)
     qoi_reported: npt.NDArray[np.bool_]
     stopped_on_qoi: npt.NDArray[np.bool_]  # per case: stopped by ``qoi_rtol`` before η < tol
@@ -66,7 +69,8 @@ class IterationState:
         """Room for the cases of ``reported`` (n_cases, n_qoi, n_steps)."""
         n_cases, n_qoi, n_steps = reported.shape
         return cls({}, [[] for _ in range(n_cases)], np.zeros((n_cases, RECENT, n_qoi, n_steps)),
-                   np.zeros((n_cases, RECENT)), np.zeros((n_cases, RECENT, n_qoi)), reported,
+                   np.zeros((n_cases, RECENT)), np.zeros((n_cases, RECENT, n_qoi)),
+                   np.zeros(reported.shape), reported,
                    np.zeros(n_cases, dtype=bool), [[] for _ in range(n_cases)],
                    np.zeros(n_cases, dtype=bool), np.zeros(n_cases), np.zeros(reported.shape),
                    np.zeros(n_cases, dtype=np.int64), np.zeros(n_cases),

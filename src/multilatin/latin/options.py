@@ -111,8 +111,8 @@ class LatinOptions:
         ``multilatin.latin.tracking``) is below ``qoi_rtol``
         times its value, or times 1 % of the largest magnitude it took at its steps over
         the last ``iteration.RECENT`` iterations
-        for a QoI near zero (a tenth of its terms' size, ``iteration.CANCELLED``, for a QoI
-        that is a small rest of its terms), and the state's own remaining change
+        for a QoI near zero, or times 1 % of its terms' size (``iteration.CANCELLED``)
+        for a QoI that is a small rest of its terms, and the state's own remaining change
         η / (1 − ρ) (ρ: η's rate) is below ``qoi_rtol`` too (``iteration.state_settled``:
         a QoI that stalls while the state still moves stops nothing); looked at after
         ``tracking.WINDOW`` + 5 iterations. From then
