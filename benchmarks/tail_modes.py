@@ -18,7 +18,8 @@ interface point at (X, Y), in its busiest step, beside the converged F there (a 
 point's forces, point by point); ``--each-pair``: the contact pairs of a cross point each
 on its own (``cross_points.MERGE`` off, the rule before session 35); ``--pairs``: the
 friction pairs (default: three of ``convergence.py``'s); ``--defaults``: any model once, at
-its parameters' defaults (``--models lap --defaults --window 26``: session 49).
+its parameters' defaults (``--models lap --defaults --window 26``: session 49); ``--set
+gap=0``: other parameters for every case (session 55).
 Uses only the solver's own iteration (``solve_latin(observer=...)``) and local stage.
 """
 
@@ -104,6 +105,8 @@ def main() -> None:
     parser.add_argument("--pairs", nargs="+", default=None, help="μ1,μ2 pairs")
     parser.add_argument("--rigid-balance", action="store_true",
                         help="LatinOptions(rigid_balance=True): the tail that is left")
+    parser.add_argument("--set", nargs="+", default=[], metavar="NAME=VALUE",
+                        help="other parameters for every case (--set gap=0: session 55)")
     parser.add_argument("--defaults", action="store_true",
                         help="each model once, at its parameters' defaults (any model)")
     args = parser.parse_args()
@@ -116,7 +119,9 @@ def main() -> None:
     for name in args.models:
         model = ml.load_model(name)
         for pair in cases:
-            assembly = model.assemble(dict(zip(("mu1", "mu2"), pair, strict=False)))
+            values = {**dict(zip(("mu1", "mu2"), pair, strict=False)),
+                      **{k: float(v) for k, v in (item.split("=") for item in args.set)}}
+            assembly = model.assemble(values)
             operators = LatinOperators(assembly, options)
             points = operators.points
             k = operators.search_direction
