@@ -55,6 +55,7 @@ def attached(closing: Any, gap: Any, normal_w: Any, normal_f: Any, k_normal: Any
     return abs(closing) <= ATTACHED * (abs(gap) + abs(gap - closing) + abs(normal_w)
                                        + abs(normal_f) / k_normal)
 
+
 def beyond_stop(beyond: Any, gap: Any, size: Any) -> Any:
     """Whether a sticking corner's node is ``beyond`` its stop (n·Ŵ − gap) by more than the
     rounding (``ATTACHED``) of its ``gap``, its position and ``size``: |W| + |F| / k of
@@ -133,9 +134,9 @@ def open_arrivals(local: LocalStage, t: int, trial: FloatArray, normal_force: Fl
     n = local.n_contact[corner]
     source = trial[:, corner]
     tangential = source - np.sum(source * n, axis=-1)[..., None] * n
-    size = np.sqrt(np.sum(tangential**2, axis=-1))
+    friction = np.sqrt(np.sum(tangential**2, axis=-1))
     pushed = normal_force[:, corner]
-    stick = local._branch((pushed <= 0.0) & (size <= local.mu_contact[:, corner] * -pushed))
+    stick = local._branch((pushed <= 0.0) & (friction <= local.mu_contact[:, corner] * -pushed))
     closed = stop_closed.copy()
     for side, shift in enumerate(sides):
         has = local.corner_stops[:, side] >= 0

@@ -445,9 +445,7 @@ _KERNELS = ("contact_and_stops", "relax", "relax_rows", "indicator_squares", "pe
 
 def _compile() -> None:
     global _in_cone, _series_trial, _attached, _beyond_stop, _sticks, _stop_opens
-    global _contact_and_stops, _project_columns
-    global _coupling_shift
-    global _merge_groups, _split_groups
+    global _contact_and_stops, _project_columns, _coupling_shift, _merge_groups, _split_groups
     compiled: dict[str, Callable[..., Any] | None] = dict.fromkeys(_KERNELS)
     try:  # pragma: no cover - depends on the installed extras
         numba = importlib.import_module("numba")

@@ -265,7 +265,6 @@ class SlidingExtrapolation:
                     positions.append(i)
                     shifts_w.append(jump_w)
                     shifts_f.append(jump_f)
-                    self.pending[case] = (float(eta[i]), shifts_w[-1], shifts_f[-1], ())
                     self.marks[case].clear()
                     moved.append(case)
                     self.jumped_at[case] = int(counts[i])
@@ -273,11 +272,10 @@ class SlidingExtrapolation:
         if positions:
             at = np.array(positions)
             saved = engine.saved(at) if RESTORE else ()
-            for n, i in enumerate(positions):
-                case = int(active[i])
-                eta_at_jump, jump_w, jump_f, _ = self.pending[case]
-                self.pending[case] = (eta_at_jump, jump_w, jump_f,
-                                      tuple(None if x is None else x[n:n + 1] for x in saved))
+            for n, i in enumerate(positions):  # the jumps, checked one window later
+                self.pending[int(active[i])] = (
+                    float(eta[i]), shifts_w[n], shifts_f[n],
+                    tuple(None if x is None else x[n:n + 1] for x in saved))
             engine.shift(at, shifts_w, shifts_f)
             engine.local_stage_of(at)
         return moved

@@ -367,9 +367,9 @@ class TorchLocalStage:
         corner, n = self.corner, self.n_corner
         source = trial[:, corner]
         tangential = source - torch.sum(source * n, dim=-1)[..., None] * n
-        size = torch.sqrt(torch.sum(tangential**2, dim=-1))
+        friction = torch.sqrt(torch.sum(tangential**2, dim=-1))
         pushed = normal_force[:, corner]
-        stick = (pushed <= 0.0) & (size <= self.mu_corner * -pushed) & ~held
+        stick = (pushed <= 0.0) & (friction <= self.mu_corner * -pushed) & ~held
         closed, stop_force, stop_shift = stop_closed.clone(), stop_force.clone(), stop_shift.clone()
         for side, q, i in self.corner_sides:
             normal = self.n_stop[i]

@@ -344,9 +344,8 @@ def solve_contact_history(
             held = np.zeros(n_pairs, dtype=bool)
             # a stop holds where its node was on it at the previous step already (a
             # node that reaches it slid along the contact: ``held_stops.ATTACHED``)
-            stop = corner_stop
             held[corner] = np.all((corner_stops < 0)
-                                  | (active[stop] & on_stop[stop] & carried[stop]), axis=1)
+                                  | (active & on_stop & carried)[corner_stop], axis=1)
             held[corner] &= ~corner_moving
             holder = np.maximum(stop_holder, 0)
             held[held_stop] = np.where(stop_holder < 0, slip[held_stop] == 0.0,
