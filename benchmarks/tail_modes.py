@@ -110,6 +110,12 @@ def main() -> None:
     parser.add_argument("--defaults", action="store_true",
                         help="each model once, at its parameters' defaults (any model)")
     args = parser.parse_args()
+    for item in args.set:
+        name, _, value = item.partition("=")
+        try:
+            float(value)
+        except ValueError:
+            parser.error(f"--set {item!r}: expected NAME=VALUE with a number")
     if args.each_pair:
         cross_points.MERGE = False
     cases: list[tuple[float, ...]] = (
