@@ -42,8 +42,8 @@ def test_the_local_stage_from_settled_steps_is_the_full_pass(name: str) -> None:
     """Diagonal H (one pass): started at each case's ``first`` step from the ŝ of the steps
     before — the history Coulomb's law, the stops and the held corners carry — the local
     stage gives the full pass's ŝ exactly, and computes nothing before ``first``. The pairs
-    of a cross point (b1-9, ``cross_points``) restart from their mean Ŵ, the merged pair's
-    history to rounding: their points to 1e-12."""
+    and the stop points of a cross point (b1-9, b3, ``cross_points``) restart from their mean
+    Ŵ, the merged pair's or stop's history to rounding: their points to 1e-12."""
     ops, local, w, f = _random_fields(name, micro_stiffening=1.0)
     full_w, full_f = local(w, f)
     assert np.abs(full_f[:, :, local.contact_pairs[0]]).max() > 0
@@ -57,7 +57,8 @@ def test_the_local_stage_from_settled_steps_is_the_full_pass(name: str) -> None:
                 w_hat[c, t0 - 1], f_hat[c, t0 - 1] = full_w[c, t0 - 1], full_f[c, t0 - 1]
         local.contact_stage(w, f, w_hat, f_hat, first_steps)
         grouped = np.zeros(w.shape[2], dtype=bool)
-        grouped[np.concatenate([side.ravel() for side in local.group_sides])] = True
+        for points, _, _ in local.groups.sides:
+            grouped[points.ravel()] = True
         for c, t0 in enumerate(first):
             for got, full in ((w_hat, full_w), (f_hat, full_f)):
                 np.testing.assert_array_equal(got[c, t0:, ~grouped], full[c, t0:, ~grouped])

@@ -37,7 +37,9 @@ import numpy.typing as npt
 from ..fem.elasticity import FloatArray, IntArray
 from . import two_scale_kernels as _two_scale
 from .cross_points import merge_groups as _merge_groups
+from .cross_points import merge_stop_groups as _merge_stop_groups
 from .cross_points import split_groups as _split_groups
+from .cross_points import split_stop_groups as _split_stop_groups
 from .held_stops import attached, beyond_stop
 from .indicator_kernel import indicator_squares as _indicator_squares
 from .two_scale_kernels import coupling_shift as _coupling_shift
@@ -84,16 +86,18 @@ def _contact_and_stops(displacement: FloatArray, force: FloatArray, w_hat: Float
                        held_stop: IntArray, stop_held_boundary: IntArray,
                        stop_held_stop: IntArray, prescribed: FloatArray,
                        corner_moving: npt.NDArray[np.bool_], group_pairs: IntArray,
-                       group_share: FloatArray, first: IntArray
-                       ) -> None:  # pragma: no cover - compiled
+                       group_share: FloatArray, stop_groups: IntArray, stop_share: FloatArray,
+                       first: IntArray) -> None:  # pragma: no cover - compiled
     """Steps ``first[c]`` on of case c (the earlier ones settled, ``engine``): the
     history they start from is the last settled step's Ŵ (each point's, which its update
-    carries) and F̂ (a held corner's force). A row of ``group_pairs`` runs as one pair
-    (``cross_points``: W and F set to its means in place, put back after)."""
+    carries) and F̂ (a held corner's force). A row of ``group_pairs`` runs as one pair,
+    one of ``stop_groups`` as one stop (``cross_points``: W and F set to its means in
+    place, put back after)."""
     n_cases, n_steps = displacement.shape[0], displacement.shape[1]
     n_pairs, n_stops = a.size, stops.size
     n_corners = corner_stops.shape[0]
     kept = np.empty((group_pairs.shape[0], group_pairs.shape[1], n_steps, 2, 2, 2))
+    kept_stops = np.empty((stop_groups.shape[0], stop_groups.shape[1], n_steps, 2, 2))
     for c in range(n_cases):
         prev_a = np.zeros((n_pairs, 2))
         prev_b = np.zeros((n_pairs, 2))
@@ -119,6 +123,9 @@ def _contact_and_stops(displacement: FloatArray, force: FloatArray, w_hat: Float
         if group_pairs.shape[0]:  # kept: (member, step, side, W / F, component)
             _merge_groups(displacement, force, prev_a, prev_b, a, b, group_pairs,
                           group_share, kept, c, t0)
+        if stop_groups.shape[0]:
+            _merge_stop_groups(displacement, force, prev_stop, stops, stop_groups, stop_share,
+                               kept_stops, c, t0)
         for t in range(t0, n_steps):
             for i in range(n_stops):
                 p = stops[i]
@@ -261,6 +268,9 @@ def _contact_and_stops(displacement: FloatArray, force: FloatArray, w_hat: Float
         if group_pairs.shape[0]:
             _split_groups(displacement, force, w_hat, a, b, k_contact, k_contact_b,
                           group_pairs, group_share, kept, c, t0)
+        if stop_groups.shape[0]:
+            _split_stop_groups(displacement, force, w_hat, stops, k_stop, stop_groups,
+                               stop_share, kept_stops, c, t0)
 
 
 def _sticks(trial_x: float, trial_y: float, normal_force: float, nx: float, ny: float,
@@ -343,8 +353,8 @@ def _coupled_contact(displacement: FloatArray, force: FloatArray, w_hat: FloatAr
                      held_boundary: IntArray, held_stop: IntArray,
                      stop_held_boundary: IntArray, stop_held_stop: IntArray,
                      prescribed: FloatArray, corner_moving: npt.NDArray[np.bool_],
-                     group_pairs: IntArray, group_share: FloatArray,
-                     first: IntArray) -> None:  # pragma: no cover - compiled
+                     group_pairs: IntArray, group_share: FloatArray, stop_groups: IntArray,
+                     stop_share: FloatArray, first: IntArray) -> None:  # pragma: no cover
     """Steps ``first[c]`` on of case c; ``macro`` keeps the earlier steps' rows."""
     n_cases, n_steps, n_points = displacement.shape[0], displacement.shape[1], \
         displacement.shape[2]
@@ -403,7 +413,7 @@ def _coupled_contact(displacement: FloatArray, force: FloatArray, w_hat: FloatAr
                                gap_stop[c:c + 1], corner_of_pair, corner_stops, held_side,
                                held_boundary, held_stop, stop_held_boundary, stop_held_stop,
                                prescribed[c:c + 1], corner_moving[c:c + 1], group_pairs,
-                               group_share, first[c:c + 1])
+                               group_share, stop_groups, stop_share, first[c:c + 1])
             residual = -projected - x
             _project_columns(w_hat[c].reshape(n_steps, 2 * n_points)[t0:], support, slot,
                              starts, weighted, columns, sums, residual)
@@ -446,6 +456,7 @@ _KERNELS = ("contact_and_stops", "relax", "relax_rows", "indicator_squares", "pe
 def _compile() -> None:
     global _in_cone, _series_trial, _attached, _beyond_stop, _sticks, _stop_opens
     global _contact_and_stops, _project_columns, _coupling_shift, _merge_groups, _split_groups
+    global _merge_stop_groups, _split_stop_groups
     compiled: dict[str, Callable[..., Any] | None] = dict.fromkeys(_KERNELS)
     try:  # pragma: no cover - depends on the installed extras
         numba = importlib.import_module("numba")
@@ -460,6 +471,7 @@ def _compile() -> None:
         jit = numba.njit(cache=True)
         # called from ``_coupled_contact`` and the corrections: compiled before them
         _merge_groups, _split_groups = jit(_merge_groups), jit(_split_groups)
+        _merge_stop_groups, _split_stop_groups = jit(_merge_stop_groups), jit(_split_stop_groups)
         _contact_and_stops, _project_columns = jit(_contact_and_stops), jit(_project_columns)
         _coupling_shift = jit_inline(_coupling_shift)
         # the two-scale module's callers find its compiled helpers in its own namespace

@@ -20,7 +20,7 @@ from ..errors import ModelError
 from ..fem.elasticity import FloatArray, IntArray
 from . import kernels
 from .branch_tape import BranchTape
-from .cross_points import corrected, cross_point_groups, merged
+from .cross_points import corrected, local_groups, merged
 from .held_stops import attached, hold_stops, moving_corners, open_arrivals
 
 __all__ = ["BranchTape", "LocalStage", "MacroOnlyMap", "macro_only_map"]
@@ -98,11 +98,10 @@ class LocalStage:
                                     for assembly, p in zip(assemblies, points, strict=True)])
         self.corner_moving = moving_corners(self.prescribed, first.corner_boundaries,
                                             self.n_contact[first.corner])
-        # the contact pairs of a cross point, run as one (``cross_points``)
-        self.group_pairs, self.group_share = cross_point_groups(
-            first, k, (self.mu_contact, self.gap_contact))
-        self.group_sides = (a[self.group_pairs], first.contact_pairs[1][self.group_pairs])
-        self.group_k = (k[self.group_sides[0]], k[self.group_sides[1]])
+        # the contact pairs and the stop points of a cross point, run as one
+        # (``cross_points``)
+        self.groups = local_groups(first, k, (self.mu_contact, self.gap_contact),
+                                   (self.mu_stop, self.gap_stop))
         self.body = body
 
     @property
@@ -130,12 +129,7 @@ class LocalStage:
         if shape is not None:  # zeros for the cases without body forces
             out.body = np.concatenate([b if b is not None else np.zeros((n, *shape))
                                        for b, n in bodies])
-        if not np.array_equal(other.group_pairs, self.group_pairs):  # the groups of both
-            theirs = other.group_pairs.tolist()
-            both = [i for i, row in enumerate(self.group_pairs.tolist()) if row in theirs]
-            out.group_pairs, out.group_share = self.group_pairs[both], self.group_share[both]
-            out.group_sides = tuple(side[both] for side in self.group_sides)  # type: ignore[assignment]
-            out.group_k = tuple(k[both] for k in self.group_k)  # type: ignore[assignment]
+        out.groups = self.groups.common(other.groups)  # the groups of both
         return out
 
     def prescribed_force_field(self, n_points: int) -> FloatArray:
@@ -199,7 +193,8 @@ class LocalStage:
                 self.n_stop, self.mu_stop, self.gap_stop, self.corner_of_pair,
                 self.corner_stops, self.held_side, self.held_boundary, self.held_stop,
                 self.stop_held_boundary, self.stop_held_stop, self.prescribed,
-                self.corner_moving, self.group_pairs, self.group_share)
+                self.corner_moving, self.groups.pairs, self.groups.pair_share, self.groups.stops,
+                self.groups.stop_share)
 
     def contact_stage(self, displacement: FloatArray, force: FloatArray, w_hat: FloatArray,
                       f_hat: FloatArray, first: IntArray | None = None) -> None:
@@ -214,11 +209,10 @@ class LocalStage:
             kernels.contact_and_stops(
                 np.ascontiguousarray(displacement), np.ascontiguousarray(force), w_hat, f_hat,
                 *self.contact_data(), np.zeros(len(w_hat), np.int64) if first is None else first)
-        elif self.group_pairs.size:  # the kernel merges the groups itself
-            share = self.group_share[:, :, None]
-            fields = merged(displacement, force, self.group_sides, share)
+        elif self.groups.sides:  # the kernel merges the groups itself
+            fields = merged(displacement, force, self.groups.sides)
             self._contact_and_stops(*fields, w_hat, f_hat)
-            corrected(w_hat, displacement, force, fields, self.group_sides, self.group_k)
+            corrected(w_hat, displacement, force, fields, self.groups.sides)
         else:
             self._contact_and_stops(displacement, force, w_hat, f_hat)
 

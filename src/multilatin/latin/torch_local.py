@@ -115,11 +115,9 @@ class TorchLocalStage:
                            index(np.maximum(local.stop_held_stop[q], 0)))
         self.contact_kernels: Any = None
         self.kernels_checked = False
-        # the contact pairs of a cross point, run as one (``cross_points``)
-        self.n_groups = local.group_pairs.shape[0]
-        self.group_sides = (index(local.group_sides[0]), index(local.group_sides[1]))
-        self.group_share = tensor(local.group_share[:, :, None])
-        self.group_k = (tensor(local.group_k[0]), tensor(local.group_k[1]))
+        # the contact pairs and stop points of a cross point, run as one (``cross_points``)
+        self.group_sides = tuple((index(points), tensor(share), tensor(k))
+                                 for points, share, k in local.groups.sides)
 
     def use_kernels(self, local: LocalStage) -> None:
         """Contact and stops by the CUDA kernels of ``cuda_local`` (two launches instead of
@@ -154,10 +152,10 @@ class TorchLocalStage:
                        @ self.macro_left_t).reshape(x.shape)
             w_hat[:, :, m] = w_m
             f_hat[:, :, m] = force[:, :, m] + k * (w_m - displacement[:, :, m])
-        if self.n_groups:
-            fields = merged(displacement, force, self.group_sides, self.group_share)
+        if self.group_sides:
+            fields = merged(displacement, force, self.group_sides)
             self._contact_stage(*fields, w_hat, f_hat)
-            corrected(w_hat, displacement, force, fields, self.group_sides, self.group_k)
+            corrected(w_hat, displacement, force, fields, self.group_sides)
         elif self.n_pairs or self.n_stops:
             self._contact_stage(displacement, force, w_hat, f_hat)
         return w_hat, f_hat
