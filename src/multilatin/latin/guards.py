@@ -25,11 +25,11 @@ if TYPE_CHECKING:
     from .body_forces import BodyResponse
     from .local_stage import LocalStage
 
-__all__ = ["BLOWUP", "CAPPED", "DRIFT_WINDOW", "FORCE_FLOOR", "FORCE_MARGIN", "FORCE_ROUNDOFF",
-           "NO_EQUILIBRIUM", "OSCILLATION_WINDOW", "START_FAILURES", "STEP_SPREAD", "VANISH",
-           "blows_up", "damp_oscillating", "damp_stagnating", "drifting_steps", "drifts",
-           "drop_unloaded_starts", "explain_capped", "force_indicator", "forces_unsettled",
-           "started_warm", "unloaded", "vanishes"]
+__all__ = ["BLOWUP", "CAPPED", "DRIFT_WINDOW", "FORCE_FLOOR", "FORCE_MARGIN",
+           "FORCE_ROUNDOFF", "NO_EQUILIBRIUM", "START_FAILURES", "STEP_SPREAD", "VANISH",
+           "blows_up", "damp_stagnating", "drifting_steps", "drifts", "drop_unloaded_starts",
+           "explain_capped", "force_indicator", "forces_unsettled", "started_warm", "unloaded",
+           "vanishes"]
 
 log = logging.getLogger(__name__)
 
@@ -249,35 +249,6 @@ def damp_stagnating(histories: list[list[float]], active: IntArray, relaxation: 
             relaxation[position] = max(relaxation[position] - 0.1, 0.5)
             log.info("case %d of the batch: eta stagnates (%.2e after %.2e), relaxation "
                      "lowered to %.1f", case, latest, before, relaxation[position])
-
-
-#: every so many iterations, a case whose η went up and down alternately at every one of
-#: them, its smallest value over their second half not below ``stagnation_ratio`` times its
-#: smallest over the first, has its relaxation lowered by 0.1 (down to 0.5): a mode near −1
-#: that ω barely damps, which the stagnation check (every ``stagnation_window``) finds
-#: only a window later. b1-9 at gap 0, μ2 = 0.15, warm-started from gap 0.01: η alternated
-#: between 1.35e-5 and 1.33e-5 from iteration 75 until the stagnation check at 200 lowered
-#: ω to 0.8, then converged in 50 iterations (session 56, docs/convergence.md)
-OSCILLATION_WINDOW = 20
-
-
-def damp_oscillating(histories: list[list[float]], active: IntArray, relaxation: FloatArray,
-                     options: LatinOptions) -> None:
-    """Lower ω (in place, by 0.1, down to 0.5) of the active cases whose η oscillated
-    without falling over the last ``OSCILLATION_WINDOW`` iterations."""
-    half = OSCILLATION_WINDOW // 2
-    for position, case in enumerate(active):
-        history = histories[case]
-        if len(history) < OSCILLATION_WINDOW + 1 or relaxation[position] <= 0.5 + 1e-12:
-            continue
-        recent = np.asarray(history[-OSCILLATION_WINDOW - 1:])
-        steps = np.diff(recent)
-        if np.all(steps[1:] * steps[:-1] < 0.0) and (
-                recent[-half:].min() > options.stagnation_ratio * recent[:half + 1].min()):
-            relaxation[position] = max(relaxation[position] - 0.1, 0.5)
-            log.info("case %d of the batch: eta oscillates (%.2e after %.2e), relaxation "
-                     "lowered to %.1f", case, recent[-half:].min(), recent[:half + 1].min(),
-                     relaxation[position])
 
 
 def explain_capped(results: list[SolveResult],

@@ -23,9 +23,7 @@ from .engine import NumpyFields, indicator_weights
 from .extrapolation import ReducedRankExtrapolation
 from .guards import (
     DRIFT_WINDOW,
-    OSCILLATION_WINDOW,
     blows_up,
-    damp_oscillating,
     damp_stagnating,
     drifts,
     forces_unsettled,
@@ -68,9 +66,6 @@ JUMP_HOLD = True
 #: across it, 4 000 × its error, which held the warm start from μ2 = 0.05 until η < 1e-7:
 #: 71 iterations instead of 56)
 ESTIMATE_AFTER_JUMPS = True
-#: lower ω where η oscillates without falling (``guards.damp_oscillating``; False: only the
-#: stagnation check, as before session 56)
-OSCILLATIONS = True
 #: with η stopping alone (no ``qoi_rtol``), the iterations a case is held after a jump, as
 #: with it. Fewer (session 46: 10, 0) stop sooner, but QoI estimates read over fewer
 #: iterates miss their errors more often: not adopted (``benchmarks/eta_hold.py``)
@@ -327,13 +322,11 @@ class BatchIterations:
         if self.iteration % 50 == 0:
             log.debug("iteration %d: eta = %.3e (worst of %d cases)", self.iteration,
                       eta.max(), active.size)
-        for every, damp in ((options.stagnation_window, damp_stagnating),
-                            (OSCILLATION_WINDOW if OSCILLATIONS else 0, damp_oscillating)):
-            due = np.flatnonzero(counts % every == 0) if every else np.zeros(0, np.int64)
-            if due.size and not self.anderson:
-                damped = relaxation[due]
-                damp(out.histories, active[due], damped, options)
-                relaxation[due] = damped
+        due = np.flatnonzero(counts % options.stagnation_window == 0)
+        if due.size and not self.anderson:
+            damped = relaxation[due]
+            damp_stagnating(out.histories, active[due], damped, options)
+            relaxation[due] = damped
         capped = counts >= options.max_iter
         # with QoI stopping, none within ``RECENT`` iterations of a jump: its check one window
         # later runs first, and the QoIs' estimates then read iterates after it alone
