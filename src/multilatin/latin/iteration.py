@@ -33,6 +33,7 @@ from .guards import (
 from .local_stage import LocalStage
 from .operators import LatinOperators
 from .options import LatinOptions
+from .oscillation import OscillationWatch
 from .rigid_balance import RigidBalance
 from .sliding import WINDOW as SLIDING_WINDOW
 from .sliding import SlidingExtrapolation
@@ -66,6 +67,9 @@ JUMP_HOLD = True
 #: across it, 4 000 × its error, which held the warm start from μ2 = 0.05 until η < 1e-7:
 #: 71 iterations instead of 56)
 ESTIMATE_AFTER_JUMPS = True
+#: lower ω where η oscillates without falling and s goes back and forth
+#: (``oscillation``; False: only the stagnation check, as before session 56)
+OSCILLATIONS = True
 #: with η stopping alone (no ``qoi_rtol``), the iterations a case is held after a jump, as
 #: with it. Fewer (session 46: 10, 0) stop sooner, but QoI estimates read over fewer
 #: iterates miss their errors more often: not adopted (``benchmarks/eta_hold.py``)
@@ -178,6 +182,7 @@ class BatchIterations:
         self.engine = make_engine(ops, local, options, w_hat, f_hat, macro_data, functionals,
                                   geometries)
         self.relaxation = np.full(n_cases, options.relaxation)  # per active case
+        self.oscillations = OscillationWatch()
         self.anderson = options.acceleration == "anderson"
         weights = indicator_weights(ops.points.weights, ops.indicator_k)
         self.force_weight = weights[1]  # the forces' own indicator (``guards``)
@@ -322,6 +327,8 @@ class BatchIterations:
         if self.iteration % 50 == 0:
             log.debug("iteration %d: eta = %.3e (worst of %d cases)", self.iteration,
                       eta.max(), active.size)
+        if OSCILLATIONS and not self.anderson:
+            self.oscillations(engine, active, counts, out.histories, relaxation, options)
         due = np.flatnonzero(counts % options.stagnation_window == 0)
         if due.size and not self.anderson:
             damped = relaxation[due]

@@ -63,7 +63,8 @@ class LatinOptions:
         body) has its relaxation lowered by 0.1, down to 0.5. A slow
         but converging tail (0.97–0.99 per iteration) gains a factor 0.2–0.4 per 100
         iterations and is left alone. The converged answer does not depend on ω. With
-        Anderson mixing the check is off (its damping stays ω).
+        Anderson mixing the check is off (its damping stays ω). A case whose η alternates
+        while s goes back and forth has ω lowered within 20 iterations (``oscillation``).
     acceleration: ``"relaxation"`` alone; ``"anderson"``: Anderson mixing of the last
         ``anderson_depth`` iterates of the fixed point s ↦ linear(local(s)), damped by ω
         (combinations of admissible fields stay admissible); ``"rre"``: relaxation, and
