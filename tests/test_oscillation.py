@@ -64,6 +64,10 @@ def test_the_relaxation_is_lowered_only_where_s_goes_back_and_forth(path: Any,
         watch(engine, np.array([0]), np.array([i]), [history], relaxation,  # type: ignore[arg-type]
               LatinOptions())
     assert relaxation[0] == pytest.approx(0.7 if lowered else 0.9)
+    watch.kept[0] = [engine.state(np.array([0]))]  # kept within a window, then it leaves
+    watch(engine, np.zeros(0, np.int64), np.zeros(0, np.int64), [history], relaxation,  # type: ignore[arg-type]
+          LatinOptions())
+    assert not watch.kept
 
 
 def test_b1_9_warm_started_across_the_stop_closing_leaves_its_cycle_sooner(

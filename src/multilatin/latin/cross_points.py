@@ -71,8 +71,6 @@ def cross_point_groups(points: InterfacePoints, k: FloatArray | None = None,
                    if all(np.array_equal(law[:, j], law[:, first]) for law in laws)]
         if len(members) > 1:
             groups.append(members)
-    if not groups:
-        return np.zeros((0, 0), dtype=np.int64), np.zeros((0, 0))
     return _padded(groups, points.weights[a])
 
 

@@ -68,6 +68,9 @@ class OscillationWatch:
                  options: LatinOptions) -> None:
         phase = counts % WINDOW
         ratio = options.stagnation_ratio
+        if self.kept:  # the cases that left the batch within a window
+            for case in set(self.kept) - set(active.tolist()):
+                del self.kept[case]
         for position in np.flatnonzero(phase == WINDOW - 2).tolist():
             case = int(active[position])
             if relaxation[position] > 0.5 + 1e-12 and alternating(
