@@ -64,14 +64,8 @@ def cross_point_groups(points: InterfacePoints, k: FloatArray | None = None,
     n_pairs), the friction coefficients and gaps of a batch's cases) differs from the
     group's first; empty with ``MERGE`` off."""
     a = points.contact_pairs[0]
-    groups = []
-    for members in _candidates(points, k)[0] if MERGE and a.size > 1 else []:
-        first = members[0]
-        members = [j for j in members
-                   if all(np.array_equal(law[:, j], law[:, first]) for law in laws)]
-        if len(members) > 1:
-            groups.append(members)
-    return _padded(groups, points.weights[a])
+    candidates = _candidates(points, k)[0] if MERGE and a.size > 1 else []
+    return _padded(_under_one_law(candidates, laws), points.weights[a])
 
 
 def stop_groups(points: InterfacePoints, k: FloatArray | None = None,
@@ -82,14 +76,22 @@ def stop_groups(points: InterfacePoints, k: FloatArray | None = None,
     ``cross_point_groups`` (indices into the stops). Stops held at their node, holding
     another stop or a contact pair, or holding a corner (``held_nodes``) keep their own rule
     and join no group; empty with ``MERGE_STOPS`` off."""
+    candidates = _candidates(points, k)[1] if MERGE_STOPS else []
+    return _padded(_under_one_law(candidates, laws), points.weights[points.stops])
+
+
+def _under_one_law(candidates: list[list[int]], laws: tuple[FloatArray, ...]
+                   ) -> list[list[int]]:
+    """Each candidate group's members whose law (``laws``: arrays (n_cases, n), indexed
+    by member) equals its first member's in every case; groups of two or more."""
     groups = []
-    for members in _candidates(points, k)[1] if MERGE_STOPS else []:
+    for members in candidates:
         first = members[0]
-        members = [i for i in members
-                   if all(np.array_equal(law[:, i], law[:, first]) for law in laws)]
+        members = [j for j in members
+                   if all(np.array_equal(law[:, j], law[:, first]) for law in laws)]
         if len(members) > 1:
             groups.append(members)
-    return _padded(groups, points.weights[points.stops])
+    return groups
 
 
 def _padded(groups: list[list[int]], weights: FloatArray) -> tuple[IntArray, FloatArray]:
@@ -120,9 +122,10 @@ class Groups:
 
     def common(self, other: Groups) -> Groups:
         """The groups both have (cases joining a running batch: their laws may split one)."""
-        rows = [np.array([i for i, row in enumerate(mine.tolist()) if row in theirs.tolist()],
-                         dtype=np.int64) for mine, theirs in ((self.pairs, other.pairs),
-                                                              (self.stops, other.stops))]
+        rows = [np.array([i for i, row in enumerate(mine.tolist()) if row in theirs],
+                         dtype=np.int64)
+                for mine, theirs in ((self.pairs, other.pairs.tolist()),
+                                     (self.stops, other.stops.tolist()))]
         kinds = [0] * (2 if self.pairs.size else 0) + [1] * (1 if self.stops.size else 0)
         sides = tuple(tuple(x[rows[kind]] for x in side)
                       for kind, side in zip(kinds, self.sides, strict=True))

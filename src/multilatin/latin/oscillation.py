@@ -95,8 +95,8 @@ class OscillationWatch:
 
 
 def _cosine(engine: FieldEngine, first: tuple[Any, Any], second: tuple[Any, Any]) -> float:
-    """The cosine of two increments (dW, dF) of one case in the indicator's norm."""
-    plus = engine.state_norms(first[0] + second[0], first[1] + second[1])[0]
-    minus = engine.state_norms(first[0] - second[0], first[1] - second[1])[0]
-    sizes = (engine.state_norms(*first)[0] * engine.state_norms(*second)[0])
-    return float((plus ** 2 - minus ** 2) / (4.0 * sizes)) if sizes > 0 else 1.0
+    """The cosine of two increments (dW, dF) of one case in the indicator's norm:
+    (‖a + b‖² − ‖a‖² − ‖b‖²) / (2 ‖a‖ ‖b‖)."""
+    a, b = engine.state_norms(*first)[0], engine.state_norms(*second)[0]
+    both = engine.state_norms(first[0] + second[0], first[1] + second[1])[0]
+    return float((both ** 2 - a ** 2 - b ** 2) / (2.0 * a * b)) if a * b > 0 else 1.0
