@@ -258,86 +258,19 @@ def corrected(w_hat: Any, displacement: Any, force: Any, merged_fields: tuple[An
                                 - (force[:, :, points] - f[:, :, points]) / k)
 
 
-# compiled by ``kernels`` (called from its contact kernel, case by case)
-def merge_groups(displacement: FloatArray, force: FloatArray, prev_a: FloatArray,
-                 prev_b: FloatArray, a: IntArray, b: IntArray, group_pairs: IntArray,
-                 group_share: FloatArray, kept: FloatArray, c: int, t0: int
-                 ) -> None:  # pragma: no cover - compiled
-    """Case c's W and F at each group's points (both sides, steps t0 on) kept, then set to
-    the group's weighted means; the history Ŵ its pairs start from, likewise."""
-    n_steps, width = displacement.shape[1], group_pairs.shape[1]
-    for g in range(group_pairs.shape[0]):
+# compiled by ``kernels`` (called from its contact kernel, case by case: once per side of
+# the contact groups, once for the stop groups)
+def merge_members(displacement: FloatArray, force: FloatArray, history: FloatArray,
+                  point_of: IntArray, groups: IntArray, share: FloatArray, kept: FloatArray,
+                  c: int, t0: int) -> None:  # pragma: no cover - compiled
+    """Case c's W and F at each group's points (steps t0 on) kept (``kept``: (group,
+    member, step, W / F, component)), then set to the group's weighted means; the history
+    Ŵ its members start from likewise. A member is a row of ``history`` (a contact side's
+    or the stops'), ``point_of`` its interface point (``a``, ``b`` or ``stops``)."""
+    n_steps, width = displacement.shape[1], groups.shape[1]
+    for g in range(groups.shape[0]):
         for m in range(width):
-            j = group_pairs[g, m]
-            for t in range(t0, n_steps):
-                for d in range(2):
-                    kept[g, m, t, 0, 0, d] = displacement[c, t, a[j], d]
-                    kept[g, m, t, 0, 1, d] = force[c, t, a[j], d]
-                    kept[g, m, t, 1, 0, d] = displacement[c, t, b[j], d]
-                    kept[g, m, t, 1, 1, d] = force[c, t, b[j], d]
-        for t in range(t0, n_steps):
-            for side in range(2):
-                for field in range(2):
-                    for d in range(2):
-                        mean = 0.0
-                        for m in range(width):
-                            mean += group_share[g, m] * kept[g, m, t, side, field, d]
-                        for m in range(width):
-                            p = a[group_pairs[g, m]] if side == 0 else b[group_pairs[g, m]]
-                            if field == 0:
-                                displacement[c, t, p, d] = mean
-                            else:
-                                force[c, t, p, d] = mean
-        for d in range(2):
-            mean_a = mean_b = 0.0
-            for m in range(width):
-                mean_a += group_share[g, m] * prev_a[group_pairs[g, m], d]
-                mean_b += group_share[g, m] * prev_b[group_pairs[g, m], d]
-            for m in range(width):
-                prev_a[group_pairs[g, m], d] = mean_a
-                prev_b[group_pairs[g, m], d] = mean_b
-
-
-def split_groups(displacement: FloatArray, force: FloatArray, w_hat: FloatArray,
-                 a: IntArray, b: IntArray, k_contact: FloatArray, k_contact_b: FloatArray,
-                 group_pairs: IntArray, group_share: FloatArray, kept: FloatArray, c: int,
-                 t0: int) -> None:  # pragma: no cover - compiled
-    """After the case's steps: each grouped point's Ŵ on its own search direction, Ŵ_i =
-    Ŵ + (W_i − W̄) − (F_i − F̄) / k_i, and its W and F put back (a padding entry repeats
-    its group's first pair and is skipped)."""
-    n_steps, width = displacement.shape[1], group_pairs.shape[1]
-    for g in range(group_pairs.shape[0]):
-        for m in range(width):
-            if m > 0 and group_share[g, m] == 0.0:
-                continue
-            j = group_pairs[g, m]
-            for t in range(t0, n_steps):
-                for side in range(2):
-                    p = a[j] if side == 0 else b[j]
-                    for d in range(2):
-                        k = k_contact[j, d] if side == 0 else k_contact_b[j, d]
-                        w, f = kept[g, m, t, side, 0, d], kept[g, m, t, side, 1, d]
-                        w_hat[c, t, p, d] += ((w - displacement[c, t, p, d])
-                                              - (f - force[c, t, p, d]) / k)
-        for m in range(width):
-            j = group_pairs[g, m]
-            for t in range(t0, n_steps):
-                for d in range(2):
-                    displacement[c, t, a[j], d] = kept[g, m, t, 0, 0, d]
-                    force[c, t, a[j], d] = kept[g, m, t, 0, 1, d]
-                    displacement[c, t, b[j], d] = kept[g, m, t, 1, 0, d]
-                    force[c, t, b[j], d] = kept[g, m, t, 1, 1, d]
-
-
-# compiled by ``kernels`` (called from its contact kernel, case by case)
-def merge_stop_groups(displacement: FloatArray, force: FloatArray, prev_stop: FloatArray,
-                      stops: IntArray, stop_groups: IntArray, stop_share: FloatArray,
-                      kept: FloatArray, c: int, t0: int) -> None:  # pragma: no cover - compiled
-    """``merge_groups`` for the stop groups (kept: (member, step, W / F, component))."""
-    n_steps, width = displacement.shape[1], stop_groups.shape[1]
-    for g in range(stop_groups.shape[0]):
-        for m in range(width):
-            p = stops[stop_groups[g, m]]
+            p = point_of[groups[g, m]]
             for t in range(t0, n_steps):
                 for d in range(2):
                     kept[g, m, t, 0, d] = displacement[c, t, p, d]
@@ -346,35 +279,40 @@ def merge_stop_groups(displacement: FloatArray, force: FloatArray, prev_stop: Fl
             for d in range(2):
                 mean_w = mean_f = 0.0
                 for m in range(width):
-                    mean_w += stop_share[g, m] * kept[g, m, t, 0, d]
-                    mean_f += stop_share[g, m] * kept[g, m, t, 1, d]
+                    mean_w += share[g, m] * kept[g, m, t, 0, d]
+                    mean_f += share[g, m] * kept[g, m, t, 1, d]
                 for m in range(width):
-                    displacement[c, t, stops[stop_groups[g, m]], d] = mean_w
-                    force[c, t, stops[stop_groups[g, m]], d] = mean_f
+                    p = point_of[groups[g, m]]
+                    displacement[c, t, p, d] = mean_w
+                    force[c, t, p, d] = mean_f
         for d in range(2):
             mean = 0.0
             for m in range(width):
-                mean += stop_share[g, m] * prev_stop[stop_groups[g, m], d]
+                mean += share[g, m] * history[groups[g, m], d]
             for m in range(width):
-                prev_stop[stop_groups[g, m], d] = mean
+                history[groups[g, m], d] = mean
 
 
-def split_stop_groups(displacement: FloatArray, force: FloatArray, w_hat: FloatArray,
-                      stops: IntArray, k_stop: FloatArray, stop_groups: IntArray,
-                      stop_share: FloatArray, kept: FloatArray, c: int,
-                      t0: int) -> None:  # pragma: no cover - compiled
-    """``split_groups`` for the stop groups."""
-    n_steps, width = displacement.shape[1], stop_groups.shape[1]
-    for g in range(stop_groups.shape[0]):
+def split_members(displacement: FloatArray, force: FloatArray, w_hat: FloatArray,
+                  point_of: IntArray, k: FloatArray, groups: IntArray, share: FloatArray,
+                  kept: FloatArray, c: int, t0: int) -> None:  # pragma: no cover - compiled
+    """After the case's steps: each grouped point's Ŵ on its own search direction (``k``,
+    by member), Ŵ_i = Ŵ + (W_i − W̄) − (F_i − F̄) / k_i, then its W and F put back (a
+    padding entry repeats its group's first member and is skipped)."""
+    n_steps, width = displacement.shape[1], groups.shape[1]
+    for g in range(groups.shape[0]):
         for m in range(width):
-            i = stop_groups[g, m]
-            p = stops[i]
+            if m > 0 and share[g, m] == 0.0:
+                continue
+            i = groups[g, m]
+            p = point_of[i]
             for t in range(t0, n_steps):
                 for d in range(2):
-                    if m == 0 or stop_share[g, m] > 0.0:
-                        w_hat[c, t, p, d] += ((kept[g, m, t, 0, d] - displacement[c, t, p, d])
-                                              - (kept[g, m, t, 1, d] - force[c, t, p, d])
-                                              / k_stop[i, d])
+                    w_hat[c, t, p, d] += ((kept[g, m, t, 0, d] - displacement[c, t, p, d])
+                                          - (kept[g, m, t, 1, d] - force[c, t, p, d])
+                                          / k[i, d])
+        for m in range(width):
+            p = point_of[groups[g, m]]
             for t in range(t0, n_steps):
                 for d in range(2):
                     displacement[c, t, p, d] = kept[g, m, t, 0, d]

@@ -36,10 +36,8 @@ import numpy.typing as npt
 
 from ..fem.elasticity import FloatArray, IntArray
 from . import two_scale_kernels as _two_scale
-from .cross_points import merge_groups as _merge_groups
-from .cross_points import merge_stop_groups as _merge_stop_groups
-from .cross_points import split_groups as _split_groups
-from .cross_points import split_stop_groups as _split_stop_groups
+from .cross_points import merge_members as _merge_members
+from .cross_points import split_members as _split_members
 from .held_stops import attached, beyond_stop
 from .indicator_kernel import indicator_squares as _indicator_squares
 from .two_scale_kernels import coupling_shift as _coupling_shift
@@ -96,7 +94,9 @@ def _contact_and_stops(displacement: FloatArray, force: FloatArray, w_hat: Float
     n_cases, n_steps = displacement.shape[0], displacement.shape[1]
     n_pairs, n_stops = a.size, stops.size
     n_corners = corner_stops.shape[0]
-    kept = np.empty((group_pairs.shape[0], group_pairs.shape[1], n_steps, 2, 2, 2))
+    # kept W and F of the grouped points: (group, member, step, W / F, component)
+    kept_a = np.empty((group_pairs.shape[0], group_pairs.shape[1], n_steps, 2, 2))
+    kept_b = np.empty_like(kept_a)
     kept_stops = np.empty((stop_groups.shape[0], stop_groups.shape[1], n_steps, 2, 2))
     for c in range(n_cases):
         prev_a = np.zeros((n_pairs, 2))
@@ -120,12 +120,14 @@ def _contact_and_stops(displacement: FloatArray, force: FloatArray, w_hat: Float
                 if corner_of_pair[j] >= 0:  # the corner's last pair in order wrote it
                     for d in range(2):
                         corner_force[corner_of_pair[j], d] = f_hat[c, t0 - 1, a[j], d]
-        if group_pairs.shape[0]:  # kept: (member, step, side, W / F, component)
-            _merge_groups(displacement, force, prev_a, prev_b, a, b, group_pairs,
-                          group_share, kept, c, t0)
+        if group_pairs.shape[0]:  # each side of the contact groups
+            _merge_members(displacement, force, prev_a, a, group_pairs, group_share, kept_a,
+                           c, t0)
+            _merge_members(displacement, force, prev_b, b, group_pairs, group_share, kept_b,
+                           c, t0)
         if stop_groups.shape[0]:
-            _merge_stop_groups(displacement, force, prev_stop, stops, stop_groups, stop_share,
-                               kept_stops, c, t0)
+            _merge_members(displacement, force, prev_stop, stops, stop_groups, stop_share,
+                           kept_stops, c, t0)
         for t in range(t0, n_steps):
             for i in range(n_stops):
                 p = stops[i]
@@ -266,11 +268,13 @@ def _contact_and_stops(displacement: FloatArray, force: FloatArray, w_hat: Float
             for i in range(n_stops):
                 carried[i] = stop_closed[i]
         if group_pairs.shape[0]:
-            _split_groups(displacement, force, w_hat, a, b, k_contact, k_contact_b,
-                          group_pairs, group_share, kept, c, t0)
+            _split_members(displacement, force, w_hat, a, k_contact, group_pairs,
+                           group_share, kept_a, c, t0)
+            _split_members(displacement, force, w_hat, b, k_contact_b, group_pairs,
+                           group_share, kept_b, c, t0)
         if stop_groups.shape[0]:
-            _split_stop_groups(displacement, force, w_hat, stops, k_stop, stop_groups,
-                               stop_share, kept_stops, c, t0)
+            _split_members(displacement, force, w_hat, stops, k_stop, stop_groups, stop_share,
+                           kept_stops, c, t0)
 
 
 def _sticks(trial_x: float, trial_y: float, normal_force: float, nx: float, ny: float,
@@ -455,8 +459,8 @@ _KERNELS = ("contact_and_stops", "relax", "relax_rows", "indicator_squares", "pe
 
 def _compile() -> None:
     global _in_cone, _series_trial, _attached, _beyond_stop, _sticks, _stop_opens
-    global _contact_and_stops, _project_columns, _coupling_shift, _merge_groups, _split_groups
-    global _merge_stop_groups, _split_stop_groups
+    global _contact_and_stops, _project_columns, _coupling_shift, _merge_members
+    global _split_members
     compiled: dict[str, Callable[..., Any] | None] = dict.fromkeys(_KERNELS)
     try:  # pragma: no cover - depends on the installed extras
         numba = importlib.import_module("numba")
@@ -470,8 +474,7 @@ def _compile() -> None:
         _stop_opens = jit_inline(_stop_opens)
         jit = numba.njit(cache=True)
         # called from ``_coupled_contact`` and the corrections: compiled before them
-        _merge_groups, _split_groups = jit(_merge_groups), jit(_split_groups)
-        _merge_stop_groups, _split_stop_groups = jit(_merge_stop_groups), jit(_split_stop_groups)
+        _merge_members, _split_members = jit(_merge_members), jit(_split_members)
         _contact_and_stops, _project_columns = jit(_contact_and_stops), jit(_project_columns)
         _coupling_shift = jit_inline(_coupling_shift)
         # the two-scale module's callers find its compiled helpers in its own namespace
