@@ -1,0 +1,108 @@
+"""What the tail's places are worth (issue 15, session 57): cold solves in which, after every
+local stage, ŝ = (Ŵ, F̂) at a chosen set of interface points is replaced by the tightly
+converged solve's (η < 1e-11) — an oracle, not a method: it says how many iterations a
+perfect treatment of those points could save at most, and so where a new treatment would
+pay. Exact values are the fixed point's own, so the solve still converges to the same
+answer; nothing of the library is changed (the engine's local stage is wrapped here).
+
+    python benchmarks/exact_points.py                       # b1, b1-9, b3, four pairs
+    python benchmarks/exact_points.py --models b1 --parts W F   # Ŵ alone, F̂ alone too
+
+Sets of points: the stop's corners (the points at (50, 50) and (50, 100), where the
+bottom|centre and centre|top contacts end on the stop: the slowest modes of
+``tail_modes.py``), every *corner node* (a substructure's node that carries points of two
+or more interfaces, as ``operators.corner_factors``), the whole stop, the contacts between
+bodies, the perfect and macro-only interfaces. Printed: iterations under the studies' QoI
+rule and to η < 1e-6, per pair and set (a Markdown table).
+"""
+
+from __future__ import annotations
+
+import argparse
+from collections.abc import Callable
+
+import numpy as np
+
+import multilatin as ml
+from multilatin.latin import LatinOperators, LatinOptions, solve_latin
+from multilatin.latin.engine import NumpyFields
+from multilatin.latin.options import STUDY_QOI_RTOL
+
+PAIRS = [(0.3, 0.0), (0.1, 0.3), (0.35, 0.25), (0.3, 0.15)]
+STOP_CORNERS = np.array([[50.0, 50.0], [50.0, 100.0]])
+
+
+def point_sets(operators: LatinOperators) -> dict[str, np.ndarray]:
+    """The sets of interface points the oracle is tried on (module docstring)."""
+    points, interfaces = operators.points, operators.assembly.interfaces
+    kind = np.array([("stop" if itf.is_stop else "contact" if itf.contact is not None
+                      else itf.kind) for itf in interfaces])[points.interface]
+    keys = np.column_stack([points.substructure, np.round(points.coords, 9)])
+    _, node, count = np.unique(keys, axis=0, return_inverse=True, return_counts=True)
+    near = np.min(np.hypot(*(points.coords[:, None, :] - STOP_CORNERS[None]).transpose(2, 0, 1)),
+                  axis=1) < 1e-9
+    return {"none": np.zeros(0, dtype=np.int64),
+            "stop's corners": np.flatnonzero(near),
+            "corner nodes": np.flatnonzero(count[node.ravel()] >= 2),
+            "stop": np.flatnonzero(kind == "stop"),
+            "contacts": np.flatnonzero(kind == "contact"),
+            "perfect": np.flatnonzero(kind == "perfect"),
+            "macro-only": np.flatnonzero(kind == "macro")}
+
+
+def exact_stage(chosen: np.ndarray, w_exact: np.ndarray, f_exact: np.ndarray,
+                parts: str) -> Callable[[NumpyFields], None]:
+    """The engine's local stage, then the chosen points' Ŵ and/or F̂ set to the exact."""
+    original = NumpyFields.local_stage
+
+    def stage(self: NumpyFields) -> None:
+        original(self)
+        if "W" in parts:
+            self.w_hat[:, :, chosen] = w_exact[None, :, chosen]
+        if "F" in parts:
+            self.f_hat[:, :, chosen] = f_exact[None, :, chosen]
+
+    return stage
+
+
+def main() -> None:
+    parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    parser.add_argument("--models", nargs="+", default=["b1", "b1-9", "b3"])
+    parser.add_argument("--parts", nargs="+", default=["WF"], choices=["WF", "W", "F"],
+                        help="what the oracle sets: both, Ŵ alone, F̂ alone")
+    args = parser.parse_args()
+    original = NumpyFields.local_stage
+    print("| model | μ1, μ2 | exact at (points) | " + " | ".join(
+        f"{part}: QoI rule / η < 1e-6" for part in args.parts) + " |")
+    print("|---|---|---|" + "---|" * len(args.parts))
+    for name in args.models:
+        model = ml.load_model(name)
+        for mu1, mu2 in PAIRS:
+            assembly = model.assemble({"mu1": mu1, "mu2": mu2})
+            operators = LatinOperators(assembly, LatinOptions())
+            tight = solve_latin(assembly, LatinOptions(tol=1e-11, max_iter=20000),
+                                operators=operators)
+            assert tight.interface is not None
+            w_exact = tight.interface.displacement_hat
+            f_exact = tight.interface.force_hat
+            for label, chosen in point_sets(operators).items():
+                if label != "none" and chosen.size == 0:
+                    continue
+                cells = []
+                for part in args.parts:
+                    NumpyFields.local_stage = exact_stage(  # type: ignore[method-assign]
+                        chosen, w_exact, f_exact, part)
+                    try:
+                        counts = [solve_latin(assembly, options, operators=operators,
+                                              check=False).iterations
+                                  for options in (LatinOptions(qoi_rtol=STUDY_QOI_RTOL),
+                                                  LatinOptions())]
+                    finally:
+                        NumpyFields.local_stage = original  # type: ignore[method-assign]
+                    cells.append(f"{counts[0]} / {counts[1]}")
+                print(f"| {name} | {mu1:g}, {mu2:g} | {label} ({chosen.size}) | "
+                      + " | ".join(cells) + " |", flush=True)
+
+
+if __name__ == "__main__":
+    main()
