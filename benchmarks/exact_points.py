@@ -7,13 +7,16 @@ answer; nothing of the library is changed (the engine's local stage is wrapped h
 
     python benchmarks/exact_points.py                       # b1, b1-9, b3, four pairs
     python benchmarks/exact_points.py --models b1 --parts W F   # Ŵ alone, F̂ alone too
+    python benchmarks/exact_points.py --models b1 --warm 0.05   # warm starts along μ2
 
 Sets of points: the stop's corners (the points at (50, 50) and (50, 100), where the
 bottom|centre and centre|top contacts end on the stop: the slowest modes of
 ``tail_modes.py``), every *corner node* (a substructure's node that carries points of two
 or more interfaces, as ``operators.corner_factors``), the whole stop, the contacts between
 bodies, the perfect and macro-only interfaces. Printed: iterations under the studies' QoI
-rule and to η < 1e-6, per pair and set (a Markdown table).
+rule and to η < 1e-6, per pair and set (a Markdown table). ``--warm D``: each case starts
+from the tight ŝ of its neighbour at μ2 − D (μ2 + D where that is below 0), as a study's
+nearest-neighbour start would (issue 16: what holds a warm case).
 """
 
 from __future__ import annotations
@@ -70,6 +73,8 @@ def main() -> None:
     parser.add_argument("--models", nargs="+", default=["b1", "b1-9", "b3"])
     parser.add_argument("--parts", nargs="+", default=["WF"], choices=["WF", "W", "F"],
                         help="what the oracle sets: both, Ŵ alone, F̂ alone")
+    parser.add_argument("--warm", type=float, default=None,
+                        help="start from the tight solve at mu2 - WARM (a neighbour's)")
     args = parser.parse_args()
     original = NumpyFields.local_stage
     print("| model | μ1, μ2 | exact at (points) | " + " | ".join(
@@ -85,6 +90,14 @@ def main() -> None:
             assert tight.interface is not None
             w_exact = tight.interface.displacement_hat
             f_exact = tight.interface.force_hat
+            initial = None
+            if args.warm is not None:
+                other = mu2 - args.warm if mu2 - args.warm >= 0.0 else mu2 + args.warm
+                neighbour = solve_latin(model.assemble({"mu1": mu1, "mu2": other}),
+                                        LatinOptions(tol=1e-11, max_iter=20000),
+                                        operators=operators).interface
+                assert neighbour is not None
+                initial = (neighbour.displacement_hat, neighbour.force_hat)
             for label, chosen in point_sets(operators).items():
                 if label != "none" and chosen.size == 0:
                     continue
@@ -94,7 +107,7 @@ def main() -> None:
                         chosen, w_exact, f_exact, part)
                     try:
                         counts = [solve_latin(assembly, options, operators=operators,
-                                              check=False).iterations
+                                              check=False, initial=initial).iterations
                                   for options in (LatinOptions(qoi_rtol=STUDY_QOI_RTOL),
                                                   LatinOptions())]
                     finally:
