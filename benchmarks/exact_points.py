@@ -12,14 +12,15 @@ answer; nothing of the library is changed (the engine's local stage is wrapped h
 
 Sets of points: the stop's corners (the points at (50, 50) and (50, 100), where the
 bottom|centre and centre|top contacts end on the stop: the slowest modes of
-``tail_modes.py``), every *corner node* (a substructure's node that carries points of two
-or more interfaces, as ``operators.corner_factors``), the whole stop, the contacts between
-bodies, the perfect and macro-only interfaces. Printed: iterations under the studies' QoI
-rule and to η < 1e-6, per pair and set (a Markdown table). ``--warm D``: each case starts
-from the tight ŝ of its neighbour at μ2 − D (μ2 + D where that is below 0), as a study's
-nearest-neighbour start would (issue 16: what holds a warm case). ``--at-start`` (with
-``--warm``): the exact values only in the start, the neighbour's elsewhere, and the
-library's local stage unwrapped — what a start that predicted those points would give.
+``tail_modes.py``), every point where a *corner node* sits (a substructure's node that
+carries points of two or more interfaces), as ``operators.corner_factors`` finds them, the
+whole stop, the contacts between bodies, the perfect and macro-only interfaces. Printed:
+iterations under the studies' QoI rule and to η < 1e-6, per pair and set (a Markdown
+table). ``--warm D``: each case starts from the tight ŝ of its neighbour at μ2 − D (μ2 +
+D where that is below 0), as a study's nearest-neighbour start would (issue 16: what holds
+a warm case). ``--at-start`` (with ``--warm``): the exact values only in the start, the
+neighbour's elsewhere, and the library's local stage unwrapped — what a start that
+predicted those points would give.
 """
 
 from __future__ import annotations
@@ -32,6 +33,7 @@ import numpy as np
 import multilatin as ml
 from multilatin.latin import LatinOperators, LatinOptions, solve_latin
 from multilatin.latin.engine import NumpyFields
+from multilatin.latin.operators import corner_factors
 from multilatin.latin.options import STUDY_QOI_RTOL
 
 PAIRS = [(0.3, 0.0), (0.1, 0.3), (0.35, 0.25), (0.3, 0.15)]
@@ -43,13 +45,12 @@ def point_sets(operators: LatinOperators) -> dict[str, np.ndarray]:
     points, interfaces = operators.points, operators.assembly.interfaces
     kind = np.array([("stop" if itf.is_stop else "contact" if itf.contact is not None
                       else itf.kind) for itf in interfaces])[points.interface]
-    keys = np.column_stack([points.substructure, np.round(points.coords, 9)])
-    _, node, count = np.unique(keys, axis=0, return_inverse=True, return_counts=True)
-    near = np.min(np.hypot(*(points.coords[:, None, :] - STOP_CORNERS[None]).transpose(2, 0, 1)),
-                  axis=1) < 1e-9
+    # the points corner_factors stiffens, within a reach too short to leave their positions
+    at_corners = corner_factors(points, 2.0, np.full(points.n_points, 1e-9)) > 1.0
+    near = np.linalg.norm(points.coords[:, None, :] - STOP_CORNERS, axis=2).min(axis=1) < 1e-9
     return {"none": np.zeros(0, dtype=np.int64),
             "stop's corners": np.flatnonzero(near),
-            "corner nodes": np.flatnonzero(count[node.ravel()] >= 2),
+            "corner nodes": np.flatnonzero(at_corners),
             "stop": np.flatnonzero(kind == "stop"),
             "contacts": np.flatnonzero(kind == "contact"),
             "perfect": np.flatnonzero(kind == "perfect"),
@@ -81,6 +82,10 @@ def main() -> None:
     parser.add_argument("--at-start", action="store_true",
                         help="with --warm: exact values in the start only")
     args = parser.parse_args()
+    if args.warm is not None and not args.warm > 0.0:
+        parser.error(f"--warm: the step to the neighbour must be > 0, got {args.warm}")
+    if args.at_start and args.warm is None:
+        parser.error("--at-start: needs --warm (the start it changes)")
     original = NumpyFields.local_stage
     print("| model | μ1, μ2 | exact at (points) | " + " | ".join(
         f"{part}: QoI rule / η < 1e-6" for part in args.parts) + " |")

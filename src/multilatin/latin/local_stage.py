@@ -209,7 +209,7 @@ class LocalStage:
             kernels.contact_and_stops(
                 np.ascontiguousarray(displacement), np.ascontiguousarray(force), w_hat, f_hat,
                 *self.contact_data(), np.zeros(len(w_hat), np.int64) if first is None else first)
-        elif self.groups.sides:  # the kernel merges the groups itself
+        elif self.groups.sides:  # merged around the stage here (the kernel merges inside)
             fields = merged(displacement, force, self.groups.sides)
             self._contact_and_stops(*fields, w_hat, f_hat)
             corrected(w_hat, displacement, force, fields, self.groups.sides)
