@@ -8,6 +8,7 @@ foundation (a perfect interface: the same file with the interface's type changed
     python benchmarks/slide.py --interfaces perfect
     python benchmarks/slide.py --two-sided      # the held-node rule off: before issue 15
     python benchmarks/slide.py --locate         # where the error of a two-sided solve sits
+    python benchmarks/slide.py --interfaces contact --ratios 10 --moduli own --acceleration rre
 
 For each case, one cold LATIN solve at the default tolerance and iteration cap (what a user
 gets from ``multilatin solve slide``) and the monolithic contact-Newton reference of the
@@ -51,6 +52,9 @@ def main() -> None:
                         help="LatinOptions(held_nodes=False): the rule before issue 15")
     parser.add_argument("--max-iter", type=int, default=LatinOptions().max_iter)
     parser.add_argument("--interfaces", nargs="+", default=["contact", "perfect"])
+    parser.add_argument("--acceleration", default=LatinOptions().acceleration,
+                        choices=["relaxation", "anderson", "rre"],
+                        help="LatinOptions.acceleration (session 58: the block at κ = 0.1)")
     parser.add_argument("--locate", action="store_true",
                         help="ratio 1000, κ 1, two-sided rule: the points that carry the "
                              "error at the default tolerance against a tight solve")
@@ -105,7 +109,8 @@ def table(model: Model, interface: str, args: argparse.Namespace) -> None:
             for modulus in args.moduli:
                 options = LatinOptions(kappa=kappa, search_modulus=modulus,
                                        max_iter=args.max_iter,
-                                       held_nodes=not args.two_sided)
+                                       held_nodes=not args.two_sided,
+                                       acceleration=args.acceleration)
                 result = model.solve(mu, options=options, check=False)
                 r_push = np.asarray(result.qoi["R_push"])
                 error = np.max(np.abs(r_push - reference) / np.maximum(np.abs(reference), 1.0))

@@ -19,7 +19,8 @@ point's forces, point by point); ``--each-pair``: the contact pairs of a cross p
 on its own (``cross_points.MERGE`` off, the rule before session 35); ``--pairs``: the
 friction pairs (default: three of ``convergence.py``'s); ``--defaults``: any model once, at
 its parameters' defaults (``--models lap --defaults --window 26``: session 49); ``--set
-gap=0``: other parameters for every case (session 55).
+gap=0``: other parameters for every case (session 55); ``--kappa``: the search
+direction's κ (session 58: the sliding block at κ = 0.1).
 Uses only the solver's own iteration (``solve_latin(observer=...)``) and local stage.
 """
 
@@ -109,6 +110,9 @@ def main() -> None:
                         help="other parameters for every case (--set gap=0: session 55)")
     parser.add_argument("--defaults", action="store_true",
                         help="each model once, at its parameters' defaults (any model)")
+    parser.add_argument("--kappa", type=float, default=ml.LatinOptions().kappa,
+                        help="the search direction's κ (--models slide --defaults --kappa "
+                             "0.1: session 58)")
     args = parser.parse_args()
     for item in args.set:
         name, _, value = item.partition("=")
@@ -121,7 +125,7 @@ def main() -> None:
     cases: list[tuple[float, ...]] = (
         [()] if args.defaults else list(CASES) if args.pairs is None else
         [tuple(float(x) for x in pair.split(",")) for pair in args.pairs])
-    options = ml.LatinOptions(rigid_balance=args.rigid_balance)
+    options = ml.LatinOptions(rigid_balance=args.rigid_balance, kappa=args.kappa)
     for name in args.models:
         model = ml.load_model(name)
         for pair in cases:
