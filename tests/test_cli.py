@@ -172,6 +172,33 @@ def test_study_bad_input_exits_2_naming_the_field(capsys, tmp_path, argv, field)
     assert not (tmp_path / "s").exists()
 
 
+def test_study_with_an_extrapolation_stops_on_eta_alone_and_says_so(capsys, caplog, tmp_path):
+    """A study's QoI rule needs the relaxation: with --acceleration rre and no --qoi-rtol the
+    cases stop on η alone (a warning says so, the estimates are absent); asked for both, the
+    error names qoi_rtol and the way out."""
+    from multilatin.cli import _latin_options, build_parser
+    from multilatin.latin.options import STUDY_QOI_RTOL
+
+    parser = build_parser()
+    assert _latin_options(parser.parse_args(["study", "b1"])).qoi_rtol == STUDY_QOI_RTOL
+    assert _latin_options(parser.parse_args(["solve", "b1"])).qoi_rtol is None
+    given = parser.parse_args(["study", "b1", "--acceleration", "rre", "--qoi-rtol", "none"])
+    assert _latin_options(given).qoi_rtol is None
+    with caplog.at_level("WARNING", logger="multilatin"):
+        status, data = run_json(capsys, "study", "slide", "--grid", "mu=0.2,0.3",
+                                "--acceleration", "rre", "--json", "--out", str(tmp_path / "a"))
+    assert status == 0
+    assert "stop on eta < 1e-06 alone" in caplog.text
+    assert [c["converged"] for c in data["cases"]] == [True, True]
+    assert all(c["qoi"]["R_push"][-1] == pytest.approx(20 * 10 * c["params"]["mu"], rel=1e-4)
+               for c in data["cases"])  # sliding at the end: R = μ p 20
+    status = main(["study", "slide", "--grid", "mu=0.2", "--acceleration", "rre",
+                   "--qoi-rtol", "1e-3", "--out", str(tmp_path / "b")])
+    assert status == 2
+    err = capsys.readouterr().err
+    assert "qoi_rtol" in err and "--qoi-rtol none" in err
+
+
 def test_version_help_defaults_and_verbose_after_the_command(capsys):
     """`--version`; `--help` shows the solver's defaults; `-v` before or after the command."""
     import multilatin as ml

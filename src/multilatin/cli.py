@@ -93,10 +93,15 @@ def _add_latin_arguments(parser: argparse.ArgumentParser, qoi_rtol: float | None
                         "corners (default: %(default)s)")
     parser.add_argument("--tol", type=float, default=d.tol,
                         help="tolerance on the indicator η (default: %(default)s)")
-    parser.add_argument("--qoi-rtol", type=_optional_rtol, default=qoi_rtol, metavar="RTOL",
+    # a study's default depends on --acceleration (``_qoi_rtol``): absent unless given
+    parser.add_argument("--qoi-rtol", type=_optional_rtol, metavar="RTOL",
+                        default=argparse.SUPPRESS if qoi_rtol is not None else None,
                         help="also stop a case once every QoI's estimated error is below RTOL "
                         "times its value, and the state's remaining change η/(1-ρ) below RTOL; "
-                        "'none': on η alone (default: %(default)s)")
+                        "'none': on η alone (default: " + (
+                            f"{qoi_rtol:g} with --acceleration relaxation, none with the "
+                            "others, whose steps leave no QoI estimate" if qoi_rtol is not None
+                            else "none") + ")")
     parser.add_argument("--max-iter", type=int, default=d.max_iter,
                         help="iteration cap (default: %(default)s)")
     parser.add_argument("--relaxation", type=float, default=d.relaxation,
@@ -302,6 +307,21 @@ def _show(model: Model) -> None:
         print(f"  {label(q.name, q.unit)}: {qoi_reads(assembly, q)}")
 
 
+def _qoi_rtol(args: argparse.Namespace) -> float | None:
+    """--qoi-rtol as given; a study's without it: ``STUDY_QOI_RTOL`` with the relaxation,
+    η alone with Anderson or RRE (their steps break the estimates the rule reads)."""
+    if hasattr(args, "qoi_rtol"):
+        given: float | None = args.qoi_rtol
+        return given
+    if args.acceleration == "relaxation":
+        return STUDY_QOI_RTOL
+    log.warning("--acceleration %s: the cases stop on eta < %g alone (the QoI rule's "
+                "estimates need the relaxation's iterations); their QoIs carry no error "
+                "estimate", args.acceleration, args.tol)
+    args.qoi_rtol = None  # said once
+    return None
+
+
 def _latin_options(args: argparse.Namespace, kappa: float | None = None) -> LatinOptions:
     """The options of ``args``, with ``kappa`` instead of theirs when given (a study's
     ``--kappa auto``, once chosen)."""
@@ -311,7 +331,7 @@ def _latin_options(args: argparse.Namespace, kappa: float | None = None) -> Lati
                          "study ... --kappa auto`); for one solve give a number (curved "
                          "contacts converge faster at 2-5, B1's models at 0.5)")
     return LatinOptions(kappa=kappa, tol=args.tol, max_iter=args.max_iter,
-                        qoi_rtol=args.qoi_rtol,
+                        qoi_rtol=_qoi_rtol(args),
                         relaxation=args.relaxation, macro=not args.no_macro,
                         extrapolate_sliding=not args.no_sliding_jumps,
                         rigid_balance=args.rigid_balance,

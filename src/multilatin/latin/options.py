@@ -202,7 +202,8 @@ class LatinOptions:
                              f"acceleration 'relaxation', got {self.acceleration!r} (the "
                              f"estimates read the contraction of relaxed iterations, which "
                              f"mixing and extrapolation steps break: tests/test_qoi_error.py "
-                             f"fails with them)")
+                             f"fails with them); stop on η alone with qoi_rtol=None "
+                             f"(`--qoi-rtol none`)")
         if not 0 <= self.settled_steps < 1:
             raise ModelError(f"settled_steps: must lie in [0, 1), got {self.settled_steps!r}")
         if self.rre_cycle < 2:
