@@ -26,10 +26,11 @@ if TYPE_CHECKING:
     from .local_stage import LocalStage
 
 __all__ = ["BLOWUP", "CAPPED", "DRIFT_WINDOW", "FORCE_FLOOR", "FORCE_MARGIN",
-           "FORCE_ROUNDOFF", "NO_EQUILIBRIUM", "START_FAILURES", "STEP_SPREAD", "VANISH",
-           "blows_up", "damp_stagnating", "drifting_steps", "drifts", "drop_unloaded_starts",
-           "explain_capped", "force_indicator", "forces_unsettled", "started_warm", "unloaded",
-           "vanishes"]
+           "FORCE_ROUNDOFF", "LOWEST_RELAXATION", "NO_EQUILIBRIUM", "RELAXATION_STEP",
+           "START_FAILURES", "STEP_SPREAD", "VANISH", "blows_up", "can_lower",
+           "damp_stagnating", "drifting_steps", "drifts", "drop_unloaded_starts",
+           "explain_capped", "force_indicator", "forces_unsettled", "lowered", "started_warm",
+           "unloaded", "vanishes"]
 
 log = logging.getLogger(__name__)
 
@@ -235,18 +236,34 @@ def drop_unloaded_starts(local: LocalStage, bodies: Sequence[BodyResponse | None
         w_hat[c] = f_hat[c] = 0.0
 
 
+#: a lowered relaxation: ω − ``RELAXATION_STEP``, not below ``LOWEST_RELAXATION`` (the
+#: stagnation check here and the oscillation watch, ``oscillation``)
+RELAXATION_STEP = 0.1
+LOWEST_RELAXATION = 0.5
+
+
+def can_lower(omega: float) -> bool:
+    """Whether ω is above ``LOWEST_RELAXATION`` (to rounding)."""
+    return bool(omega > LOWEST_RELAXATION + 1e-12)
+
+
+def lowered(omega: float) -> float:
+    """ω lowered by ``RELAXATION_STEP``, not below ``LOWEST_RELAXATION``."""
+    return max(float(omega) - RELAXATION_STEP, LOWEST_RELAXATION)
+
+
 def damp_stagnating(histories: list[list[float]], active: IntArray, relaxation: FloatArray,
                     options: LatinOptions) -> None:
-    """Lower ω (in place, by 0.1, down to 0.5) of the active cases whose η stagnated over
-    the last ``stagnation_window`` iterations (see ``LatinOptions``)."""
+    """Lower ω (in place, ``lowered``) of the active cases whose η stagnated over the last
+    ``stagnation_window`` iterations (see ``LatinOptions``)."""
     window = options.stagnation_window
     for position, case in enumerate(active):
         history = histories[case]
-        if len(history) < 2 * window or relaxation[position] <= 0.5 + 1e-12:
+        if len(history) < 2 * window or not can_lower(relaxation[position]):
             continue
         latest, before = min(history[-window:]), min(history[-2 * window:-window])
         if latest > options.stagnation_ratio * before:
-            relaxation[position] = max(relaxation[position] - 0.1, 0.5)
+            relaxation[position] = lowered(relaxation[position])
             log.info("case %d of the batch: eta stagnates (%.2e after %.2e), relaxation "
                      "lowered to %.1f", case, latest, before, relaxation[position])
 

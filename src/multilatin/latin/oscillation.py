@@ -17,7 +17,8 @@ iteration 60 on in the b1-9 case) and the same way in a crawl (+0.99 to +1.00). 
 ``WINDOW`` iterations a case whose η turned at every one of them without falling (its
 smallest over the second half not below ``stagnation_ratio`` × its smallest over the first)
 and whose last two increments of s, in the indicator's norm, have a cosine below
-``OPPOSITE`` gets ω − 0.1, down to 0.5. The converged answer does not depend on ω.
+``OPPOSITE`` gets ω − 0.1, down to 0.5 (``guards.lowered``). The converged answer does not
+depend on ω.
 """
 
 from __future__ import annotations
@@ -29,6 +30,7 @@ import numpy as np
 
 from ..fem.elasticity import FloatArray, IntArray
 from .field_engine import FieldEngine
+from .guards import can_lower, lowered
 from .options import LatinOptions
 
 __all__ = ["OPPOSITE", "WINDOW", "OscillationWatch", "alternating"]
@@ -73,7 +75,7 @@ class OscillationWatch:
                 del self.kept[case]
         for position in np.flatnonzero(phase == WINDOW - 2).tolist():
             case = int(active[position])
-            if relaxation[position] > 0.5 + 1e-12 and alternating(
+            if can_lower(relaxation[position]) and alternating(
                     histories[case], WINDOW - 2, ratio):
                 self.kept[case] = [engine.state(np.array([position]))]
         for position in np.flatnonzero(phase == WINDOW - 1).tolist():
@@ -89,7 +91,7 @@ class OscillationWatch:
             w2, f2 = engine.state(np.array([position]))
             cosine = _cosine(engine, (w1 - w0, f1 - f0), (w2 - w1, f2 - f1))
             if cosine < OPPOSITE:
-                relaxation[position] = max(relaxation[position] - 0.1, 0.5)
+                relaxation[position] = lowered(relaxation[position])
                 log.info("case %d of the batch: eta oscillates (increments at cosine %.2f), "
                          "relaxation lowered to %.1f", case, cosine, relaxation[position])
 
