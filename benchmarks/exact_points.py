@@ -9,12 +9,17 @@ answer; nothing of the library is changed (the engine's local stage is wrapped h
     python benchmarks/exact_points.py --models b1 --parts W F   # Ŵ alone, F̂ alone too
     python benchmarks/exact_points.py --models b1 --warm 0.05   # warm starts along μ2
     python benchmarks/exact_points.py --models b1 --warm 0.05 --at-start
+    python benchmarks/exact_points.py --models b1-9 b3 --kinds --parts WF W
 
 Sets of points: the stop's corners (the points at (50, 50) and (50, 100), where the
 bottom|centre and centre|top contacts end on the stop: the slowest modes of
 ``tail_modes.py``), every point where a *corner node* sits (a substructure's node that
 carries points of two or more interfaces), as ``operators.corner_factors`` finds them, the
-whole stop, the contacts between bodies, the perfect and macro-only interfaces. Printed:
+whole stop, the contacts between bodies, the perfect and macro-only interfaces; with
+``--kinds`` (session 59) the corner nodes sorted by the interfaces that meet there instead
+(with a stop; a perfect interface ending on a contact — and that set's contact points, its
+perfect points —; a contact with another boundary; perfect with macro-only interfaces;
+perfect interfaces only; a perfect interface on the outer boundary). Printed:
 iterations under the studies' QoI rule and to η < 1e-6, per pair and set (a Markdown
 table). ``--warm D``: each case starts from the tight ŝ of its neighbour at μ2 − D (μ2 +
 D where that is below 0), as a study's nearest-neighbour start would (issue 16: what holds
@@ -57,6 +62,44 @@ def point_sets(operators: LatinOperators) -> dict[str, np.ndarray]:
             "macro-only": np.flatnonzero(kind == "macro")}
 
 
+def corner_kinds(operators: LatinOperators) -> dict[str, np.ndarray]:
+    """The corner nodes' points (``point_sets``) sorted by the kinds of interface whose
+    points sit at their position (``--kinds``)."""
+    points, interfaces = operators.points, operators.assembly.interfaces
+    kind = np.array([("stop" if itf.is_stop else "contact" if itf.contact is not None
+                      else itf.kind) for itf in interfaces])[points.interface]
+    corners = point_sets(operators)["corner nodes"]
+    position = [tuple(xy) for xy in np.round(points.coords, 6)]
+    kinds_at: dict[tuple[float, ...], set[str]] = {}
+    for p, key in enumerate(position):
+        kinds_at.setdefault(key, set()).add(str(kind[p]))
+
+    def label(p: int) -> str:
+        there = kinds_at[position[p]]
+        if "stop" in there:
+            return "with a stop"
+        if {"contact", "perfect"} <= there:
+            return "perfect ending on a contact"
+        if "contact" in there:
+            return "contact with another boundary"
+        if "perfect" in there and "macro" in there:
+            return "perfect with macro-only"
+        if there == {"perfect"}:
+            return "perfect only"
+        if "perfect" in there:
+            return "perfect on the boundary"
+        return "other"
+
+    labels = np.array([label(int(p)) for p in corners])
+    out = {"none": np.zeros(0, dtype=np.int64), "corner nodes": corners}
+    for name in dict.fromkeys(labels.tolist()):
+        out[name] = corners[labels == name]
+    junctions = out.get("perfect ending on a contact", np.zeros(0, dtype=np.int64))
+    out["… its contact points"] = junctions[kind[junctions] == "contact"]
+    out["… its perfect points"] = junctions[kind[junctions] == "perfect"]
+    return out
+
+
 def exact_stage(chosen: np.ndarray, w_exact: np.ndarray, f_exact: np.ndarray,
                 parts: str) -> Callable[[NumpyFields], None]:
     """The engine's local stage, then the chosen points' Ŵ and/or F̂ set to the exact."""
@@ -81,6 +124,8 @@ def main() -> None:
                         help="start from the tight solve at mu2 - WARM (a neighbour's)")
     parser.add_argument("--at-start", action="store_true",
                         help="with --warm: exact values in the start only")
+    parser.add_argument("--kinds", action="store_true",
+                        help="the corner nodes sorted by the interfaces that meet there")
     args = parser.parse_args()
     if args.warm is not None and not args.warm > 0.0:
         parser.error(f"--warm: the step to the neighbour must be > 0, got {args.warm}")
@@ -108,7 +153,8 @@ def main() -> None:
                                         operators=operators).interface
                 assert neighbour is not None
                 initial = (neighbour.displacement_hat, neighbour.force_hat)
-            for label, chosen in point_sets(operators).items():
+            sets = corner_kinds(operators) if args.kinds else point_sets(operators)
+            for label, chosen in sets.items():
                 if label != "none" and chosen.size == 0:
                     continue
                 cells = []
