@@ -45,11 +45,16 @@ PAIRS = [(0.3, 0.0), (0.1, 0.3), (0.35, 0.25), (0.3, 0.15)]
 STOP_CORNERS = np.array([[50.0, 50.0], [50.0, 100.0]])
 
 
+def interface_kinds(operators: LatinOperators) -> np.ndarray:
+    """Per interface point, its interface's kind: stop, contact, perfect, macro, boundary."""
+    return np.array([("stop" if itf.is_stop else "contact" if itf.contact is not None
+                      else itf.kind) for itf in operators.assembly.interfaces]
+                    )[operators.points.interface]
+
+
 def point_sets(operators: LatinOperators) -> dict[str, np.ndarray]:
     """The sets of interface points the oracle is tried on (module docstring)."""
-    points, interfaces = operators.points, operators.assembly.interfaces
-    kind = np.array([("stop" if itf.is_stop else "contact" if itf.contact is not None
-                      else itf.kind) for itf in interfaces])[points.interface]
+    points, kind = operators.points, interface_kinds(operators)
     # the points corner_factors stiffens, within a reach too short to leave their positions
     at_corners = corner_factors(points, 2.0, np.full(points.n_points, 1e-9)) > 1.0
     near = np.linalg.norm(points.coords[:, None, :] - STOP_CORNERS, axis=2).min(axis=1) < 1e-9
@@ -65,9 +70,7 @@ def point_sets(operators: LatinOperators) -> dict[str, np.ndarray]:
 def corner_kinds(operators: LatinOperators) -> dict[str, np.ndarray]:
     """The corner nodes' points (``point_sets``) sorted by the kinds of interface whose
     points sit at their position (``--kinds``)."""
-    points, interfaces = operators.points, operators.assembly.interfaces
-    kind = np.array([("stop" if itf.is_stop else "contact" if itf.contact is not None
-                      else itf.kind) for itf in interfaces])[points.interface]
+    points, kind = operators.points, interface_kinds(operators)
     corners = point_sets(operators)["corner nodes"]
     position = [tuple(xy) for xy in np.round(points.coords, 6)]
     kinds_at: dict[tuple[float, ...], set[str]] = {}

@@ -82,11 +82,6 @@ def _check_one_displacement_per_node(subs: list[Substructure], boundaries: list[
     cannot take two, the monolithic reference would keep one of them silently, and LATIN
     would find no equilibrium between them. ``tables``: the file's ``[[boundary]]``, for
     the parameters their values read (named in the error: a study's case)."""
-    keys: list[np.ndarray] = []
-    values: list[np.ndarray] = []
-    owners: list[np.ndarray] = []
-    names: list[str] = []
-    bodies = {name: i for i, name in enumerate(dict.fromkeys(s.body for s in subs))}
     # a node is shared only by conditions on one body and component: where each such pair
     # has one condition at most (one side's nodes are distinct), nothing can conflict
     held = [(subs[itf.sides[0].substructure].body, c) for itf in boundaries
@@ -94,6 +89,11 @@ def _check_one_displacement_per_node(subs: list[Substructure], boundaries: list[
             for c in range(2) if itf.condition.kinds[c] == DISPLACEMENT]
     if len(held) == len(set(held)):
         return
+    keys: list[np.ndarray] = []
+    values: list[np.ndarray] = []
+    owners: list[np.ndarray] = []
+    names: list[str] = []
+    bodies = {name: i for i, name in enumerate(dict.fromkeys(s.body for s in subs))}
     for itf in boundaries:
         condition = itf.condition
         if condition is None or condition.pressure:
