@@ -9,6 +9,7 @@ from collections.abc import Callable
 
 import numpy as np
 import numpy.typing as npt
+import scipy.sparse as sp
 
 from ..fem.elasticity import FloatArray, IntArray
 
@@ -79,12 +80,29 @@ def _stops_by_axis(key: NodeKey, stops: IntArray, normals: FloatArray
     return {(key(int(p)), int(np.argmax(np.abs(normals[p])))): q for q, p in enumerate(stops)}
 
 
-def node_key(substructure: IntArray, coords: FloatArray) -> NodeKey:
+def node_key(substructure: IntArray, coords: FloatArray,
+             nodal: npt.NDArray[np.bool_] | None = None) -> NodeKey:
     """A point's node: its substructure and coordinates (points of different sides of a
-    substructure at the same node share it)."""
+    substructure at the same node share it). nodal: per point, whether its trace is one
+    node's value; a point that is not (a mortar master's, ``decomposition.mortar``: the
+    projection of several nodes' values) is a node of its own, so that no rule holds it
+    by a condition on the node it sits at. Held there, its Ŵ would be that node's value
+    while the linear stage can only give it the projection: the iteration stalled with
+    η constant (a strap on a base of another mesh, pressed into a stop)."""
     def key(p: int) -> tuple[int, float, float]:
-        return (int(substructure[p]), round(float(coords[p, 0]), 9), round(float(coords[p, 1]), 9))
+        owner = int(substructure[p]) if nodal is None or nodal[p] else -1 - p
+        return (owner, round(float(coords[p, 0]), 9), round(float(coords[p, 1]), 9))
     return key
+
+
+def nodal_points(trace: sp.csr_matrix) -> npt.NDArray[np.bool_]:
+    """Per row of a side's trace (points × the side's nodes): whether it is one node's
+    value (a single entry 1)."""
+    single = np.diff(trace.indptr) == 1
+    value = np.zeros(trace.shape[0])
+    value[single] = trace.data[trace.indptr[:-1][single]]
+    out: npt.NDArray[np.bool_] = single & (np.abs(value - 1.0) <= 1e-12)
+    return out
 
 
 def prescribed_components(key: NodeKey, boundary: IntArray,

@@ -36,7 +36,14 @@ from ..errors import ModelError
 from ..fem.elasticity import FloatArray, IntArray
 from ..fem.mesh import SIDES, RectMesh, UnstructuredMesh, normal_axis
 from .assembly import DISPLACEMENT, FORCE, Assembly, Interface, consistent_densities
-from .held_nodes import held_corners, held_perfect_pairs, held_stops, node_key, prescribed_components
+from .held_nodes import (
+    held_corners,
+    held_perfect_pairs,
+    held_stops,
+    nodal_points,
+    node_key,
+    prescribed_components,
+)
 from .mortar import mortar_coupling, touching_by_declaration
 
 INTERFACE_ELEMENTS = ("nodal", "edges", "edge-pairs")
@@ -224,6 +231,7 @@ def build_points(assembly: Assembly, kind: str = "nodal", *,
             per_sub[itf.sides[side_index].substructure].append((i, side_index, disc))
 
     substructure, interface, coords, weights, traces = [], [], [], [], []
+    nodal = []  # per point: its trace is one node's value (``held_nodes.node_key``)
     positions = []  # the trace of the node positions at every point
     normals, extents = [], []
     side_points: dict[tuple[int, int], IntArray] = {}
@@ -247,6 +255,7 @@ def build_points(assembly: Assembly, kind: str = "nodal", *,
             normals.append(point_normals(assembly.substructures[s].mesh, side, disc.nodes,
                                          disc.trace))
             trace = disc.trace
+            nodal.append(nodal_points(trace))
             trace_rows.append(np.repeat(np.arange(count - n - first, count - first),
                                         np.diff(trace.indptr)))
             trace_nodes.append(disc.nodes[trace.indices])
@@ -294,7 +303,7 @@ def build_points(assembly: Assembly, kind: str = "nodal", *,
     contact_offset[np.abs(contact_offset) <= 1e-12 * max(np.ptp(at), 1.0)] = 0.0
     touching = [i for i, itf in enumerate(assembly.interfaces) if touching_by_declaration(itf)]
     contact_offset[np.isin(cat(interface)[a], touching)] = 0.0
-    key = node_key(cat(substructure), all_coords)
+    key = node_key(cat(substructure), all_coords, cat(nodal, bool))
     fixed = prescribed_components(key, boundary, is_displacement)
     held = held_corners(key, fixed, contact_pairs, stops, all_normals)
     held.update(held_perfect_pairs(key, fixed, (cat(pairs_a), cat(pairs_b))))

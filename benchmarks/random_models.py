@@ -1,0 +1,224 @@
+"""Random user models against the monolithic solution of the same discrete problem (session
+60): what a new user's model does at the default settings, beyond the bundled ones.
+
+    python benchmarks/random_models.py                   # seeds 0-39
+    python benchmarks/random_models.py --seeds 40 --count 80
+    python benchmarks/random_models.py --keep /tmp/models   # the model files too
+
+Each seed writes a model file: a strap (with a level-set hole or not) pressed on a clamped
+base and pulled by a force or a prescribed displacement toward a rigid stop at its other
+end, with random splits into substructures (the two bodies' meshes match or not: mortar
+contact), materials, friction, gaps (an interference too), the stop's gap and friction, the
+number of load steps, plane stress or strain. It is solved by LATIN at the default settings
+(``Model.solve``) and by the monolithic contact solver on the same assembly
+(``solve_monolithic``). Printed per seed: how LATIN ended, its iterations, and per QoI the
+largest difference over the steps against the monolithic answer, as a fraction of the
+QoI's largest magnitude and of the error LATIN estimated for it (``qoi_error``; "bounded"
+when the difference is within it); then the counts. A model the tool refuses (a clear
+error naming the field) is counted as refused; one the reference cannot solve is counted
+apart. Found with it: a stop at the end of a mortar contact held a projected point as a
+node, and 6 of 32 models stalled at η ≈ 1e-5 (docs/correctness.md, session 60).
+"""
+
+from __future__ import annotations
+
+import argparse
+import logging
+import random
+import tempfile
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+
+import multilatin as ml
+from multilatin.errors import ModelError, NotConvergedError
+from multilatin.latin import LatinOptions
+
+#: the converged value each default solve is measured against
+TIGHT = LatinOptions(tol=1e-10, max_iter=20000)
+#: errors below this fraction of a QoI's largest magnitude are zero to the estimate's
+#: accuracy (as in ``qoi_error.py``)
+FLOOR = 1e-6
+
+MODEL = """
+title = "random strap {seed}"
+[analysis]
+hypothesis = "{hypothesis}"
+thickness = 2.0
+[materials.strap]
+E = {e_strap}
+nu = 0.33
+[materials.base]
+E = {e_base}
+nu = 0.3
+[[bodies]]
+name = "base"
+x = [0.0, 60.0]
+y = [0.0, 10.0]
+elements = [24, 4]
+split = [{split_base}, 1]
+material = "base"
+[[bodies]]
+name = "strap"
+x = [{x0}, {x1}]
+y = [10.0, 18.0]
+elements = [{n_strap}, 4]
+split = [{split_x}, {split_y}]
+material = "strap"
+{hole}
+[[interfaces]]
+between = ["base", "strap"]
+type = "contact"
+friction = {mu}
+gap = {gap}
+[history.factors]
+press = {press}
+pull = {pull}
+[[boundary]]
+name = "clamp"
+face = "base.bottom"
+type = "displacement"
+value = [0.0, 0.0]
+[[boundary]]
+name = "pressure"
+face = "strap.top"
+type = "force"
+value = [0.0, {pressure}]
+factor = "press"
+{pull_condition}
+[[boundary]]
+name = "stop"
+face = "strap.right"
+type = "stop"
+gap = {stop_gap}
+friction = {stop_friction}
+[[qoi]]
+name = "R_stop"
+unit = "N"
+type = "reaction"
+boundary = "stop"
+component = "x"
+[[qoi]]
+name = "R_clamp_x"
+unit = "N"
+type = "reaction"
+boundary = "clamp"
+component = "x"
+[[qoi]]
+name = "u_corner"
+unit = "mm"
+type = "displacement"
+point = [{x1}, 18.0]
+component = "{component}"
+"""
+
+
+def model_text(seed: int) -> str:
+    """The model file of ``seed`` (module docstring)."""
+    rng = random.Random(seed)
+    x0, x1 = rng.choice([0.0, 5.0]), rng.choice([40.0, 45.0])
+    split_x = rng.choice([1, 2, 3])
+    hole = ""
+    if split_x == 1 and rng.random() < 0.5:
+        hole = ("[[holes]]\nname = \"hole\"\nbody = \"strap\"\nshape = \"circle\"\n"
+                f"centre = [{rng.uniform(x0 + 4, x0 + 10):.2f}, {rng.uniform(13, 15):.2f}]\n"
+                f"radius = {rng.uniform(0.5, 2.5):.2f}")
+    steps = rng.choice([4, 6, 8])
+    press = [min(1.0, (i + 1) / 2) for i in range(steps)]
+    pull = [0.0, 0.0] + [(i + 1) / (steps - 2) for i in range(steps - 2)]
+    if rng.random() < 0.5:
+        pull_condition = ("[[boundary]]\nname = \"pull\"\nface = \"strap.left\"\n"
+                          f"type = \"force\"\nvalue = [{rng.uniform(10, 60):.2f}, 0.0]\n"
+                          "factor = \"pull\"")
+    else:
+        pull_condition = ("[[boundary]]\nname = \"pull\"\nface = \"strap.left\"\n"
+                          "type = \"mixed\"\ncomponents = [\"displacement\", \"force\"]\n"
+                          f"value = [{rng.uniform(0.002, 0.03):.4f}, 0.0]\nfactor = \"pull\"")
+    return MODEL.format(
+        seed=seed, hypothesis=rng.choice(["plane_stress", "plane_strain"]),
+        e_strap=rng.choice([7e4, 2e5]), e_base=rng.choice([7e4, 2.1e5, 2e6]),
+        split_base=rng.choice([1, 2, 3]), x0=x0, x1=x1, n_strap=18 if split_x == 3 else 20,
+        split_x=split_x, split_y=1 if hole else rng.choice([1, 2]), hole=hole,
+        mu=round(rng.uniform(0.0, 0.6), 3), gap=rng.choice([0.0, 0.0, 0.001, -0.001]),
+        press=press, pull=pull, pressure=-round(rng.uniform(5, 40), 2),
+        pull_condition=pull_condition, stop_gap=rng.choice([0.0, 0.005, 0.02, -0.002]),
+        stop_friction=rng.choice([0.0, 0.0, 0.2]), component=rng.choice(["x", "y"]))
+
+
+def compare(model: ml.Model, result: Any, tight: Any, reference: Any
+            ) -> tuple[float, int, int, float, str]:
+    """The tight solve's largest difference from the monolithic answer (relative to each
+    QoI's largest magnitude), and the default solve's error estimates against its true
+    errors (against the tight solve): entries above the floor, how many the estimate
+    bounds, the smallest estimate / error, and the QoI of the largest difference."""
+    worst, which, above, bound, smallest = 0.0, "", 0, 0, np.inf
+    for name, values in result.qoi.items():
+        scale = max(float(np.abs(np.asarray(reference.qoi[name], dtype=float)).max()), 1e-300)
+        exact = np.atleast_1d(np.asarray(tight.qoi[name], dtype=float))
+        difference = float(np.abs(exact - np.asarray(reference.qoi[name])).max()) / scale
+        if difference >= worst:
+            worst, which = difference, name
+        error = np.abs(np.atleast_1d(np.asarray(values, dtype=float)) - exact)
+        own = result.qoi_error.get(name)
+        estimate = (np.broadcast_to(np.asarray(own, dtype=float), error.shape)
+                    if own is not None else np.zeros_like(error))
+        counted = error > FLOOR * scale  # below: zero to that accuracy (docs/tolerance.md)
+        above += int(counted.sum())
+        bound += int((estimate[counted] >= error[counted]).sum())
+        if counted.any():
+            smallest = min(smallest, float((estimate[counted] / error[counted]).min()))
+    return worst, above, bound, smallest, which
+
+
+def main() -> None:
+    parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    parser.add_argument("--seeds", type=int, default=0, help="the first seed")
+    parser.add_argument("--count", type=int, default=40)
+    parser.add_argument("--keep", type=Path, default=None, help="a folder for the model files")
+    args = parser.parse_args()
+    logging.disable(logging.WARNING)
+    folder = args.keep or Path(tempfile.mkdtemp(prefix="random-models-"))
+    folder.mkdir(parents=True, exist_ok=True)
+    counts = {"converged": 0, "not converged": 0, "refused": 0, "reference failed": 0}
+    entries = {"above the floor": 0, "bound": 0, "cases not bound": 0}
+    print("| seed | LATIN (default settings) | iterations | tight LATIN − reference "
+          "(relative) | estimate bounds the error: entries | smallest estimate / error |")
+    print("|---|---|---|---|---|---|")
+    for seed in range(args.seeds, args.seeds + args.count):
+        path = folder / f"random-{seed}.toml"
+        path.write_text(model_text(seed))
+        try:
+            model = ml.load_model(str(path))
+            result = model.solve(check=False)
+        except ModelError as error:
+            counts["refused"] += 1
+            print(f"| {seed} | refused: {str(error)[:70]}… | | | | |")
+            continue
+        ended = "converged" if result.converged else "NOT CONVERGED"
+        try:
+            reference = ml.solve_monolithic(model.assemble({}))
+        except NotConvergedError:
+            counts["reference failed"] += 1
+            print(f"| {seed} | {ended} | {result.iterations} | (the reference did not "
+                  "converge) | | |")
+            continue
+        counts["converged" if result.converged else "not converged"] += 1
+        if not result.converged:
+            print(f"| {seed} | {ended} | {result.iterations} | | | |", flush=True)
+            continue
+        tight = model.solve(options=TIGHT, check=False)
+        worst, above, bound, smallest, which = compare(model, result, tight, reference)
+        entries["above the floor"] += above
+        entries["bound"] += bound
+        entries["cases not bound"] += int(bound < above)
+        print(f"| {seed} | {ended} | {result.iterations} | {worst:.1e} ({which}) | "
+              f"{bound} of {above} | {smallest:.2f} |", flush=True)
+    print()
+    print(", ".join(f"{k}: {v}" for k, v in counts.items()) + "; error estimates: "
+          + ", ".join(f"{k}: {v}" for k, v in entries.items())
+          + f" (model files in {folder})")
+
+
+if __name__ == "__main__":
+    main()
