@@ -144,7 +144,7 @@ def _merge_cross_points(assembly: Assembly, pieces: list[tuple[int, int, IntArra
     slave's node, a master's projection) averaged with the slave's lengths in each. Where
     the pieces' slaves lie on different bodies (each the finer where its piece ends on
     nodes of both), both sides are such averages: they were two pairs here and one in
-    LATIN, 2.8e-5 to 8e-4 apart at η < 1e-11 (session 60, ``benchmarks/random_models.py``).
+    LATIN, 2.8e-5 to 4.1e-4 apart at η < 1e-11 (session 60, ``benchmarks/random_models.py``).
     In place: the members' points are redirected to the first virtual one's (the others'
     virtual nodes stay unused)."""
     groups: dict[tuple[Any, ...], list[tuple[int, int, int, float]]] = {}
