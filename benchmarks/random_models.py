@@ -4,6 +4,7 @@
     python benchmarks/random_models.py                   # seeds 0-39
     python benchmarks/random_models.py --seeds 40 --count 80
     python benchmarks/random_models.py --keep /tmp/models   # the model files too
+    python benchmarks/random_models.py --family block       # a block pushed on a base
 
 Each seed writes a model file: a strap (with a level-set hole or not) pressed on a clamped
 base and pulled by a force or a prescribed displacement toward a rigid stop at its other
@@ -147,6 +148,103 @@ def model_text(seed: int) -> str:
         stop_friction=rng.choice([0.0, 0.0, 0.2]), component=rng.choice(["x", "y"]))
 
 
+BLOCK = """
+title = "random pushed block {seed}"
+[analysis]
+hypothesis = "{hypothesis}"
+[materials.block]
+E = {e_block}
+nu = 0.3
+[materials.base]
+E = {e_base}
+nu = 0.25
+[[bodies]]
+name = "base"
+x = [0.0, 40.0]
+y = [0.0, 10.0]
+elements = [{n_base}, 4]
+split = [{split_base}, {split_base_y}]
+material = "base"
+[[bodies]]
+name = "block"
+x = [{x0}, {x1}]
+y = [10.0, 20.0]
+elements = [{n_block}, 6]
+split = [1, {split_block_y}]
+material = "block"
+[[interfaces]]
+between = ["base", "block"]
+type = "contact"
+friction = {mu}
+gap = {gap}
+[history.factors]
+press = {press}
+push = {push}
+[[boundary]]
+name = "clamp"
+face = "base.bottom"
+type = "displacement"
+value = [0.0, 0.0]
+{top}
+[[boundary]]
+name = "push"
+face = "block.left"
+type = "{push_type}"
+{push_components}value = [{push_value}, 0.0]
+factor = "push"
+{stop}
+[[qoi]]
+name = "R_push"
+unit = "N"
+type = "reaction"
+boundary = "push"
+component = "x"
+[[qoi]]
+name = "R_clamp_y"
+unit = "N"
+type = "reaction"
+boundary = "clamp"
+component = "y"
+"""
+
+
+def block_text(seed: int) -> str:
+    """The ``--family block`` model of ``seed``: a block pushed sideways on a clamped base
+    by a prescribed displacement of its left face (both components, or x alone), pressed
+    by a force, a prescribed displacement of its top, or held under a smooth wall and
+    loaded on its right face; a stop at the base's right face or none."""
+    rng = random.Random(seed)
+    steps = rng.choice([3, 4, 6])
+    top = rng.choice([
+        "[[boundary]]\nname = \"top\"\nface = \"block.top\"\ntype = \"force\"\n"
+        f"value = [0.0, {-rng.uniform(5, 30):.2f}]\nfactor = \"press\"",
+        "[[boundary]]\nname = \"top\"\nface = \"block.top\"\ntype = \"mixed\"\n"
+        "components = [\"force\", \"displacement\"]\n"
+        f"value = [0.0, {-rng.uniform(0.001, 0.01):.4f}]\nfactor = \"press\"",
+        "[[boundary]]\nname = \"top\"\nface = \"block.top\"\ntype = \"wall\"\n"
+        "[[boundary]]\nname = \"side\"\nface = \"block.right\"\ntype = \"force\"\n"
+        f"value = [{-rng.uniform(1, 10):.2f}, 0.0]\nfactor = \"press\""])
+    push_type = rng.choice(["displacement", "mixed"])
+    stop = ""
+    if rng.random() < 0.5:
+        stop = ("[[boundary]]\nname = \"stop\"\nface = \"base.right\"\ntype = \"stop\"\n"
+                f"gap = {rng.choice([0.0, 0.002])}\nfriction = {rng.choice([0.0, 0.2])}")
+    return BLOCK.format(
+        seed=seed, hypothesis=rng.choice(["plane_stress", "plane_strain"]),
+        e_block=rng.choice([7e4, 2e5]), e_base=rng.choice([7e4, 2e5, 2e6]),
+        n_base=rng.choice([16, 20]), split_base=rng.choice([1, 2]),
+        split_base_y=rng.choice([1, 2]), x0=rng.choice([0.0, 4.0, 10.0]),
+        x1=rng.choice([30.0, 36.0, 40.0]), n_block=rng.choice([10, 13, 15]),
+        split_block_y=rng.choice([1, 1, 2]), mu=round(rng.uniform(0.05, 0.6), 3),
+        gap=rng.choice([0.0, 0.0, 0.0005]),
+        press=[min(1.0, (i + 1) / 2) for i in range(steps)],
+        push=[0.0, 0.0] + [(i + 1) / (steps - 2) for i in range(steps - 2)], top=top,
+        push_type=push_type,
+        push_components=("components = [\"displacement\", \"force\"]\n"
+                         if push_type == "mixed" else ""),
+        push_value=round(rng.uniform(0.002, 0.02), 4), stop=stop)
+
+
 def compare(model: ml.Model, result: Any, tight: Any, reference: Any
             ) -> tuple[float, int, int, float, str]:
     """The tight solve's largest difference from the monolithic answer (relative to each
@@ -157,7 +255,7 @@ def compare(model: ml.Model, result: Any, tight: Any, reference: Any
     worst, which, above, bound, smallest = 0.0, "", 0, 0, np.inf
     # a QoI that is zero (u_corner against a stop at gap 0) is measured on its kind's scale
     forces = max(float(np.abs(np.asarray(reference.qoi[name])).max())
-                 for name in ("R_stop", "R_clamp_x"))
+                 for name in reference.qoi if name.startswith("R_"))
     displacements = max(float(np.abs(field).max()) for field in reference.displacements.values())
     for name, values in result.qoi.items():
         kind = displacements if name.startswith("u_") else forces
@@ -184,7 +282,10 @@ def main() -> None:
     parser.add_argument("--seeds", type=int, default=0, help="the first seed")
     parser.add_argument("--count", type=int, default=40)
     parser.add_argument("--keep", type=Path, default=None, help="a folder for the model files")
+    parser.add_argument("--family", choices=["strap", "block"], default="strap",
+                        help="strap: pulled toward a stop (default); block: pushed by its face")
     args = parser.parse_args()
+    text = model_text if args.family == "strap" else block_text
     logging.disable(logging.WARNING)
     folder = args.keep or Path(tempfile.mkdtemp(prefix="random-models-"))
     folder.mkdir(parents=True, exist_ok=True)
@@ -195,7 +296,7 @@ def main() -> None:
     print("|---|---|---|---|---|---|")
     for seed in range(args.seeds, args.seeds + args.count):
         path = folder / f"random-{seed}.toml"
-        path.write_text(model_text(seed))
+        path.write_text(text(seed))
         try:
             model = ml.load_model(str(path))
             result = model.solve(check=False)
