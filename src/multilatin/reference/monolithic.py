@@ -247,8 +247,8 @@ def solve_monolithic(assembly: Assembly) -> SolveResult:
         factor = assembly.history.factor(cond.factor)
         # consistent loads of a uniform traction: half of each edge to each of its nodes
         # dual-cell length × thickness at each node: the consistent load of a uniform traction
-        nodal_len = (discretise_side(sub.mesh.nodes, side, "nodal", 1.0).weights
-                     * sub.material.thickness_at(sub.mesh.nodes[side]))
+        dual_cells = discretise_side(sub.mesh.nodes, side, "nodal", 1.0).weights
+        nodal_len = dual_cells * sub.material.thickness_at(sub.mesh.nodes[side])
         mine = own_load.setdefault(cond.name, np.zeros((n_dofs, n_steps)))
         value = cond.values_at(sub.mesh.nodes[side])  # (nodes, 2)
         if cond.pressure:  # traction −p n at each node
@@ -260,10 +260,14 @@ def solve_monolithic(assembly: Assembly) -> SolveResult:
             dofs = 2 * gnodes + comp
             if kind == DISPLACEMENT:
                 fixed_value[dofs] = value[:, comp, None] * factor[None, :]
+                # the split by the dual cells' lengths alone: the thickness is one per node,
+                # and zero on an axisymmetric part's axis, where a clamped node's reaction
+                # was given to no condition (121 N of 100 531 N lost from a clamp's
+                # resultant, session 60: a strap pressed on a base, both from r = 0)
                 own = fixed_of.setdefault(cond.name, {})
-                for dof, length in zip(dofs.tolist(), nodal_len.tolist(), strict=True):
+                for dof, length in zip(dofs.tolist(), dual_cells.tolist(), strict=True):
                     own[dof] = own.get(dof, 0.0) + length
-                np.add.at(fixed_length, dofs, nodal_len)
+                np.add.at(fixed_length, dofs, dual_cells)
             else:
                 contribution = (nodal_len * value[:, comp])[:, None] * factor[None, :]
                 np.add.at(load, dofs, contribution)
