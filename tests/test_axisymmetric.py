@@ -277,6 +277,11 @@ name = "R_clamp_x"
 type = "reaction"
 boundary = "clamp"
 component = "x"
+[[qoi]]
+name = "p_centre"
+type = "contact_pressure"
+between = ["base", "disc"]
+segment = [0.0, 10.0]
 """
 
 
@@ -285,7 +290,8 @@ def test_a_clamp_reaction_counts_its_node_on_the_axis() -> None:
     clamp carries the whole load, π 40² p. The reference shared a fixed node's reaction
     among its conditions by dual-cell length × 2π r, zero on the axis, and so gave the
     clamp's node there to none: 121 N of 100 531 N lost (session 60, found by random
-    models). LATIN had it; both now equal the closed form."""
+    models). LATIN had it; both now equal the closed form. And a mean contact pressure
+    from the axis: the reference's was inf (a nodal force over the zero area there)."""
     model = ml.Model(ml.ModelSpec.from_string(DISC_ON_A_BASE, name="disc"))
     reference = model.reference()
     latin = model.solve(options=ml.LatinOptions(tol=1e-11, max_iter=5000))
@@ -293,3 +299,5 @@ def test_a_clamp_reaction_counts_its_node_on_the_axis() -> None:
     for result in (reference, latin):
         assert result.qoi["R_clamp_y"] == pytest.approx(load, rel=1e-9)
     assert latin.qoi["R_clamp_x"] == pytest.approx(reference.qoi["R_clamp_x"], rel=1e-8)
+    assert 10.0 < reference.qoi["p_centre"] < 30.0  # about the 20 MPa pressing the disc
+    assert latin.qoi["p_centre"] == pytest.approx(reference.qoi["p_centre"], rel=1e-8)

@@ -324,13 +324,21 @@ def solve_monolithic(assembly: Assembly) -> SolveResult:
         on_body = -(lam[..., :1] * normal + lam[..., 1:] * tangent)
         reactions[name] = on_body.sum(axis=1)
     pair = contacts.second >= 0
+    weight = contacts.weight[pair]
+
+    def per_area(force: FloatArray) -> FloatArray:
+        """0 on an axisymmetric part's axis (r = 0: no area), as LATIN's
+        ``latin_contact_pressures``; there the division gave inf, and a mean contact
+        pressure over a segment from the axis inf (session 60)."""
+        return np.divide(force, weight, out=np.zeros_like(force), where=weight > 0.0)
+
     pressures = ContactPressures(
         bodies=[b for b, p in zip(contacts.bodies, pair, strict=True) if p],
         extents=contacts.extent[pair],
-        pressure=multipliers[:, pair, 0] / contacts.weight[pair] if multipliers.size
+        pressure=per_area(multipliers[:, pair, 0]) if multipliers.size
         else np.zeros((n_steps, 0)),
         positions=contacts.position[pair],
-        shear=-multipliers[:, pair, 1] / contacts.weight[pair] if multipliers.size
+        shear=per_area(-multipliers[:, pair, 1]) if multipliers.size
         else np.zeros((n_steps, 0)),
     )
     displacements = {
