@@ -203,12 +203,17 @@ def latin_contact_pressures(assembly: Assembly, points: InterfacePoints,
     bodies = [joined[j] for j in interfaces]
     thickness = np.minimum(*(point_thickness(assembly, points, side)
                              for side in points.contact_pairs))
-    def per_area(force: FloatArray) -> FloatArray:  # 0 on the axis (r = 0)
-        return np.divide(force, thickness, out=np.zeros_like(force), where=thickness > 0.0)
-
-    return ContactPressures(bodies, points.extents[first], per_area(pressure),
+    return ContactPressures(bodies, points.extents[first], per_area(pressure, thickness),
                             points.coords[first],
-                            per_area(np.zeros_like(pressure) if shear is None else shear))
+                            per_area(np.zeros_like(pressure) if shear is None else shear,
+                                     thickness))
+
+
+def per_area(force: FloatArray, area: FloatArray) -> FloatArray:
+    """Forces (…, n) over their areas (n,), 0 where the area is 0 (an axisymmetric part's
+    axis, r = 0): the contact pressures of both solvers."""
+    out: FloatArray = np.divide(force, area, out=np.zeros_like(force), where=area > 0.0)
+    return out
 
 
 def point_substructure(substructures: Sequence[Substructure], q: QuantityOfInterest) -> int:

@@ -25,7 +25,7 @@ import scipy.sparse.linalg as spla
 from ..decomposition.assembly import DISPLACEMENT, Assembly, consistent_densities
 from ..decomposition.interfaces import discretise_side, point_normals
 from ..decomposition.mortar import MortarCoupling, mortar_coupling
-from ..decomposition.qoi import ContactPressures, evaluate_qois
+from ..decomposition.qoi import ContactPressures, evaluate_qois, per_area
 from ..decomposition.result import SolveResult
 from ..errors import ModelError, NotConvergedError
 from ..fem.elasticity import FloatArray, IntArray
@@ -324,21 +324,15 @@ def solve_monolithic(assembly: Assembly) -> SolveResult:
         on_body = -(lam[..., :1] * normal + lam[..., 1:] * tangent)
         reactions[name] = on_body.sum(axis=1)
     pair = contacts.second >= 0
-    weight = contacts.weight[pair]
-
-    def per_area(force: FloatArray) -> FloatArray:
-        """0 on an axisymmetric part's axis (r = 0: no area), as LATIN's
-        ``latin_contact_pressures``; there the division gave inf, and a mean contact
-        pressure over a segment from the axis inf (session 60)."""
-        return np.divide(force, weight, out=np.zeros_like(force), where=weight > 0.0)
-
+    weight = contacts.weight[pair]  # 0 on an axisymmetric part's axis: there the pressure is
+    # 0, as LATIN's (it was inf, and a mean contact pressure from the axis too: session 60)
     pressures = ContactPressures(
         bodies=[b for b, p in zip(contacts.bodies, pair, strict=True) if p],
         extents=contacts.extent[pair],
-        pressure=per_area(multipliers[:, pair, 0]) if multipliers.size
+        pressure=per_area(multipliers[:, pair, 0], weight) if multipliers.size
         else np.zeros((n_steps, 0)),
         positions=contacts.position[pair],
-        shear=per_area(-multipliers[:, pair, 1]) if multipliers.size
+        shear=per_area(-multipliers[:, pair, 1], weight) if multipliers.size
         else np.zeros((n_steps, 0)),
     )
     displacements = {
