@@ -5,6 +5,7 @@
     python benchmarks/random_models.py --seeds 40 --count 80
     python benchmarks/random_models.py --keep /tmp/models   # the model files too
     python benchmarks/random_models.py --family block       # a block pushed on a base
+    python benchmarks/random_models.py --axisymmetric       # the same models about x = 0
 
 Each seed writes a model file: a strap (with a level-set hole or not) pressed on a clamped
 base and pulled by a force or a prescribed displacement toward a rigid stop at its other
@@ -27,6 +28,7 @@ from __future__ import annotations
 import argparse
 import logging
 import random
+import re
 import tempfile
 from pathlib import Path
 from typing import Any
@@ -283,8 +285,17 @@ def main() -> None:
     parser.add_argument("--keep", type=Path, default=None, help="a folder for the model files")
     parser.add_argument("--family", choices=["strap", "block"], default="strap",
                         help="strap: pulled toward a stop (default); block: pushed by its face")
+    parser.add_argument("--axisymmetric", action="store_true",
+                        help="every model axisymmetric (x = r; no thickness)")
     args = parser.parse_args()
-    text = model_text if args.family == "strap" else block_text
+    family = model_text if args.family == "strap" else block_text
+
+    def text(seed: int) -> str:
+        written = family(seed)
+        if not args.axisymmetric:
+            return written
+        written = written.replace("thickness = 2.0\n", "")
+        return re.sub(r'hypothesis = "\w+"', 'hypothesis = "axisymmetric"', written, count=1)
     logging.disable(logging.WARNING)
     folder = args.keep or Path(tempfile.mkdtemp(prefix="random-models-"))
     folder.mkdir(parents=True, exist_ok=True)

@@ -16,6 +16,7 @@ from conftest import has_torch
 
 import multilatin as ml
 from multilatin.errors import ModelError
+from multilatin.latin import cross_points
 
 E, NU = 2e5, 0.3
 
@@ -301,3 +302,84 @@ def test_a_clamp_reaction_counts_its_node_on_the_axis() -> None:
     assert latin.qoi["R_clamp_x"] == pytest.approx(reference.qoi["R_clamp_x"], rel=1e-8)
     assert 10.0 < reference.qoi["p_centre"] < 30.0  # about the 20 MPa pressing the disc
     assert latin.qoi["p_centre"] == pytest.approx(reference.qoi["p_centre"], rel=1e-8)
+
+
+SPLIT_RING = """
+[analysis]
+hypothesis = "axisymmetric"
+[materials.m]
+E = 7e4
+nu = 0.3
+[[bodies]]
+name = "base"
+x = [0.0, 60.0]
+y = [0.0, 10.0]
+elements = [24, 4]
+split = [2, 1]
+material = "m"
+[[bodies]]
+name = "ring"
+x = [5.0, 45.0]
+y = [10.0, 18.0]
+elements = [20, 4]
+split = [2, 1]
+material = "m"
+[[interfaces]]
+between = ["base", "ring"]
+type = "contact"
+friction = 0.1
+[history.factors]
+press = [1.0, 1.0, 1.0]
+pull = [0.0, 0.5, 1.0]
+[[boundary]]
+name = "clamp"
+face = "base.bottom"
+type = "displacement"
+value = [0.0, 0.0]
+[[boundary]]
+name = "pressure"
+face = "ring.top"
+type = "force"
+value = [0.0, -25.0]
+factor = "press"
+[[boundary]]
+name = "pull"
+face = "ring.left"
+type = "mixed"
+components = ["displacement", "force"]
+value = [0.007, 0.0]
+factor = "pull"
+[[qoi]]
+name = "R_clamp_x"
+type = "reaction"
+boundary = "clamp"
+component = "x"
+"""
+
+
+def test_a_split_ring_runs_its_cross_point_as_one_pair() -> None:
+    """A ring cut at r = 25 (mortar contact, the base cut at r = 30) pressed on its base and
+    pulled outward: its two pieces' contact points at (25, 10) are one pair of the discrete
+    problem, which LATIN runs as one only if they share k. k's 2π r was each
+    substructure's mean radius (15 and 35), so they did not, and the split between them
+    did not converge (η = 3.2e-6 at 400 iterations; 6 of 26 random axisymmetric straps
+    stalled so: session 61). With the body's mean radius the pair is merged, the default
+    solve converges and equals the reference."""
+    model = ml.Model(ml.ModelSpec.from_string(SPLIT_RING, name="split-ring"))
+    assembly = model.assemble({})
+    operators = ml.LatinOperators(assembly, ml.LatinOptions())
+    points, k = operators.points, operators.search_direction
+    ring = np.isin(points.substructure,
+                   [i for i, sub in enumerate(assembly.substructures) if sub.body == "ring"])
+    cross = ring & np.all(np.isclose(points.coords, [25.0, 10.0]), axis=1)
+    assert np.count_nonzero(cross) == 4  # two contact points, two of the cut between pieces
+    np.testing.assert_allclose(k[cross], k[cross][[0, 0, 0, 0]])  # one k for the body's pieces
+    groups, _ = cross_points.cross_point_groups(points, k)
+    a_side = points.coords[points.contact_pairs[0][groups[:, 0]]]
+    assert [25.0, 10.0] in a_side.tolist()
+    latin = model.solve(options=ml.LatinOptions(max_iter=200))  # raises if not converged
+    assert latin.iterations < 100
+    tight = model.solve(options=ml.LatinOptions(tol=1e-11, max_iter=5000))
+    reference = model.reference()
+    exact, found = (np.asarray(r.qoi["R_clamp_x"]) for r in (reference, tight))
+    assert np.abs(found - exact).max() < 1e-8 * np.abs(exact).max()

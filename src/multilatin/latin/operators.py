@@ -220,11 +220,13 @@ class LatinOperators:
         for i, itf in enumerate(self.assembly.interfaces):
             subs = [self.assembly.substructures[r.substructure] for r in itf.sides]
             if opts.search_modulus == "mean" or len(subs) == 1:
-                young = float(np.mean([s.material.young * _section(s) for s in subs]))
+                young = float(np.mean([s.material.young * _section(s, self.assembly.substructures)
+                                      for s in subs]))
                 values = [opts.kappa * young / self._smaller_side(subs[0].body)] * len(subs)
             else:  # each side from the substructure on the other side, or its own
                 source = reversed(subs) if opts.search_modulus == "neighbour" else subs
-                values = [opts.kappa * sub.material.young * _section(sub)
+                values = [opts.kappa * sub.material.young
+                          * _section(sub, self.assembly.substructures)
                           / self._smaller_side(sub.body) for sub in source]
             for side_index, value in enumerate(values):
                 k[pts.side_points[(i, side_index)]] = value
@@ -412,12 +414,18 @@ class LatinOperators:
 _INTERFACE_TERMS: Kept[str, tuple[sp.csr_matrix, sp.csc_matrix]] = Kept(64)
 
 
-def _section(sub: Substructure) -> float:
-    """The thickness that scales k (κ E t / L): 2π times the mean radius of the
-    substructure's nodes axisymmetric."""
+def _section(sub: Substructure, substructures: Sequence[Substructure]) -> float:
+    """The thickness that scales k (κ E t / L): axisymmetric, 2π times the mean radius of
+    the nodes of ``sub``'s body (of all its ``substructures``, as L is the body's), so that
+    a body's pieces meeting at a cross point have one k and run as one pair there
+    (``cross_points``; per substructure, 6 of 26 random axisymmetric straps stalled:
+    docs/correctness.md, session 61)."""
     material = sub.material
-    return float(material.thickness_at(sub.mesh.nodes).mean() if material.radial
-                 else material.thickness)
+    if not material.radial:
+        return float(material.thickness)
+    nodes = np.unique(np.round(np.vstack([s.mesh.nodes for s in substructures
+                                          if s.body == sub.body]), 9), axis=0)
+    return float(material.thickness_at(nodes).mean())
 
 
 def corner_factors(points: InterfacePoints, factor: float, reach: FloatArray) -> FloatArray:
