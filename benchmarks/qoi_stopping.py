@@ -7,6 +7,7 @@
     python benchmarks/qoi_stopping.py --corner-stiffening 1     # k alike (before session 14)
     python benchmarks/qoi_stopping.py --micro-stiffening 1      # diagonal k (before session 15)
     python benchmarks/qoi_stopping.py --model b3 --grid xc=23:27:5 yc=73:77:5 rc=3 --rtols 1e-3
+    python benchmarks/qoi_stopping.py --growing both   # the estimate's growth check off, on
 """
 
 from __future__ import annotations
@@ -17,6 +18,7 @@ import tempfile
 import numpy as np
 
 import multilatin as ml
+from multilatin.latin import tracking
 
 
 def main() -> None:
@@ -38,6 +40,8 @@ def main() -> None:
     parser.add_argument("--micro-stiffening", type=float,
                         default=ml.LatinOptions().micro_stiffening,
                         help="LatinOptions.micro_stiffening of the studies")
+    parser.add_argument("--growing", choices=["on", "off", "both"], default="on",
+                        help="tracking.GROWING_CHECK of the QoI rule's studies (session 61)")
     args = parser.parse_args()
     model = ml.load_model(args.model)
     grid = ml.Grid.parse(args.grid)
@@ -51,12 +55,14 @@ def main() -> None:
           f"{args.acceleration}, corners × {args.corner_stiffening:g}, micro × "
           f"{args.micro_stiffening:g}, R_stop against "
           "η < 1e-10")
-    print("| stopping | mode | iterations | mean per case | study (s) | R_stop within 0.1 % "
-          "| worst R_stop error | stopped on QoIs |")
-    print("|---|---|---|---|---|---|---|---|")
+    print("| stopping | growth check | mode | iterations | mean per case | study (s) | "
+          "R_stop within 0.1 % | worst R_stop error | stopped on QoIs |")
+    print("|---|---|---|---|---|---|---|---|---|")
     # RRE gives no QoI error estimates (LatinOptions.acceleration): η alone
     rtols = [] if args.acceleration == "rre" else args.rtols
-    for rtol in [None, *rtols]:
+    checks = {"on": [True], "off": [False], "both": [False, True]}[args.growing]
+    for rtol, growing in [(None, True), *((r, g) for r in rtols for g in checks)]:
+        tracking.GROWING_CHECK = growing
         options = ml.LatinOptions(qoi_rtol=rtol, kappa=args.kappa, tol=args.tol,
                                   acceleration=args.acceleration,
                                   corner_stiffening=args.corner_stiffening,
@@ -72,7 +78,8 @@ def main() -> None:
             on_qoi = sum(bool(r.get("stopped_on_qoi")) for r in records)
             label = (f"η < {args.tol:g}" if rtol is None
                      else f"qoi_rtol {rtol:g} (or η < {args.tol:g})")
-            print(f"| {label} | {mode} | {iterations} | {iterations / len(records):.0f} | "
+            check = "" if rtol is None else "on" if growing else "off"
+            print(f"| {label} | {check} | {mode} | {iterations} | {iterations / len(records):.0f} | "
                   f"{study.elapsed_s[mode]:.2f} | {int(np.sum(error <= 1e-3))}/{error.size} | "
                   f"{100 * float(np.nanmax(error)):.3f} % | {on_qoi} |")
 

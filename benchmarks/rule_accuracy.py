@@ -12,6 +12,7 @@ iterations given (``max_iter``), the QoI's error at that step against the monoli
 reference, its estimate, η and the state's remaining change.
 
     python benchmarks/rule_accuracy.py [--models punch slide lap ...] [--details]
+    python benchmarks/rule_accuracy.py --growing off     # the estimate before session 61
     python benchmarks/rule_accuracy.py --trace roller Q 2 --set mu=0.5 shift=0.02 \
         --iterations 120 240 12
 """
@@ -28,7 +29,7 @@ from typing import Any
 import numpy as np
 
 import multilatin as ml
-from multilatin.latin import LatinOptions
+from multilatin.latin import LatinOptions, tracking
 from multilatin.latin.options import STUDY_QOI_RTOL
 
 #: per model, a small grid (the defaults elsewhere)
@@ -141,11 +142,14 @@ def main() -> None:
     parser.add_argument("--details", action="store_true",
                         help="every entry off by more than 0.1 %%, before its model's row")
     parser.add_argument("--kappa", type=float, default=0.5, help="the studies' κ")
+    parser.add_argument("--growing", choices=["on", "off"], default="on",
+                        help="tracking.GROWING_CHECK (off: as before session 61)")
     parser.add_argument("--trace", nargs=3, metavar=("MODEL", "QOI", "STEP"))
     parser.add_argument("--set", nargs="*", default=[], metavar="NAME=VALUE")
     parser.add_argument("--iterations", nargs=3, type=int, default=[120, 240, 12],
                         metavar=("FIRST", "LAST", "EVERY"))
     args = parser.parse_args()
+    tracking.GROWING_CHECK = args.growing == "on"
     if args.trace:
         first, last, every = args.iterations
         trace(args.trace[0], args.trace[1], int(args.trace[2]),

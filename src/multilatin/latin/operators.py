@@ -424,7 +424,8 @@ def _section(sub: Substructure, substructures: Sequence[Substructure]) -> float:
     if not material.radial:
         return float(material.thickness)
     nodes = np.unique(np.round(np.vstack([s.mesh.nodes for s in substructures
-                                          if s.body == sub.body]), 9), axis=0)
+                                          if s.body == sub.body]), 9), axis=0
+                      ).astype(np.float64)
     return float(material.thickness_at(nodes).mean())
 
 

@@ -50,6 +50,9 @@ MAX_RATE = 0.999
 #: 7 × 7 grid at tol 1e-5 to 3e-3, the three R_stop estimates below their error had a
 #: state change ≥ 4.4e-3 (``benchmarks/estimate_trust.py``, docs/tolerance.md)
 SETTLED = 1e-3
+#: ``error_estimates`` takes the largest rate where a QoI's newest two-iteration
+#: increments grow (False: as before session 61; ``benchmarks/random_studies.py``)
+GROWING_CHECK = True
 #: ``oscillation_estimates`` taken where sharper (session 34: off — measured, not adopted:
 #: B3's cold cases stop 15 % sooner under the studies' rule, but the estimate bounds fewer
 #: entries, B1 126 of 128 at η < 1e-6 instead of 128; docs/tolerance.md); the largest
@@ -161,6 +164,39 @@ class QoiFunctionals:
         return np.asarray(out, dtype=np.float64)
 
 
+def _two_term_fit(series: FloatArray, window: int) -> tuple[
+        FloatArray, FloatArray, FloatArray, npt.NDArray[np.bool_], FloatArray] | None:
+    """The least-squares fit δ_i = a δ_{i−1} + b δ_{i−2} of a QoI's increments over the last
+    ``window`` + 2 iterations: (a, b, the misfit relative to the increments' norm, where
+    the fit is usable, the increments); None with fewer than 7 iterations."""
+    m = min(window + 2, series.shape[0] - 1)
+    if m < 6:
+        return None
+    d = np.diff(series[-(m + 1):], axis=0)
+    y, x1, x2 = d[2:], d[1:-1], d[:-2]
+    s11, s22, s12 = (x1 * x1).sum(axis=0), (x2 * x2).sum(axis=0), (x1 * x2).sum(axis=0)
+    r1, r2, yy = (y * x1).sum(axis=0), (y * x2).sum(axis=0), (y * y).sum(axis=0)
+    det = s11 * s22 - s12 * s12
+    usable = (det > 1e-12 * s11 * s22) & (yy > 0.0)
+    safe = np.where(usable, det, 1.0)
+    a = np.where(usable, (r1 * s22 - r2 * s12) / safe, 0.0)
+    b = np.where(usable, (r2 * s11 - r1 * s12) / safe, 0.0)
+    misfit = np.sqrt(np.maximum(yy - a * r1 - b * r2, 0.0) / np.where(usable, yy, 1.0))
+    return a, b, misfit, usable, d
+
+
+def _turning(series: FloatArray, window: int) -> npt.NDArray[np.bool_]:
+    """Where a QoI's increments over the last ``window`` + 2 iterations are a damped
+    oscillation: their two-term fit (``_two_term_fit``) within ``OSCILLATION_FIT``, its
+    roots complex and inside the unit disc."""
+    fit = _two_term_fit(series, window)
+    if fit is None:
+        return np.zeros(series.shape[1:], dtype=bool)
+    a, b, misfit, usable, _ = fit
+    return np.asarray(usable & (a * a + 4.0 * b < 0.0) & (-b < 1.0)
+                      & (misfit <= OSCILLATION_FIT), dtype=np.bool_)
+
+
 def _as_slice(used: IntArray) -> IntArray | slice:
     """A run of consecutive columns as a slice (a view: no gather per iteration)."""
     if used.size and used[-1] - used[0] == used.size - 1:
@@ -261,6 +297,15 @@ def error_estimates(series: FloatArray, eta: FloatArray, window: int = WINDOW,
         newer = np.abs(steps2[-half:]).max(axis=0)
         gap = steps2.shape[0] - 2 - half
         rate_q = (newer / np.where(older > 0.0, older, 1e-300)) ** (2.0 / gap)
+        if GROWING_CHECK:
+            # and at least the newest two increments' decay from the two before them: a
+            # slow mode under a fast one sets the tail's rate before the envelope shows it
+            # (random models' studies stopped 2-4 x outside the rule; session 61) — unless
+            # the increments turn (a damped oscillation: B3's R_stop), whose envelope it is
+            before = np.abs(steps2[-4:-2]).sum(axis=0)
+            latest = np.abs(steps2[-2:]).sum(axis=0) / np.where(before > 0.0, before, 1e-300)
+            rate_q = np.where((before > 0.0) & ~_turning(series, window),
+                              np.maximum(rate_q, latest), rate_q)
     rate = np.clip(np.maximum(np.maximum(np.nan_to_num(rate_q, nan=MAX_RATE),
                                          np.nan_to_num(rate_eta, nan=MAX_RATE)),
                               rate_floor ** 2), 0.0, MAX_RATE)
@@ -288,20 +333,10 @@ def oscillation_estimates(series: FloatArray, window: int = WINDOW
     case stopped 12 iterations after every error was inside the rule's bound, its largest
     estimate 12 times the bound there (docs/tolerance.md, session 34).
     Returns the estimates and the fit's misfit."""
-    n = series.shape[0]
-    m = min(window + 2, n - 1)
-    if m < 6:
+    fit = _two_term_fit(series, window)
+    if fit is None:
         return np.full(series.shape[1:], np.nan), np.ones(series.shape[1:])
-    d = np.diff(series[-(m + 1):], axis=0)
-    y, x1, x2 = d[2:], d[1:-1], d[:-2]
-    s11, s22, s12 = (x1 * x1).sum(axis=0), (x2 * x2).sum(axis=0), (x1 * x2).sum(axis=0)
-    r1, r2, yy = (y * x1).sum(axis=0), (y * x2).sum(axis=0), (y * y).sum(axis=0)
-    det = s11 * s22 - s12 * s12
-    usable = (det > 1e-12 * s11 * s22) & (yy > 0.0)
-    safe = np.where(usable, det, 1.0)
-    a = np.where(usable, (r1 * s22 - r2 * s12) / safe, 0.0)
-    b = np.where(usable, (r2 * s11 - r1 * s12) / safe, 0.0)
-    misfit = np.sqrt(np.maximum(yy - a * r1 - b * r2, 0.0) / np.where(usable, yy, 1.0))
+    a, b, misfit, usable, d = fit
     # complex roots: a² + 4 b < 0, modulus √(−b)
     held = (usable & (a * a + 4.0 * b < 0.0) & (-b < OSCILLATION_RATE ** 2)
             & (misfit <= OSCILLATION_FIT))
