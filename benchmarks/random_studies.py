@@ -18,7 +18,7 @@ kind's, the forces' or the displacement field's, over the whole study is zero an
 as are entries the solve reports undetermined), how many entries above 1e-6 of that scale
 (``random_models.compare``'s floor) the case's own error estimate bounds; then, in the totals,
 the cases outside 0.1 % (the studies' QoI rule, ``STUDY_QOI_RTOL``) and the warm cases
-whose error exceeds 10 × the cold one's and 1e-4 and is not bounded by its estimate
+outside it whose error exceeds 10 × the cold one's and is not bounded by its estimate
 (another fixed point than the cold solve's: a silent wrong answer).
 """
 
@@ -165,7 +165,7 @@ def main() -> None:
         worst_warm, each_warm, held, above, bound = errors(warm, references)
         worst_cold, each_cold, _, _, _ = errors(cold, references)
         other = sum(1 for w, c, h in zip(each_warm, each_cold, held, strict=True)
-                    if w > 1e-4 and w > 10 * max(c, FLOOR) and not h)
+                    if w > PROMISE and w > 10 * max(c, FLOOR) and not h)
         totals["models"] += 1
         totals["cases"] += len(warm)
         totals["warm not converged"] += sum(not r["converged"] for r in warm)

@@ -488,3 +488,81 @@ def test_the_vtk_marks_the_parts_whose_position_is_undetermined(tmp_path: Path) 
         assert centre.any() and (~centre).any()
         assert np.all(flag[~centre] == 1.0)
         assert np.all(flag[centre] == (0.0 if step <= 5 else 1.0))
+
+
+STRAP_AT_A_STOP = """
+[analysis]
+hypothesis = "plane_stress"
+thickness = 2.0
+[materials.strap]
+E = 2e5
+nu = 0.33
+[materials.base]
+E = 2e6
+nu = 0.3
+[[bodies]]
+name = "base"
+x = [0.0, 60.0]
+y = [0.0, 10.0]
+elements = [24, 4]
+split = [2, 1]
+material = "base"
+[[bodies]]
+name = "strap"
+x = [0.0, 45.0]
+y = [10.0, 18.0]
+elements = [20, 4]
+split = [2, 1]
+material = "strap"
+[[interfaces]]
+between = ["base", "strap"]
+type = "contact"
+[history.factors]
+press = [0.5, 1.0, 1.0, 1.0]
+pull = [0.0, 0.0, 0.5, 1.0]
+[[boundary]]
+name = "clamp"
+face = "base.bottom"
+type = "displacement"
+value = [0.0, 0.0]
+[[boundary]]
+name = "pressure"
+face = "strap.top"
+type = "force"
+value = [0.0, -15.29]
+factor = "press"
+[[boundary]]
+name = "pull"
+face = "strap.left"
+type = "force"
+value = [29.78, 0.0]
+factor = "pull"
+[[boundary]]
+name = "stop"
+face = "strap.right"
+type = "stop"
+gap = {gap}
+[[qoi]]
+name = "u_corner"
+type = "displacement"
+point = [45.0, 18.0]
+component = "x"
+"""
+
+
+@pytest.mark.parametrize("gap", [0.0, -0.002])
+def test_a_stop_that_touches_with_no_force_does_not_hold_a_body_back(gap: float) -> None:
+    """A frictionless strap pressed on a base, touching (or pushed back by) a stop at its
+    right end, pulled toward it only from step 3: at steps 1 and 2 it may move away from
+    the stop (left) with no force changing, and where it sits is undetermined. The reference
+    says so; LATIN said the answer was unique, read off the stop's corner point, which it
+    left pressed by 3e-5 of the largest interface force — its accuracy there, not a force
+    (session 61, `benchmarks/random_studies.py` seed 39: u_corner 0.019 mm apart, both
+    'determined'). A normal force below ``uniqueness.PRESSED`` (1e-4) of the largest
+    presses nothing."""
+    model = ml.Model(ml.ModelSpec.from_string(STRAP_AT_A_STOP.format(gap=gap), name="strap"))
+    for result in (model.reference(), model.solve()):
+        assert sorted({m.step for m in result.free_motions}) == [1, 2]
+        assert result.qoi_determined["u_corner"] == [False, False, True, True]
+    # LATIN's strap rests against the stop: it may leave it, not push into it
+    assert all(m.velocity[0] < 0.0 for m in result.free_motions)
