@@ -50,8 +50,9 @@ MAX_RATE = 0.999
 #: 7 × 7 grid at tol 1e-5 to 3e-3, the three R_stop estimates below their error had a
 #: state change ≥ 4.4e-3 (``benchmarks/estimate_trust.py``, docs/tolerance.md)
 SETTLED = 1e-3
-#: ``error_estimates`` takes the largest rate where a QoI's newest two-iteration
-#: increments grow (False: as before session 61; ``benchmarks/random_studies.py``)
+#: ``error_estimates`` takes as its rate at least the newest two two-iteration increments'
+#: decay from the two before them (their growth: the largest rate), except where the
+#: increments turn (False: as before session 61; ``benchmarks/random_studies.py``)
 GROWING_CHECK = True
 #: ``oscillation_estimates`` taken where sharper (session 34: off — measured, not adopted:
 #: B3's cold cases stop 15 % sooner under the studies' rule, but the estimate bounds fewer
@@ -269,8 +270,10 @@ def error_estimates(series: FloatArray, eta: FloatArray, window: int = WINDOW,
 
     On two-iteration increments d_i = q_i − q_{i−2}, over the last ``window`` iterations:
     |d|max over the window's newer half / (1 − ρ²), ρ² the slower of the indicator's rate
-    over two iterations and the decay of max |d| from the window's older half to its newer
-    half. Two-iteration steps
+    over two iterations, the decay of max |d| from the window's older half to its newer
+    half and (``GROWING_CHECK``, unless the increments turn: a damped oscillation) the
+    decay of the newest two |d| from the two before them — a slow mode under a fast one
+    sets the newest increments before the envelope shows it. Two-iteration steps
     make every mode of the iteration non-alternating (ρ² > 0), so that an oscillating mode
     (the LATIN relaxation's, ρ ≈ −0.8 on B0) neither hides a slow monotone one nor is summed
     as if it were monotone. An envelope that grows over the window (increments of two modes
