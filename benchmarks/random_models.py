@@ -247,6 +247,13 @@ def block_text(seed: int) -> str:
         push_value=round(rng.uniform(0.002, 0.02), 4), stop=stop)
 
 
+def axisymmetric(text: str) -> str:
+    """A model file of this script made axisymmetric (x = r): its hypothesis, no
+    thickness."""
+    text = text.replace("thickness = 2.0\n", "")
+    return re.sub(r'hypothesis = "\w+"', 'hypothesis = "axisymmetric"', text, count=1)
+
+
 def compare(result: Any, tight: Any, reference: Any) -> tuple[float, int, int, float, str]:
     """The tight solve's largest difference from the monolithic answer (relative to each
     QoI's largest magnitude, at least 1e-6 of its kind's: the forces', the displacement
@@ -291,11 +298,7 @@ def main() -> None:
     family = model_text if args.family == "strap" else block_text
 
     def text(seed: int) -> str:
-        written = family(seed)
-        if not args.axisymmetric:
-            return written
-        written = written.replace("thickness = 2.0\n", "")
-        return re.sub(r'hypothesis = "\w+"', 'hypothesis = "axisymmetric"', written, count=1)
+        return axisymmetric(family(seed)) if args.axisymmetric else family(seed)
     logging.disable(logging.WARNING)
     folder = args.keep or Path(tempfile.mkdtemp(prefix="random-models-"))
     folder.mkdir(parents=True, exist_ok=True)

@@ -39,7 +39,7 @@ from multilatin.latin import tracking
 
 sys.path.insert(0, str(Path(__file__).resolve().parent))
 
-from random_models import FLOOR, block_text, model_text  # noqa: E402
+from random_models import FLOOR, axisymmetric, block_text, model_text  # noqa: E402
 
 MU = (0.0, 0.15, 0.3, 0.45, 0.6)
 #: what the studies' QoI rule promises (``STUDY_QOI_RTOL``), here of each QoI's largest
@@ -138,10 +138,7 @@ def main() -> None:
           "warm / cold | estimate bounds (warm) | warm ≫ cold |")
     print("|---|---|---|---|---|---|---|")
     for seed in range(args.seeds, args.seeds + args.count):
-        text = family(seed)
-        if args.axisymmetric:
-            text = re.sub(r'hypothesis = "\w+"', 'hypothesis = "axisymmetric"',
-                          text.replace("thickness = 2.0\n", ""), count=1)
+        text = axisymmetric(family(seed)) if args.axisymmetric else family(seed)
         made = parametrised(text, args.family)
         if made is None:
             continue

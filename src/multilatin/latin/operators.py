@@ -216,18 +216,19 @@ class LatinOperators:
         opts = self.options
         pts = self.points
         k = np.zeros((pts.n_points, 2))
+        section = _sections(self.assembly.substructures)
 
         for i, itf in enumerate(self.assembly.interfaces):
-            subs = [self.assembly.substructures[r.substructure] for r in itf.sides]
+            indices = [r.substructure for r in itf.sides]
+            subs = [self.assembly.substructures[j] for j in indices]
             if opts.search_modulus == "mean" or len(subs) == 1:
-                young = float(np.mean([s.material.young * _section(s, self.assembly.substructures)
-                                      for s in subs]))
+                young = float(np.mean([s.material.young * section[j]
+                                       for s, j in zip(subs, indices, strict=True)]))
                 values = [opts.kappa * young / self._smaller_side(subs[0].body)] * len(subs)
             else:  # each side from the substructure on the other side, or its own
-                source = reversed(subs) if opts.search_modulus == "neighbour" else subs
-                values = [opts.kappa * sub.material.young
-                          * _section(sub, self.assembly.substructures)
-                          / self._smaller_side(sub.body) for sub in source]
+                order = list(range(len(subs)))[::-1 if opts.search_modulus == "neighbour" else 1]
+                values = [opts.kappa * subs[o].material.young * section[indices[o]]
+                          / self._smaller_side(subs[o].body) for o in order]
             for side_index, value in enumerate(values):
                 k[pts.side_points[(i, side_index)]] = value
             if itf.contact is not None and opts.tangential_ratio != 1.0:
@@ -414,19 +415,26 @@ class LatinOperators:
 _INTERFACE_TERMS: Kept[str, tuple[sp.csr_matrix, sp.csc_matrix]] = Kept(64)
 
 
-def _section(sub: Substructure, substructures: Sequence[Substructure]) -> float:
-    """The thickness that scales k (κ E t / L): axisymmetric, 2π times the mean radius of
-    the nodes of ``sub``'s body (of all its ``substructures``, as L is the body's), so that
-    a body's pieces meeting at a cross point have one k and run as one pair there
-    (``cross_points``; per substructure, 6 of 26 random axisymmetric straps stalled:
-    docs/correctness.md, session 61)."""
-    material = sub.material
-    if not material.radial:
-        return float(material.thickness)
-    nodes = np.unique(np.round(np.vstack([s.mesh.nodes for s in substructures
-                                          if s.body == sub.body]), 9), axis=0
-                      ).astype(np.float64)
-    return float(material.thickness_at(nodes).mean())
+def _sections(substructures: Sequence[Substructure]) -> list[float]:
+    """Per substructure, the thickness that scales k (κ E t / L): its own; axisymmetric, 2π
+    times the mean radius of its body's nodes (as L is the body's), so that a body's pieces
+    meeting at a cross point have one k and run as one pair there (``cross_points``; per
+    substructure, 6 of 26 random axisymmetric straps stalled: docs/correctness.md, session
+    61). Each body's nodes are read once."""
+    radial: dict[str, float] = {}
+    out = []
+    for sub in substructures:
+        material = sub.material
+        if not material.radial:
+            out.append(float(material.thickness))
+            continue
+        if sub.body not in radial:
+            nodes = np.unique(np.round(np.vstack([s.mesh.nodes for s in substructures
+                                                  if s.body == sub.body]), 9), axis=0
+                              ).astype(np.float64)
+            radial[sub.body] = float(material.thickness_at(nodes).mean())
+        out.append(radial[sub.body])
+    return out
 
 
 def corner_factors(points: InterfacePoints, factor: float, reach: FloatArray) -> FloatArray:
