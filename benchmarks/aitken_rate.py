@@ -59,6 +59,9 @@ def main() -> None:
     tracking.error_estimates = extrapolated
     iteration.error_estimates = extrapolated  # the QoI rule's own reference to it
     script = Path(__file__).resolve().parent / sys.argv[1]
+    if script.suffix != ".py" or not script.is_file():
+        raise SystemExit(f"aitken_rate.py: the first argument names a benchmark script of "
+                         f"benchmarks/, got {sys.argv[1]!r}")
     sys.argv = [str(script), *sys.argv[2:]]
     runpy.run_path(str(script), run_name="__main__")
 
