@@ -6,12 +6,14 @@
     python benchmarks/random_models.py --keep /tmp/models   # the model files too
     python benchmarks/random_models.py --family block       # a block pushed on a base
     python benchmarks/random_models.py --axisymmetric       # the same models about x = 0
+    python benchmarks/random_models.py --family stack       # pushed back and forth
 
 Each seed writes a model file: a strap (with a level-set hole or not) pressed on a clamped
 base and pulled by a force or a prescribed displacement toward a rigid stop at its other
 end, with random splits into substructures (the two bodies' meshes match or not: mortar
 contact), materials, friction, gaps (an interference too), the stop's gap and friction, the
-number of load steps, plane stress or strain (``--family block``: ``block_text``). It is
+number of load steps, plane stress or strain (``--family block``: ``block_text``; ``--family
+stack``: ``stack_text``, a plate pushed back and forth between a base and a block). It is
 solved by LATIN at the default settings (``Model.solve``), by LATIN to η < 1e-10, and by
 the monolithic contact solver on the same assembly (``solve_monolithic``). Printed per
 seed: how LATIN ended, its iterations, the tight solve's largest difference from the
@@ -21,6 +23,9 @@ error naming the field) is counted as refused; one the reference cannot solve is
 apart. Found with it (docs/correctness.md, session 60): a stop at the end of a mortar
 contact held a projected point as a node, and 29 of 96 models stalled at η ≈ 1e-5; and
 the reference split contact pieces whose slaves lie on two bodies where LATIN joins them.
+Session 62: the reference's Newton method cycled on 18 of the 41 stack models LATIN
+solved (continuation within a step, then a smaller augmentation), and contact pieces that end
+between the nodes of both meshes were refused (a point of the slave's own there).
 """
 
 from __future__ import annotations
@@ -247,6 +252,127 @@ def block_text(seed: int) -> str:
         push_value=round(rng.uniform(0.002, 0.02), 4), stop=stop)
 
 
+STACK = """
+title = "random stack {seed}"
+[analysis]
+hypothesis = "{hypothesis}"
+[materials.soft]
+E = 7e4
+nu = 0.33
+[materials.steel]
+E = 2e5
+nu = 0.3
+[[bodies]]
+name = "base"
+x = [0.0, 50.0]
+y = [0.0, 8.0]
+elements = [{n_base}, 3]
+split = [{split_base}, 1]
+material = "{m_base}"
+[[bodies]]
+name = "plate"
+x = [{p0}, {p1}]
+y = [8.0, 14.0]
+elements = [{n_plate}, 3]
+split = [{split_plate}, 1]
+material = "{m_plate}"
+[[bodies]]
+name = "block"
+x = [{b0}, {b1}]
+y = [14.0, 24.0]
+elements = [{n_block}, 4]
+split = [{split_block}, 1]
+material = "{m_block}"
+[[interfaces]]
+between = ["base", "plate"]
+type = "contact"
+friction = {mu}
+gap = {gap}
+[[interfaces]]
+between = ["plate", "block"]
+type = "contact"
+friction = {mu_top}
+gap = 0.0
+[history.factors]
+press = {press}
+push = {push}
+[[boundary]]
+name = "clamp"
+face = "base.bottom"
+type = "displacement"
+value = [0.0, 0.0]
+[[boundary]]
+name = "pressure"
+face = "block.top"
+type = "force"
+value = [0.0, {pressure}]
+factor = "press"
+[[boundary]]
+name = "push"
+face = "plate.left"
+type = "mixed"
+components = ["displacement", "force"]
+value = [{push_value}, 0.0]
+factor = "push"
+{stop}
+[[qoi]]
+name = "R_push"
+unit = "N"
+type = "reaction"
+boundary = "push"
+component = "x"
+[[qoi]]
+name = "R_clamp_x"
+unit = "N"
+type = "reaction"
+boundary = "clamp"
+component = "x"
+[[qoi]]
+name = "u_block"
+unit = "mm"
+type = "displacement"
+point = [{b1}, 24.0]
+component = "x"
+"""
+
+#: load histories of ``--family stack``: the push goes and comes back (friction reverses),
+#: or the pressure is released while the push holds (a slip under a falling normal force)
+HISTORIES = (
+    ([0.5, 1, 1, 1, 1, 1, 1, 1], [0, 0, 0.5, 1, 0.5, 0, -0.5, -1]),
+    ([0.5, 1, 1, 1, 1, 1], [0, 0, 1, 0.3, -0.4, 0]),
+    ([0.5, 1, 1, 1, 0.6, 0.3], [0, 0, 0.5, 1, 1, 1]),
+)
+
+
+def stack_text(seed: int) -> str:
+    """The ``--family stack`` model of ``seed``: a plate between a clamped base and a
+    pressed block, pushed by a prescribed displacement of its left face along a history
+    that reverses the push or releases the pressure (``HISTORIES``: friction's path
+    dependence), two contacts (the block's friction at least 0.1: nothing else holds it
+    sideways), a stop at the plate's right face or none."""
+    rng = random.Random(seed)
+    p0, p1 = rng.choice([0.0, 5.0]), rng.choice([40.0, 45.0])
+    b0, b1 = p0 + rng.choice([0.0, 5.0, 10.0]), p1 - rng.choice([0.0, 5.0, 10.0])
+    press, push = rng.choice(HISTORIES)
+    stop = ""
+    if rng.random() < 0.4:
+        stop = ("[[boundary]]\nname = \"stop\"\nface = \"plate.right\"\ntype = \"stop\"\n"
+                f"gap = {rng.choice([0.002, 0.01])}\nfriction = {rng.choice([0.0, 0.2])}")
+    return STACK.format(
+        seed=seed, hypothesis=rng.choice(["plane_stress", "plane_strain"]),
+        n_base=rng.choice([20, 24]), split_base=rng.choice([1, 2]),
+        m_base=rng.choice(["soft", "steel"]), p0=p0, p1=p1, n_plate=rng.choice([16, 20]),
+        split_plate=rng.choice([1, 2]), m_plate=rng.choice(["soft", "steel"]), b0=b0, b1=b1,
+        n_block=rng.choice([8, 10, 12]), split_block=rng.choice([1, 2]),
+        m_block=rng.choice(["soft", "steel"]), mu=round(rng.uniform(0.05, 0.6), 3),
+        mu_top=round(rng.uniform(0.1, 0.6), 3), gap=rng.choice([0.0, 0.0, 0.0005]),
+        press=press, push=push, pressure=-round(rng.uniform(5, 30), 2),
+        push_value=round(rng.uniform(0.002, 0.02), 4), stop=stop)
+
+
+#: the model families by ``--family`` name
+FAMILIES = {"strap": model_text, "block": block_text, "stack": stack_text}
+
 def axisymmetric(text: str) -> str:
     """A model file of this script made axisymmetric (x = r): its hypothesis, no
     thickness."""
@@ -290,12 +416,13 @@ def main() -> None:
     parser.add_argument("--seeds", type=int, default=0, help="the first seed")
     parser.add_argument("--count", type=int, default=40)
     parser.add_argument("--keep", type=Path, default=None, help="a folder for the model files")
-    parser.add_argument("--family", choices=["strap", "block"], default="strap",
-                        help="strap: pulled toward a stop (default); block: pushed by its face")
+    parser.add_argument("--family", choices=list(FAMILIES), default="strap",
+                        help="strap: pulled toward a stop (default); block: pushed by its "
+                        "face; stack: a plate pushed back and forth between two contacts")
     parser.add_argument("--axisymmetric", action="store_true",
                         help="every model axisymmetric (x = r; no thickness)")
     args = parser.parse_args()
-    family = model_text if args.family == "strap" else block_text
+    family = FAMILIES[args.family]
 
     def text(seed: int) -> str:
         return axisymmetric(family(seed)) if args.axisymmetric else family(seed)

@@ -3,13 +3,14 @@
 
     python benchmarks/random_studies.py                      # strap seeds 0-19
     python benchmarks/random_studies.py --family block --seeds 20 --count 10
+    python benchmarks/random_studies.py --family stack   # pushed back and forth (session 62)
     python benchmarks/random_studies.py --axisymmetric
     python benchmarks/random_studies.py --growing off   # the estimate as before session 61
 
 Each seed's model is ``random_models.py``'s with the contact's friction made a parameter
 ``mu`` (5 values, 0 to 0.6) and a second one: the hole's centre ``xc`` (a geometric
 parameter: operators per position, predictors along it) where the strap has a hole, else
-the stop's gap ``g`` (strap) or the push ``d`` (block), 4 values each. The 20 cases run as a
+the stop's gap ``g`` (strap) or the push ``d`` (block, stack), 4 values each. The 20 cases run as a
 study in both modes (``run_study``, multiresolution and cold) and each case by the
 monolithic contact solver (``solve_monolithic``). Printed per seed: the cases that
 converged in each mode, the iterations summed, each mode's largest error against the
@@ -39,7 +40,7 @@ from multilatin.latin import tracking
 
 sys.path.insert(0, str(Path(__file__).resolve().parent))
 
-from random_models import FLOOR, axisymmetric, block_text, model_text  # noqa: E402
+from random_models import FAMILIES, FLOOR, axisymmetric  # noqa: E402
 
 MU = (0.0, 0.15, 0.3, 0.45, 0.6)
 #: what the studies' QoI rule promises (``STUDY_QOI_RTOL``), here of each QoI's largest
@@ -122,7 +123,7 @@ def main() -> None:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument("--seeds", type=int, default=0, help="the first seed")
     parser.add_argument("--count", type=int, default=20)
-    parser.add_argument("--family", choices=["strap", "block"], default="strap")
+    parser.add_argument("--family", choices=list(FAMILIES), default="strap")
     parser.add_argument("--axisymmetric", action="store_true",
                         help="every model axisymmetric (x = r; no thickness)")
     parser.add_argument("--growing", choices=["on", "off"], default="on",
@@ -130,7 +131,7 @@ def main() -> None:
     args = parser.parse_args()
     tracking.GROWING_CHECK = args.growing == "on"
     logging.disable(logging.WARNING)
-    family = model_text if args.family == "strap" else block_text
+    family = FAMILIES[args.family]
     totals = {"models": 0, "refused": 0, "cases": 0, "warm not converged": 0,
               "cold not converged": 0, "warm outside 0.1 %": 0, "cold outside 0.1 %": 0,
               "other fixed point": 0, "above": 0, "bound": 0}

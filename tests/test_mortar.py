@@ -13,7 +13,7 @@ from test_macro_interfaces import BAR
 
 import multilatin as ml
 from multilatin.decomposition.interfaces import build_points
-from multilatin.decomposition.mortar import dual_mortar_projection
+from multilatin.decomposition.mortar import dual_mortar_projection, mortar_coupling
 from multilatin.errors import ModelError
 from multilatin.io.modelfile import ModelSpec
 from multilatin.latin import LatinOptions, solve_latin
@@ -163,12 +163,35 @@ def test_block_on_a_base_with_non_matching_meshes(base, block, x0, x1):
     np.testing.assert_allclose(result.qoi["R_push"], reference.qoi["R_push"], rtol=1e-6)
 
 
-def test_contact_whose_ends_lie_on_no_node_of_either_side_is_refused():
-    with pytest.raises(ModelError, match=r"shared part \[3, 6.1\] along x does not start "
-                       "and end on nodes of 'base' or of 'block'"):
-        ModelSpec.from_string(BLOCK_ON_BASE.replace("NB", "10").replace("NK", "7")
-                              .replace("X0", "2.3").replace("X1", "6.1")
-                              .replace("x = [0.0, 10.0]", "x = [3.0, 10.0]")).build()
+@pytest.mark.parametrize(("base", "split", "x0", "x1"),
+                         [("3.0, 10.0", 1, 2.3, 6.1), ("0.0, 10.0", 2, 2.3, 7.1)])
+def test_contact_pieces_whose_ends_lie_on_no_node_of_either_side(base, split, x0, x1):
+    """A block over a base's end ([3, 6.1] is shared: 3 a node of the base alone, 6.1 of the
+    block alone), or on a base split at x = 5 where the block has no node: refused before
+    session 62; now the slave, the block (the base's points would face the block's
+    corners), has a point of its own on its edge where it has no node, and LATIN equals the
+    monolithic solution of the same discrete problem at every step (mortar contact), the
+    load transmitted exactly and the sliding force μ × the pressing force."""
+    text = (BLOCK_ON_BASE.replace("NB", "10").replace("NK", "7").replace("X0", repr(x0))
+            .replace("X1", repr(x1)).replace("x = [0.0, 10.0]", f"x = [{base}]")
+            .replace("elements = [10, 4]", f"elements = [10, 4]\nsplit = [{split}, 1]"))
+    assembly = ModelSpec.from_string(text).build()
+    contacts = [itf for itf in assembly.interfaces if itf.kind == "contact"]
+    assert len(contacts) == split
+    for itf in contacts:
+        coupling = mortar_coupling(assembly, itf)
+        assert coupling is not None and coupling.slave_trace is not None
+        slave = assembly.substructures[itf.sides[coupling.slave].substructure]
+        assert slave.body == "block"
+    result = solve_latin(assembly, TIGHT)
+    reference = solve_monolithic(assembly)
+    assert result.converged
+    press = 1.0 * (x1 - x0)
+    for solution in (result, reference):
+        np.testing.assert_allclose(solution.qoi["R_clamp"], press, rtol=1e-9)
+        assert solution.qoi["R_push"][-1] == pytest.approx(0.3 * press, rel=1e-9)
+    assert largest_difference(result, reference) < 1e-8
+    np.testing.assert_allclose(result.qoi["R_push"], reference.qoi["R_push"], rtol=1e-6)
 
 
 def test_mortar_needs_nodal_interface_elements():

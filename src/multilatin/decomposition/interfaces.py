@@ -44,7 +44,7 @@ from .held_nodes import (
     node_key,
     prescribed_components,
 )
-from .mortar import mortar_coupling, touching_by_declaration
+from .mortar import MortarCoupling, mortar_coupling, touching_by_declaration
 
 INTERFACE_ELEMENTS = ("nodal", "edges", "edge-pairs")
 
@@ -110,6 +110,18 @@ def discretise_side(node_coords: FloatArray, nodes: IntArray, kind: str,
                               np.asarray(centres, dtype=np.float64), extents)
 
 
+def slave_side(node_coords: FloatArray, coupling: MortarCoupling) -> SideDiscretisation:
+    """A mortar interface's points on its slave side: its nodes, or where a contact piece
+    ends between nodes (``MortarCoupling.slave_trace``) a point on the edge there too, with
+    the dual cells' lengths along the interface."""
+    if coupling.slave_trace is None:
+        return discretise_side(node_coords, coupling.slave_nodes, "nodal", 1.0,
+                               along=coupling.slave_along)
+    at = coupling.slave_trace @ node_coords[coupling.slave_nodes]
+    disc = discretise_side(at, np.arange(at.shape[0]), "nodal", 1.0, along=coupling.slave_along)
+    return dataclasses.replace(disc, nodes=coupling.slave_nodes, trace=coupling.slave_trace)
+
+
 def point_normals(mesh: RectMesh | UnstructuredMesh, side: str, nodes: IntArray,
                   trace: sp.csr_matrix | None = None) -> FloatArray:
     """Outward unit normals of ``side`` at points whose values are ``trace`` (default: the
@@ -143,9 +155,7 @@ def _discretise_interface(assembly: Assembly, itf: Interface, kind: str
     if kind != "nodal":
         raise ModelError(f"interface {itf.name!r} joins non-matching meshes (mortar), which "
                          f"needs interface_elements = 'nodal', got {kind!r}")
-    slave_sub = subs[coupling.slave]
-    slave = discretise_side(slave_sub.mesh.nodes, coupling.slave_nodes, "nodal", 1.0,
-                            along=coupling.slave_along)
+    slave = slave_side(subs[coupling.slave].mesh.nodes, coupling)
     master = dataclasses.replace(slave, nodes=coupling.master_nodes, trace=coupling.projection)
     return [slave, master] if coupling.slave == 0 else [master, slave]
 

@@ -24,7 +24,9 @@ pair slides, by Coulomb's law. A stop pair whose node is held tangentially (a fi
 not move, or another closed stop on that node, on it at the previous step) keeps its
 previous force the same way.
 Steps are damped by backtracking on the residual norm (full semi-smooth steps can cycle
-between active sets).
+between active sets); a load step they do not solve is reached in parts (``CONTINUATION``),
+each the same step's equations at a share of its load increment, slips still counted from
+the step before, and then with a smaller augmentation (``AUGMENTATIONS``).
 """
 
 from __future__ import annotations
@@ -39,7 +41,7 @@ import scipy.sparse as sp
 import scipy.sparse.linalg as spla
 
 from ..decomposition.assembly import Assembly
-from ..decomposition.interfaces import discretise_side, point_normals
+from ..decomposition.interfaces import discretise_side, point_normals, slave_side
 from ..decomposition.mortar import MortarCoupling, facing_positions, touching_by_declaration
 from ..errors import NotConvergedError
 from ..fem.elasticity import FloatArray, IntArray
@@ -83,6 +85,10 @@ class ContactSet:
 ROUNDING = 100.0
 #: halvings of a Newton step before it is taken whole (``solve_contact_history``)
 BACKTRACKS = 12
+#: a step whose Newton iterations fail is reached in so many equal parts, in turn
+CONTINUATION = (4, 16)
+#: and then all again with the augmentation r this share of E (it changes no equation)
+AUGMENTATIONS = np.array([1.0, 0.1])
 
 
 def contact_set(assembly: Assembly, maps: list[IntArray],
@@ -105,9 +111,8 @@ def contact_set(assembly: Assembly, maps: list[IntArray],
             cells = discretise_side(sub.mesh.nodes, nodes, "nodal", 1.0)
         else:  # the slave side's points
             slave_sub = assembly.substructures[itf.sides[coupling.slave].substructure]
-            cells = discretise_side(slave_sub.mesh.nodes, coupling.slave_nodes, "nodal", 1.0,
-                                    along=coupling.slave_along)
-            nodes = coupling.slave_nodes
+            cells = slave_side(slave_sub.mesh.nodes, coupling)
+            nodes = np.arange(cells.weights.size)  # one per point
         length = cells.weights
         lo, hi = cells.extents[:, 0], cells.extents[:, 1]
         position = cells.coords
@@ -116,7 +121,9 @@ def contact_set(assembly: Assembly, maps: list[IntArray],
             position) for r in itf.sides], axis=0)
         bodies = frozenset(assembly.substructures[r.substructure].body for r in itf.sides)
         boundary = None
-        normal = (point_normals(sub.mesh, ref.side, nodes) if coupling is None or coupling.slave == 0
+        normal = (point_normals(sub.mesh, ref.side, nodes) if coupling is None
+                  else point_normals(sub.mesh, ref.side, cells.nodes, cells.trace)
+                  if coupling.slave == 0
                   else point_normals(sub.mesh, ref.side, coupling.master_nodes,
                                      coupling.projection))
         offset = np.zeros(nodes.size)  # initial distance of a curved face (SideRef.reach)
@@ -435,13 +442,39 @@ def solve_contact_history(
         # held by its contact alone (a plate pressed on a wider base, nothing else holding
         # it sideways) floated in the Jacobian of its first iteration, whose step was ~1e10
         # too long, and the steps cycled (session 46; docs/correctness.md); other models
-        # fail the other way
+        # fail the other way. Then by continuation: the step's load and prescribed motion
+        # reached in equal parts, each part solved from the one before, the slips still
+        # counted from the step before (``jump_prev``, ``lam_t_prev``): the parts are the
+        # same discrete step, reached from closer starts (a block held sideways by friction
+        # alone, on a plate pushed under it, cycled between slip sets). Then all of it again
+        # with a smaller augmentation r, which changes no equation (session 62)
         start = (u_free, lam)
-        for kink_active in (False, True):
-            converged, u_free, lam, newton = newton_iterations(*start, rhs, jump_fixed,
-                                                               force_tol, kink_active)
-            total_iterations += newton + 1
+        before = ((load[free, step - 1] - k_fc @ u_fixed[~free, step - 1],
+                   jump_on_fixed @ u_fixed[~free, step - 1]) if step
+                  else (np.zeros_like(rhs), np.zeros_like(jump_fixed)))
+        for r in AUGMENTATIONS * young:
+            for parts in (1, *CONTINUATION):
+                u_free, lam = start
+                for part in range(1, parts + 1):
+                    share = part / parts  # the last part: the step itself, exactly
+                    part_rhs, part_jump = ((rhs, jump_fixed) if part == parts else
+                                           (before[0] + share * (rhs - before[0]),
+                                            before[1] + share * (jump_fixed - before[1])))
+                    for kink_active in (False, True):
+                        converged, u_part, lam_part, newton = newton_iterations(
+                            u_free, lam, part_rhs, part_jump, force_tol, kink_active)
+                        total_iterations += newton + 1
+                        if converged:
+                            break
+                    if not converged:
+                        break
+                    u_free, lam = u_part, lam_part
+                if converged:
+                    break
             if converged:
+                if parts > 1 or r != young:
+                    log.debug("contact step %d: reached in %d part(s), r = %g E", step + 1,
+                              parts, r / young)
                 break
         if not converged:
             raise NotConvergedError(

@@ -23,7 +23,7 @@ import scipy.sparse.csgraph as csgraph
 import scipy.sparse.linalg as spla
 
 from ..decomposition.assembly import DISPLACEMENT, Assembly, consistent_densities
-from ..decomposition.interfaces import discretise_side, point_normals
+from ..decomposition.interfaces import discretise_side, point_normals, slave_side
 from ..decomposition.mortar import MortarCoupling, mortar_coupling
 from ..decomposition.qoi import ContactPressures, evaluate_qois, per_area
 from ..decomposition.result import SolveResult
@@ -60,7 +60,7 @@ def merge_nodes(assembly: Assembly) -> GlobalNodes:
     rows, cols = [], []
     projected: list[tuple[IntArray, IntArray, sp.csr_matrix]] = []  # (nodes, masters, P)
     virtual: dict[int, tuple[IntArray, IntArray, MortarCoupling]] = {}  # contact interfaces
-    pieces: list[tuple[int, int, IntArray, IntArray]] = []  # their entries in ``projected``
+    pieces: list[tuple[int, tuple[int | None, int | None]]] = []  # rows in ``projected``
     n_virtual = 0
     for index, itf in enumerate(assembly.interfaces):
         if itf.kind not in ("perfect", "contact") or len(itf.sides) != 2:
@@ -78,10 +78,19 @@ def merge_nodes(assembly: Assembly) -> GlobalNodes:
         master = offsets[itf.sides[coupling.master].substructure] + coupling.master_nodes
         projection = coupling.projection
         if itf.kind == "contact":
-            points = n + n_virtual + np.arange(slave.size)
-            n_virtual += slave.size
+            n_points = projection.shape[0]
+            entries: list[int | None] = [None, None]  # per side: its rows in ``projected``
+            if coupling.slave_trace is not None:  # the slave's points on its edges too
+                own = n + n_virtual + np.arange(n_points)
+                n_virtual += n_points
+                projected.append((own, slave, coupling.slave_trace))
+                entries[coupling.slave] = len(projected) - 1
+                slave = own
+            points = n + n_virtual + np.arange(n_points)
+            n_virtual += n_points
             projected.append((points, master, projection))
-            pieces.append((index, len(projected) - 1, slave, points))
+            entries[coupling.master] = len(projected) - 1
+            pieces.append((index, (entries[0], entries[1])))
             virtual[index] = ((slave, points, coupling) if coupling.slave == 0
                               else (points, slave, coupling))
             continue
@@ -133,7 +142,8 @@ def merge_nodes(assembly: Assembly) -> GlobalNodes:
                        constraint, np.repeat(~keep, 2), contact_points)
 
 
-def _merge_cross_points(assembly: Assembly, pieces: list[tuple[int, int, IntArray, IntArray]],
+def _merge_cross_points(assembly: Assembly,
+                        pieces: list[tuple[int, tuple[int | None, int | None]]],
                         labels: IntArray,
                         projected: list[tuple[IntArray, IntArray, sp.csr_matrix]],
                         virtual: dict[int, tuple[IntArray, IntArray, MortarCoupling]]) -> None:
@@ -141,31 +151,33 @@ def _merge_cross_points(assembly: Assembly, pieces: list[tuple[int, int, IntArra
     on the same two bodies, one normal and contact law) are one pair, as LATIN runs them
     (``latin.cross_points``: the pair's law on each side's weighted mean). Per side whose
     members are not one node already, one virtual node: its trace the members' traces (a
-    slave's node, a master's projection) averaged with the slave's lengths in each. Where
-    the pieces' slaves lie on different bodies (each the finer where its piece ends on
-    nodes of both), both sides are such averages: they were two pairs here and one in
-    LATIN, 2.8e-5 to 4.1e-4 apart at η < 1e-11 (session 60, ``benchmarks/random_models.py``).
-    In place: the members' points are redirected to the first virtual one's (the others'
-    virtual nodes stay unused)."""
-    groups: dict[tuple[Any, ...], list[tuple[int, int, int, float]]] = {}
-    for index, entry, slave, _ in pieces:
+    slave's node, a master's projection, a slave's point on its edge) averaged with the
+    slave's lengths in each. Where the pieces' slaves lie on different bodies (each the finer
+    where its piece ends on nodes of both), both sides are such averages: they were two pairs
+    here and one in LATIN, 2.8e-5 to 4.1e-4 apart at η < 1e-11 (session 60,
+    ``benchmarks/random_models.py``). In place: the members' points are redirected to the
+    first virtual one's (the others' virtual nodes stay unused). ``pieces``: per contact
+    interface, the entries of ``projected`` whose rows are its sides' points (None: the
+    slave's own nodes)."""
+    groups: dict[tuple[Any, ...], list[tuple[int, tuple[int | None, int | None], int,
+                                             float]]] = {}
+    for index, entries in pieces:
         itf = assembly.interfaces[index]
         coupling = virtual[index][2]
         ref = itf.sides[coupling.slave]
         sub = assembly.substructures[ref.substructure]
-        weights = (discretise_side(sub.mesh.nodes, coupling.slave_nodes, "nodal", 1.0,
-                                   along=coupling.slave_along).weights
-                   * sub.material.thickness_at(sub.mesh.nodes[coupling.slave_nodes]))
+        cells = slave_side(sub.mesh.nodes, coupling)
+        weights = cells.weights * sub.material.thickness_at(cells.coords)
         # side 0's normal (the slave's, turned where the slave is side 1)
         normals = np.round((1.0 if coupling.slave == 0 else -1.0)
-                           * point_normals(sub.mesh, ref.side, coupling.slave_nodes), 6) + 0.0
-        places = np.round(sub.mesh.nodes[coupling.slave_nodes], 9)
+                           * point_normals(sub.mesh, ref.side, cells.nodes, cells.trace), 6) + 0.0
+        places = np.round(cells.coords, 9)
         bodies = tuple(assembly.substructures[r.substructure].body for r in itf.sides)
         assert itf.contact is not None
-        for i in range(slave.size):
+        for i in range(weights.size):
             key = (*bodies, *places[i].tolist(), *normals[i].tolist(), itf.contact.friction,
                    itf.contact.gap)
-            groups.setdefault(key, []).append((index, entry, i, float(weights[i])))
+            groups.setdefault(key, []).append((index, entries, i, float(weights[i])))
     for members in groups.values():
         if len(members) < 2:
             continue
@@ -175,14 +187,15 @@ def _merge_cross_points(assembly: Assembly, pieces: list[tuple[int, int, IntArra
                      for index, _, i, _ in members]
             if len({int(labels[node]) for node in nodes}) == 1:
                 continue  # one node of the merged mesh already (a slave's, on this side)
-            target = next(node for (index, _, _, _), node in zip(members, nodes, strict=True)
-                          if virtual[index][2].slave != side)
+            target = next(node for (_, entries, _, _), node in zip(members, nodes, strict=True)
+                          if entries[side] is not None)
             columns, values = [], []
-            for (index, entry, i, weight), node in zip(members, nodes, strict=True):
-                if virtual[index][2].slave == side:  # the slave's own node
+            for (index, entries, i, weight), node in zip(members, nodes, strict=True):
+                entry = entries[side]
+                if entry is None:  # the slave's own node
                     columns.append(np.array([node]))
                     values.append(np.array([weight / total]))
-                else:  # a virtual node: its projection's row, then no longer read
+                else:  # a virtual node: its row, then no longer read
                     points, master, projection = projected[entry]
                     row = projection[[i]].tocoo()
                     columns.append(master[row.col])

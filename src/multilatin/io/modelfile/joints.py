@@ -131,7 +131,7 @@ class InterfaceSections(SectionReader):
             for mesh, nodes in ((a.mesh, na), (b.mesh, nb)):
                 ends = mesh.nodes[nodes[[0, -1]], 1 - axis] if nodes.size else np.zeros(2)
                 covers.append(nodes.size >= 2 and np.abs(ends - [start, end]).max() <= scale)
-            if not any(covers):
+            if not any(covers) and kind != "contact":  # a contact piece: points of its own
                 raise ModelError(
                     f"{where}: the shared part [{start:g}, {end:g}] along "
                     f"{'yx'[axis]} does not start and end on nodes of {a.name!r} or of "
