@@ -370,8 +370,140 @@ def stack_text(seed: int) -> str:
         push_value=round(rng.uniform(0.002, 0.02), 4), stop=stop)
 
 
+MESHED = """
+title = "random meshed strap {seed}"
+[analysis]
+hypothesis = "{hypothesis}"
+thickness = 2.0
+[materials.strap]
+E = {e_strap}
+nu = 0.33
+[materials.base]
+E = {e_base}
+nu = 0.3
+[[bodies]]
+name = "base"
+x = [0.0, 60.0]
+y = [0.0, 10.0]
+elements = [24, 4]
+split = [{split_base}, 1]
+material = "base"
+{parts}
+[[interfaces]]
+between = ["base", "strap"]
+type = "contact"
+friction = {mu}
+gap = {gap}
+[history.factors]
+press = {press}
+pull = {pull}
+[[boundary]]
+name = "clamp"
+face = "base.bottom"
+type = "displacement"
+value = [0.0, 0.0]
+[[boundary]]
+name = "pressure"
+face = "strap.top"
+type = "force"
+value = [0.0, {pressure}]
+factor = "press"
+[[boundary]]
+name = "pull"
+substructure = "strap0"
+side = "left"
+type = "mixed"
+components = ["displacement", "force"]
+value = [{pull_value}, 0.0]
+factor = "pull"
+[[boundary]]
+name = "stop"
+substructure = "strap{last}"
+side = "right"
+type = "stop"
+gap = {stop_gap}
+friction = {stop_friction}
+[[qoi]]
+name = "R_stop"
+unit = "N"
+type = "reaction"
+boundary = "stop"
+component = "x"
+[[qoi]]
+name = "R_clamp_x"
+unit = "N"
+type = "reaction"
+boundary = "clamp"
+component = "x"
+[[qoi]]
+name = "R_pull"
+unit = "N"
+type = "reaction"
+boundary = "pull"
+component = "x"
+"""
+
+#: where ``--family meshed`` writes its mesh files (``main`` sets it to the model files')
+MESH_FOLDER = Path(tempfile.gettempdir())
+
+
+def meshed_text(seed: int) -> str:
+    """The ``--family meshed`` model of ``seed``: a strap of one to three parts meshed by
+    gmsh apart (T3 or Q4, random sizes; one part's hole cut out of its mesh, not a level
+    set), so that every interface is mortar, on a clamped base split at random, pulled by a
+    prescribed displacement toward a stop. Writes the mesh files to ``MESH_FOLDER``."""
+    import gmsh  # an optional dependency: the family needs it
+
+    rng = random.Random(seed)
+    x0, x1 = rng.choice([0.0, 5.0]), rng.choice([40.0, 45.0])
+    count = rng.choice([1, 2, 3])
+    cuts = sorted(round(rng.uniform(x0 + 8, x1 - 8), 2) for _ in range(count - 1))
+    bounds = [x0, *cuts, x1]
+    holed = rng.randrange(count) if rng.random() < 0.5 else -1
+    parts = []
+    for i in range(count):
+        path = MESH_FOLDER / f"meshed-{seed}-{i}.msh"
+        gmsh.initialize()
+        try:
+            gmsh.option.setNumber("General.Verbosity", 0)
+            occ = gmsh.model.occ
+            a, b = bounds[i], bounds[i + 1]
+            tag = occ.addRectangle(a, 10.0, 0.0, b - a, 8.0)
+            if i == holed:
+                radius = rng.uniform(0.8, 2.0)
+                centre = (rng.uniform(a + radius + 1.5, b - radius - 1.5),
+                          rng.uniform(12.5, 15.5))
+                occ.cut([(2, tag)], [(2, occ.addDisk(*centre, 0.0, radius, radius))])
+            occ.synchronize()
+            recombine = rng.random() < 0.5
+            # quadrilaterals by subdivision (recombination alone leaves triangles)
+            gmsh.option.setNumber("Mesh.MeshSizeMax", rng.uniform(1.2, 2.5)
+                                  * (2.0 if recombine else 1.0))
+            gmsh.option.setNumber("Mesh.SubdivisionAlgorithm", 1 if recombine else 0)
+            gmsh.option.setNumber("Mesh.RecombineAll", 1 if recombine else 0)
+            gmsh.option.setNumber("Mesh.Algorithm", 8 if recombine else 6)
+            gmsh.model.mesh.generate(2)
+            gmsh.write(str(path))
+        finally:
+            gmsh.finalize()
+        parts.append(f'[[substructures]]\nname = "strap{i}"\nmesh_file = "{path}"\n'
+                     'material = "strap"\nbody = "strap"')
+    steps = rng.choice([4, 6])
+    return MESHED.format(
+        seed=seed, hypothesis=rng.choice(["plane_stress", "plane_strain"]),
+        e_strap=rng.choice([7e4, 2e5]), e_base=rng.choice([7e4, 2.1e5, 2e6]),
+        split_base=rng.choice([1, 2, 3]), parts="\n".join(parts),
+        mu=round(rng.uniform(0.05, 0.6), 3), gap=rng.choice([0.0, 0.0, 0.001]),
+        press=[min(1.0, (i + 1) / 2) for i in range(steps)],
+        pull=[0.0, 0.0] + [(i + 1) / (steps - 2) for i in range(steps - 2)],
+        pressure=-round(rng.uniform(5, 40), 2), pull_value=round(rng.uniform(0.002, 0.03), 4),
+        last=count - 1, stop_gap=rng.choice([0.0, 0.005, 0.02]),
+        stop_friction=rng.choice([0.0, 0.2]))
+
+
 #: the model families by ``--family`` name
-FAMILIES = {"strap": model_text, "block": block_text, "stack": stack_text}
+FAMILIES = {"strap": model_text, "block": block_text, "stack": stack_text,
+            "meshed": meshed_text}
 
 def axisymmetric(text: str) -> str:
     """A model file of this script made axisymmetric (x = r): its hypothesis, no
@@ -418,7 +550,8 @@ def main() -> None:
     parser.add_argument("--keep", type=Path, default=None, help="a folder for the model files")
     parser.add_argument("--family", choices=list(FAMILIES), default="strap",
                         help="strap: pulled toward a stop (default); block: pushed by its "
-                        "face; stack: a plate pushed back and forth between two contacts")
+                        "face; stack: a plate pushed back and forth between two contacts; "
+                        "meshed: a strap of gmsh meshes (gmsh needed)")
     parser.add_argument("--axisymmetric", action="store_true",
                         help="every model axisymmetric (x = r; no thickness)")
     args = parser.parse_args()
@@ -429,6 +562,8 @@ def main() -> None:
     logging.disable(logging.WARNING)
     folder = args.keep or Path(tempfile.mkdtemp(prefix="random-models-"))
     folder.mkdir(parents=True, exist_ok=True)
+    global MESH_FOLDER
+    MESH_FOLDER = folder.resolve()
     counts = {"converged": 0, "not converged": 0, "refused": 0, "reference failed": 0}
     entries = {"above the floor": 0, "bound": 0, "cases not bound": 0}
     print("| seed | LATIN (default settings) | iterations | tight LATIN − reference "
