@@ -284,6 +284,48 @@ def test_no_jump_without_a_closing_gap_or_a_steady_increment(b1_stage) -> None:
         assert not engine.shifts and watch.jumps[0] == 0
 
 
+def test_a_crawl_that_takes_a_slip_back_jumps_to_where_it_is_zero(b1_stage) -> None:
+    """No gap closes ahead, but the crawl takes a slip back (a warm start that slid further
+    than its case): it jumps to where the first such slip is zero (``SLIP_EVENTS``)."""
+    ops, stage = b1_stage
+    shape = (1, stage.prescribed.shape[1], ops.points.n_points, 2)
+    a, b = stage.contact_pairs
+    flat = b[np.abs(stage.n_contact[:, 1]) > 0.5]  # horizontal contacts: slips along x
+    w0, dw = np.zeros(shape), np.zeros(shape)
+    w0[0, 5, flat, 0] = 5e-3  # slid by 5 µm at step 5, taken back by 0.1 µm an iteration
+    dw[0, 5, flat, 0] = -1e-4  # (away from the stop: no gap closes)
+    engine = CrawlingFields(w0, dw, _weights(ops))
+    watch = _watch(ops, stage)
+    for iteration in range(1, 3 * WINDOW + 1):
+        engine.step()
+        watch(iteration, np.array([0]), np.ones(1), engine)  # type: ignore[arg-type]
+    assert watch.jumps[0] == 1
+    cases, shift_w, shift_f = engine.shifts[0]
+    np.testing.assert_allclose(shift_w[0], (50 - 3 * WINDOW) * dw[0], rtol=1e-9)
+    np.testing.assert_allclose(engine.w[0, 5, flat, 0], 0.0, atol=1e-15)
+
+
+def test_a_warm_start_that_slid_too_far_is_not_crawled_back(
+        monkeypatch: pytest.MonkeyPatch) -> None:
+    """B1 (0.05, 0.2) from (0, 0.2): the centre block, slid further at the lower friction,
+    crawled back for 100 iterations at η ≈ 6e-4 (169 in all; 56 from zero); the jump to
+    where its slip stops takes that away, and the answer is the one from zero."""
+    model = ml.load_model("b1")
+    options = LatinOptions(qoi_rtol=1e-3)
+    start = solve_latin(model.assemble({"mu1": 0.0, "mu2": 0.2}), options).interface
+    assert start is not None
+    case = model.assemble({"mu1": 0.05, "mu2": 0.2})
+    cold = solve_latin(case, options)
+    runs = {}
+    for on in (False, True):
+        monkeypatch.setattr(sliding, "SLIP_EVENTS", on)
+        runs[on] = solve_latin(case, options, initial=(start.displacement_hat,
+                                                       start.force_hat))
+    assert runs[False].iterations > 150 and runs[True].iterations < 120
+    for run in runs.values():
+        np.testing.assert_allclose(run.qoi["R_stop"], cold.qoi["R_stop"], rtol=2e-3)
+
+
 def test_low_friction_b1_at_kappa_1_converges_to_the_reference() -> None:
     """At κ = 1 the centre block crawls toward the stop for ~250 iterations at (0, 0.05);
     without the extrapolation the drift check stops it at 200 as "no equilibrium" (with the

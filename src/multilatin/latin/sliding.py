@@ -41,6 +41,14 @@ modes (0.66–0.70 and 0.41–0.50 per window) that no single ratio fits: 156 �
 iterations; the lug 160 → 126, the roller 402 → 319; B1's studies do not change
 (docs/convergence.md, session 34).
 
+Where no gap closes ahead, a crawl may take back a slip instead — a warm start from a
+neighbour that slid further than its case slides (a lower friction: the block crawls back
+until the contact sticks): it then jumps to where the first slip it takes back is zero
+(``SLIP_EVENTS``; a slip: the tangential motion of a contact pair or stop point in a step,
+from the step before), the next stick. A random strap's study (μ 0.45 → 0.6, its stop then
+open) crawled back for 850 iterations (920 in all, 54 from zero), now 99; B1 (0.05, 0.2)
+from (0, 0.2) 169 → 106 (session 62, docs/convergence.md).
+
 A crawl may also end before the gap closes — a warm start from a neighbour whose block slides
 to a new equilibrium that friction, not the stop, sets: the jump then overshoots. So a jump
 is checked one window later: if η is then above ``TAKE_BACK`` times its value at the jump,
@@ -65,7 +73,7 @@ from .field_engine import FieldEngine
 from .local_stage import LocalStage
 
 __all__ = ["ALIGNED", "GEOMETRIC", "GROUP_ROWS", "LEADING", "MATERIAL", "MAX_JUMP",
-           "MODES", "RESTORE", "SLOW_ON_QOIS", "STEADY", "TAKE_BACK", "WINDOW",
+           "MODES", "RESTORE", "SLIP_EVENTS", "SLOW_ON_QOIS", "STEADY", "TAKE_BACK", "WINDOW",
            "SlidingExtrapolation"]
 
 #: iterations between two looks; a crawl must hold over two windows
@@ -79,6 +87,9 @@ MAX_JUMP = 2000.0
 #: the closing gap must close at least this fraction as fast as the fastest-moving
 #: displacement: the body that slides is the one that meets the gap
 LEADING = 0.5
+#: a crawl that takes a slip back also jumps, to where the first such slip is zero (a
+#: warm start that slid further than its case slides; session 62)
+SLIP_EVENTS = True
 #: a jump is taken back when η one window later is above this multiple of η at the jump:
 #: the good jumps' rises measured 1.0–1.65 × over B1, B1-4 and B1-9's 13 × 13 studies and
 #: cold grids at κ = 0.1 … 2 (docs/convergence.md, session 29)
@@ -359,9 +370,38 @@ class SlidingExtrapolation:
         opening = self.local.openings(case, w2)
         rate = (opening - self.local.openings(case, w1)) / WINDOW
         closing = (opening > MATERIAL * np.abs(w2).max()) & (rate < 0.0)
-        if not closing.any():  # no event ahead: a slide without end is not extrapolated
+        fastest = LEADING * np.abs(dw).max() / WINDOW
+        ahead = np.inf
+        if closing.any():
+            first = np.flatnonzero(closing)[np.argmin(opening[closing] / -rate[closing])]
+            if -rate[first] >= fastest:  # else the gap closes slower than the fields move
+                ahead = float(opening[first] / -rate[first])
+        if SLIP_EVENTS and not np.isfinite(ahead):  # no gap closes ahead, but a slip that
+            # the crawl takes back reaches zero: it sticks there
+            slip = slips(self.local, w2)
+            change = (slip - slips(self.local, w1)) / WINDOW
+            stopping = ((np.abs(slip) > MATERIAL * np.abs(w2).max()) & (slip * change < 0.0)
+                        & (np.abs(change) >= fastest))
+            if stopping.any():
+                ahead = min(ahead, float((np.abs(slip[stopping])
+                                          / np.abs(change[stopping])).min()))
+        if not np.isfinite(ahead):  # no event ahead: a slide without end is not extrapolated
             return None
-        first = np.flatnonzero(closing)[np.argmin(opening[closing] / -rate[closing])]
-        if -rate[first] < LEADING * np.abs(dw).max() / WINDOW:
-            return None  # the gap closes slower than the fields move: not what slides
-        return min(float(opening[first] / -rate[first]), MAX_JUMP)
+        return min(ahead, MAX_JUMP)
+
+
+def slips(local: LocalStage, displacement: FloatArray) -> FloatArray:
+    """The tangential slip of every stop point and contact pair in every step, from the
+    step before (the first from the start), flat, from a case's displacements ``(n_steps,
+    n_points, 2)``: what the contact local stage's friction acts on."""
+    parts = [np.zeros(0)]
+    if local.stops.size:
+        tangent = np.column_stack([-local.n_stop[:, 1], local.n_stop[:, 0]])
+        along = np.sum(tangent * displacement[:, local.stops], axis=-1)
+        parts.append(np.diff(along, axis=0, prepend=0.0).ravel())
+    a, b = local.contact_pairs
+    if a.size:
+        tangent = np.column_stack([-local.n_contact[:, 1], local.n_contact[:, 0]])
+        along = np.sum(tangent * (displacement[:, b] - displacement[:, a]), axis=-1)
+        parts.append(np.diff(along, axis=0, prepend=0.0).ravel())
+    return np.concatenate(parts)
