@@ -4,6 +4,7 @@
     python benchmarks/random_studies.py                      # strap seeds 0-19
     python benchmarks/random_studies.py --family block --seeds 20 --count 10
     python benchmarks/random_studies.py --family stack   # pushed back and forth (session 62)
+    python benchmarks/random_studies.py --family meshed  # gmsh meshes (gmsh needed)
     python benchmarks/random_studies.py --axisymmetric
     python benchmarks/random_studies.py --growing off   # the estimate as before session 61
 
@@ -57,7 +58,7 @@ def parametrised(text: str, family: str) -> tuple[str, dict[str, list[float]]] |
         x = float(hole.group(1))
         text = text.replace(hole.group(0), f'centre = ["xc", {hole.group(2)}]')
         second, values = "xc", [round(x + d, 3) for d in (-1.5, -0.5, 0.5, 1.5)]
-    elif family == "strap":
+    elif family in ("strap", "meshed"):
         stop = re.search(r"(type = \"stop\"\ngap = )([-\d.e]+)", text)
         if stop is None:
             return None

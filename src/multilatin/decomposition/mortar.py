@@ -179,7 +179,7 @@ def _face_goes_on(subs: Sequence[Substructure], index: int, side: str, at: float
     same line, meeting this one's at ``at``: the body's face goes on there (a split)."""
     axis, level, _, _ = subs[index].mesh.side_line(side)
     for k, sub in enumerate(subs):
-        if k == index or sub.body != subs[index].body or not isinstance(sub.mesh, RectMesh):
+        if k == index or sub.body != subs[index].body:
             continue
         other_axis, other_level, lo, hi = sub.mesh.side_line(side)
         if (other_axis == axis and abs(other_level - level) <= scale
