@@ -22,10 +22,11 @@ unchanged: it acts point by point on pairs of points at the same places
 The slave is a side whose nodes begin and end where the interface does, the finer of the
 two when both do (the usual choice, which never over-constrains the finer side). A contact
 piece that begins on a node of one side and ends on a node of the other (two bodies split at
-different places) takes the finer side as its slave, with a point of its own at each end
-where it has no node: its value there is the slave edge's linear interpolation
-(``MortarCoupling.slave_trace``), so that the slave's points still carry its trace on the
-piece exactly.
+different places) gives its slave a point of its own at each end where it has no node: its
+value there is the slave edge's linear interpolation (``MortarCoupling.slave_trace``), so
+that the slave's points still carry its trace on the piece exactly; the slave is then the
+side whose such points do not face the other body's corner, else the finer
+(``_cut_coupling``).
 """
 
 from __future__ import annotations
