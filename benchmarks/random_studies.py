@@ -41,7 +41,8 @@ from multilatin.latin import tracking
 
 sys.path.insert(0, str(Path(__file__).resolve().parent))
 
-from random_models import FAMILIES, FLOOR, axisymmetric  # noqa: E402
+from random_families import FAMILIES, axisymmetric  # noqa: E402
+from random_models import FLOOR  # noqa: E402
 
 MU = (0.0, 0.15, 0.3, 0.45, 0.6)
 #: what the studies' QoI rule promises (``STUDY_QOI_RTOL``), here of each QoI's largest

@@ -226,9 +226,10 @@ class LatinOperators:
                                        for s, j in zip(subs, indices, strict=True)]))
                 values = [opts.kappa * young / self._smaller_side(subs[0].body)] * len(subs)
             else:  # each side from the substructure on the other side, or its own
-                order = list(range(len(subs)))[::-1 if opts.search_modulus == "neighbour" else 1]
-                values = [opts.kappa * subs[o].material.young * section[indices[o]]
-                          / self._smaller_side(subs[o].body) for o in order]
+                order = indices[::-1] if opts.search_modulus == "neighbour" else indices
+                values = [opts.kappa * self.assembly.substructures[j].material.young
+                          * section[j] / self._smaller_side(self.assembly.substructures[j].body)
+                          for j in order]
             for side_index, value in enumerate(values):
                 k[pts.side_points[(i, side_index)]] = value
             if itf.contact is not None and opts.tangential_ratio != 1.0:

@@ -383,8 +383,7 @@ class SlidingExtrapolation:
             stopping = ((np.abs(slip) > MATERIAL * np.abs(w2).max()) & (slip * change < 0.0)
                         & (np.abs(change) >= fastest))
             if stopping.any():
-                ahead = min(ahead, float((np.abs(slip[stopping])
-                                          / np.abs(change[stopping])).min()))
+                ahead = float((np.abs(slip[stopping]) / np.abs(change[stopping])).min())
         if not np.isfinite(ahead):  # no event ahead: a slide without end is not extrapolated
             return None
         return min(ahead, MAX_JUMP)
